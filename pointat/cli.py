@@ -1,0 +1,223 @@
+"""The ``pointat`` command."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+from pathlib import Path
+
+from . import __version__
+from .errors import PatchError, PointatError
+from .loader import build, check, parse_overrides, read_spec
+from .registry import Registry, default_registry
+
+log = logging.getLogger("pointat")
+
+EPILOG = """\
+examples:
+  pointat run patches/pointing_at.pat --for 30     run the Pointing-at chain on the simulated glove
+  pointat run my.pat --set fuse.k=0.2              override a parameter
+  pointat check my.pat                              validate without running
+  pointat nodes                                     list the node types
+  pointat help tqt                                  a node's inlets, outlets, parameters, example
+  pointat graph my.pat -o my.dot                    Graphviz (also my.svg when dot is installed)
+  pointat convert my.pat my.pd                      to Pure Data (and back: my.pd my.pat)
+"""
+
+
+def _registry(plugins: list[str]) -> Registry:
+    reg = default_registry.load_builtins().load_entry_points()
+    for folder in plugins:
+        reg.load_plugins(folder)
+    return reg
+
+
+def _add_patch_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("patch", help="a patch file (.pat native, or .pd Pure Data)")
+    p.add_argument(
+        "--set",
+        metavar="NODE.PARAM=VALUE",
+        action="append",
+        default=[],
+        help="override a node parameter (repeatable)",
+    )
+
+
+def _parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="pointat",
+        description="Dataflow toolkit: a hand-worn IMU -> orientation -> azimuth/elevation/distance -> OSC and MIDI.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    ap.add_argument("--version", action="version", version=f"pointat {__version__}")
+    ap.add_argument(
+        "--plugins", metavar="DIR", action="append", default=[], help="load node types from *.py in DIR"
+    )
+    ap.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("run", help="run a patch until Ctrl-C, --for SECONDS, or its sources end")
+    _add_patch_args(p)
+    p.add_argument(
+        "--for", dest="duration", type=float, metavar="SECONDS", help="stop after this many seconds"
+    )
+
+    p = sub.add_parser("check", help="validate a patch without running it")
+    _add_patch_args(p)
+
+    p = sub.add_parser("graph", help="write the patch as Graphviz dot (and SVG when dot is installed)")
+    _add_patch_args(p)
+    p.add_argument("-o", "--output", help="dot file to write (default: standard output)")
+
+    sub.add_parser("nodes", help="list the node types")
+    p = sub.add_parser("help", help="show a node type's inlets, outlets, parameters and an example")
+    p.add_argument("node", help="node type name")
+
+    p = sub.add_parser("convert", help="convert between native .pat and Pure Data .pd")
+    p.add_argument("source")
+    p.add_argument("target")
+    p.add_argument("--no-stubs", action="store_true", help="with a .pd target: do not write pointat-stubs/")
+
+    p = sub.add_parser(
+        "stubs", help="write Pd stub abstractions (right inlets and outlets) for every node type"
+    )
+    p.add_argument("folder")
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = _parser()
+    args = ap.parse_args(argv)
+    level = logging.WARNING if args.verbose == 0 else logging.INFO if args.verbose == 1 else logging.DEBUG
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    if args.command is None:
+        ap.print_help()
+        return 2
+    try:
+        registry = _registry(args.plugins)
+        return COMMANDS[args.command](args, registry)
+    except PatchError as exc:
+        for problem in exc.problems:
+            print(problem, file=sys.stderr)
+        n = len([p for p in exc.problems if p.severity == "error"])
+        print(f"{n} error{'s' if n != 1 else ''}", file=sys.stderr)
+        return 2
+    except PointatError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        return 0
+
+
+def _checked(args: argparse.Namespace, registry: Registry):
+    checked = check(read_spec(args.patch), registry, parse_overrides(args.set))
+    for w in checked.warnings:
+        print(w, file=sys.stderr)
+    return checked
+
+
+def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
+    checked = _checked(args, registry)
+    rt = build(checked)
+    rt.console = lambda line: print(line, flush=True)
+
+    def on_signal(signum: int, _frame: object) -> None:
+        log.info("signal %d: stopping", signum)
+        rt.stop()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
+    rt.run(args.duration)
+    return 0
+
+
+def cmd_check(args: argparse.Namespace, registry: Registry) -> int:
+    checked = _checked(args, registry)
+    print(
+        f"{args.patch}: ok ({len(checked.nodes)} nodes, {len(checked.wires)} wires"
+        f"{f', {len(checked.warnings)} warnings' if checked.warnings else ''})"
+    )
+    return 0
+
+
+def cmd_graph(args: argparse.Namespace, registry: Registry) -> int:
+    from .dot import to_dot, write_svg
+
+    text = to_dot(_checked(args, registry), Path(args.patch).stem)
+    if not args.output:
+        sys.stdout.write(text)
+        return 0
+    Path(args.output).write_text(text)
+    svg = Path(args.output).with_suffix(".svg")
+    if write_svg(text, svg):
+        print(f"wrote {args.output} and {svg}")
+    else:
+        print(f"wrote {args.output} (install Graphviz's dot for SVG)")
+    return 0
+
+
+def cmd_nodes(args: argparse.Namespace, registry: Registry) -> int:
+    for cls in registry:
+        first = (cls.__doc__ or "").strip().splitlines()[0] if cls.__doc__ else ""
+        names = cls.type_name + (f" ({', '.join(cls.aliases)})" if cls.aliases else "")
+        print(f"{names:<24} {first}")
+    return 0
+
+
+def cmd_help(args: argparse.Namespace, registry: Registry) -> int:
+    cls = registry.get(args.node)
+    if cls is None:
+        hint = registry.suggest(args.node)
+        print(
+            f"error: unknown node type '{args.node}'" + (f" (did you mean '{hint}'?)" if hint else ""),
+            file=sys.stderr,
+        )
+        return 2
+    print(cls.help_text())
+    return 0
+
+
+def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
+    from .loader import expand
+    from .patchfile import write_patch
+
+    spec = read_spec(args.source)
+    target = Path(args.target)
+    if target.suffix == ".pd":
+        from .pdfile import write_pd, write_stubs
+
+        check(spec, registry)  # never export a broken patch
+        target.write_text(write_pd(expand(spec), registry))
+        if not args.no_stubs:
+            write_stubs(target.parent / "pointat-stubs", registry)
+    else:
+        check(spec, registry)
+        target.write_text(write_patch(spec))
+    print(f"wrote {target}")
+    return 0
+
+
+def cmd_stubs(args: argparse.Namespace, registry: Registry) -> int:
+    from .pdfile import write_stubs
+
+    paths = write_stubs(Path(args.folder), registry)
+    print(f"wrote {len(paths)} stub abstractions to {args.folder}")
+    return 0
+
+
+COMMANDS = {
+    "run": cmd_run,
+    "check": cmd_check,
+    "graph": cmd_graph,
+    "nodes": cmd_nodes,
+    "help": cmd_help,
+    "convert": cmd_convert,
+    "stubs": cmd_stubs,
+}
+
+if __name__ == "__main__":
+    sys.exit(main())

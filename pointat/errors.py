@@ -1,0 +1,53 @@
+"""One error hierarchy for everything a user can get wrong, each error naming its place."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["FeedbackError", "PatchError", "PointatError", "Problem", "Where"]
+
+
+@dataclass(frozen=True)
+class Where:
+    """A place in a patch file: ``file:line`` (and the box index for Pd files)."""
+
+    file: str
+    line: int = 0
+    box: int | None = None
+
+    def __str__(self) -> str:
+        s = f"{self.file}:{self.line}" if self.line else self.file
+        return s if self.box is None else f"{s} (box {self.box})"
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One finding of the loader or checker."""
+
+    where: Where | None
+    message: str
+    severity: str = "error"  # or "warning"
+
+    def __str__(self) -> str:
+        place = f"{self.where}: " if self.where else ""
+        return f"{place}{self.severity}: {self.message}"
+
+
+class PointatError(Exception):
+    """Base of every error pointat raises on purpose."""
+
+
+class PatchError(PointatError):
+    """A patch could not be loaded; ``problems`` lists every error found, all at once."""
+
+    def __init__(self, problems: list[Problem] | Problem | str, where: Where | None = None):
+        if isinstance(problems, str):
+            problems = [Problem(where, problems)]
+        elif isinstance(problems, Problem):
+            problems = [problems]
+        self.problems = list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+class FeedbackError(PointatError):
+    """Messages went round a loop deeper than the depth guard allows (a feedback loop without a delay)."""

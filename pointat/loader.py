@@ -1,0 +1,437 @@
+"""Load a patch: read it (native or Pd), expand abstractions, check it against the registry, build it.
+
+:func:`check` finds every problem at once and never runs anything: unknown node types (with a close-name
+suggestion), unknown inlets and outlets, bad or missing parameters, wrong value types, wires whose kinds
+cannot meet, feedback loops with no delay, and (a warning) one outlet feeding two inlets of one node,
+whose order only the file knows.  Every problem names ``file:line`` and what was expected and found.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import PatchError, Problem, Where
+from .node import Inlet, Node, Outlet, ParamError
+from .patchfile import parse_value, read_patch
+from .registry import Registry, default_registry
+from .runtime import Runtime
+from .spec import NodeDecl, PatchSpec, Wire
+
+__all__ = ["Checked", "build", "check", "expand", "load", "read_spec"]
+
+ABSTRACTION_SUFFIX = ".pat"
+_DOLLAR = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*|0)")
+
+
+def read_spec(path: str | Path) -> PatchSpec:
+    """Read a patch file of either format, by its extension (``.pd`` is Pure Data, the rest native)."""
+    path = Path(path)
+    if path.suffix == ".pd":
+        from .pdfile import read_pd
+
+        return read_pd(path)
+    return read_patch(path)
+
+
+# --------------------------------------------------------------------------- abstractions
+def _is_abstraction(type_name: str) -> bool:
+    return type_name.endswith(ABSTRACTION_SUFFIX) or "/" in type_name
+
+
+def _substitute(value: Any, args: Mapping[str, Any], where: Where | None) -> Any:
+    if isinstance(value, list):
+        return [_substitute(v, args, where) for v in value]
+    if not isinstance(value, str) or "$" not in value:
+        return value
+    whole = _DOLLAR.fullmatch(value)
+    if whole:
+        key = whole.group(1)
+        if key not in args:
+            raise PatchError(f"${key} is not an argument (arguments: {', '.join(args) or 'none'})", where)
+        return args[key]
+
+    def repl(m: re.Match) -> str:
+        if m.group(1) not in args:
+            raise PatchError(
+                f"${m.group(1)} is not an argument (arguments: {', '.join(args) or 'none'})", where
+            )
+        return str(args[m.group(1)])
+
+    return parse_value(_DOLLAR.sub(repl, value))
+
+
+def expand(spec: PatchSpec, _stack: tuple[str, ...] = ()) -> PatchSpec:
+    """Replace every abstraction instance by its nodes (named ``instance/node``) and rewire to them.
+
+    Arguments given to the instance override the abstraction's ``args`` defaults; ``$name`` is replaced
+    in parameter values, ``$0`` by the instance name.
+    """
+    out = PatchSpec(
+        path=spec.path, args=dict(spec.args), inlets=list(spec.inlets), outlets=list(spec.outlets)
+    )
+    out.doc = spec.doc
+    # (instance, port name) -> [(node, port)] for inlets; -> (node, port) for outlets
+    inlet_map: dict[tuple[str, str | int], list[tuple[str, str | int]]] = {}
+    outlet_map: dict[tuple[str, str | int], tuple[str, str | int]] = {}
+    problems: list[Problem] = []
+    for decl in spec.nodes:
+        if not _is_abstraction(decl.type):
+            out.nodes.append(decl)
+            continue
+        try:
+            sub = _instantiate(spec, decl, _stack)
+        except PatchError as exc:
+            problems += exc.problems
+            continue
+        out.nodes += sub.nodes
+        out.wires += sub.wires
+        for i, port in enumerate(sub.inlets):
+            for key in (port.name, i):
+                inlet_map.setdefault((decl.name, key), []).append((port.node, port.port))
+        for i, port in enumerate(sub.outlets):
+            for key in (port.name, i):
+                outlet_map[(decl.name, key)] = (port.node, port.port)
+    instances = {d.name for d in spec.nodes if _is_abstraction(d.type)}
+    for w in spec.wires:
+        srcs = [(w.src, w.outlet)]
+        dsts = [(w.dst, w.inlet)]
+        if w.src in instances:
+            if (w.src, w.outlet) not in outlet_map:
+                problems.append(
+                    Problem(w.where, f"abstraction instance '{w.src}' has no outlet {w.outlet!r}")
+                )
+                continue
+            srcs = [outlet_map[(w.src, w.outlet)]]
+        if w.dst in instances:
+            if (w.dst, w.inlet) not in inlet_map:
+                problems.append(Problem(w.where, f"abstraction instance '{w.dst}' has no inlet {w.inlet!r}"))
+                continue
+            dsts = inlet_map[(w.dst, w.inlet)]
+        for s, o in srcs:
+            for d, i in dsts:
+                out.wires.append(Wire(s, o, d, i, w.where))
+    if problems:
+        raise PatchError(problems)
+    return out
+
+
+def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...]) -> PatchSpec:
+    base = Path(parent.path).parent
+    path = (base / decl.type).resolve()
+    if not path.exists():
+        raise PatchError(f"abstraction file '{decl.type}' not found (looked in {base})", decl.where)
+    if str(path) in stack:
+        raise PatchError(f"abstraction '{decl.type}' includes itself", decl.where)
+    sub = read_spec(path)
+    if decl.args:
+        raise PatchError(
+            f"abstraction '{decl.type}' takes named arguments ({', '.join(sub.args) or 'none'}), "
+            f"not positional ones",
+            decl.where,
+        )
+    unknown = [k for k in decl.params if k not in sub.args]
+    if unknown:
+        raise PatchError(
+            f"abstraction '{decl.type}' has no argument {unknown[0]!r} (arguments: {', '.join(sub.args) or 'none'})",
+            decl.where,
+        )
+    args = {**sub.args, **decl.params, "0": decl.name}
+    prefix = decl.name + "/"
+    renamed = PatchSpec(path=sub.path, doc=sub.doc)
+    for n in sub.nodes:
+        renamed.nodes.append(
+            NodeDecl(
+                n.name,
+                n.type,
+                [_substitute(a, args, n.where) for a in n.args],
+                {k: _substitute(v, args, n.where) for k, v in n.params.items()},
+                n.where,
+            )
+        )
+    renamed.wires = list(sub.wires)
+    renamed.inlets, renamed.outlets = sub.inlets, sub.outlets
+    flat = expand(renamed, (*stack, str(path)))
+    for n in flat.nodes:
+        n.name = prefix + n.name
+    for w in flat.wires:
+        w.src, w.dst = prefix + w.src, prefix + w.dst
+    for p in (*flat.inlets, *flat.outlets):
+        p.node = prefix + p.node
+    return flat
+
+
+# --------------------------------------------------------------------------- checking
+@dataclass
+class Resolved:
+    decl: NodeDecl
+    cls: type[Node]
+    values: dict[str, Any]
+    inlets: tuple[Inlet, ...]
+    outlets: tuple[Outlet, ...]
+
+
+@dataclass
+class Checked:
+    """A checked patch: resolved nodes, wires as indices, and the warnings."""
+
+    spec: PatchSpec
+    nodes: dict[str, Resolved] = field(default_factory=dict)
+    wires: list[tuple[str, int, str, int]] = field(default_factory=list)
+    warnings: list[Problem] = field(default_factory=list)
+
+
+def _port_index(ports: Sequence[Inlet | Outlet], port: str | int) -> int | None:
+    if isinstance(port, int):
+        return port if 0 <= port < len(ports) else None
+    for i, p in enumerate(ports):
+        if p.name == port:
+            return i
+    return None
+
+
+def _port_list(ports: Sequence[Inlet | Outlet]) -> str:
+    return ", ".join(f"{p.name} ({i})" for i, p in enumerate(ports)) or "none"
+
+
+def _kinds_meet(outlet: Outlet, inlet: Inlet) -> bool:
+    if outlet.kind == "any" or "any" in inlet.accepts:
+        return True
+    numeric = {"float", "int"}
+    if outlet.kind in numeric and numeric & set(inlet.accepts):
+        return True
+    return outlet.kind in inlet.accepts
+
+
+def check(
+    spec: PatchSpec,
+    registry: Registry | None = None,
+    overrides: Sequence[tuple[str, str, Any]] = (),
+) -> Checked:
+    """Expand and check ``spec``; raise :class:`PatchError` with every error, or return the result.
+
+    ``overrides`` are ``(node, param, value)`` triples (``--set node.param=value``).
+    """
+    registry = registry or default_registry
+    flat = expand(spec)
+    problems: list[Problem] = []
+    result = Checked(flat)
+    names: dict[str, NodeDecl] = {}
+    for decl in flat.nodes:
+        if decl.name in names:
+            problems.append(Problem(decl.where, f"node '{decl.name}' is defined twice"))
+        names[decl.name] = decl
+    over: dict[str, dict[str, Any]] = {}
+    for node, param, value in overrides:
+        if node not in names:
+            problems.append(
+                Problem(None, f"--set {node}.{param}: no node named '{node}' (nodes: {', '.join(names)})")
+            )
+        else:
+            over.setdefault(node, {})[param] = value
+    for decl in names.values():
+        cls = registry.get(decl.type)
+        label = f"node '{decl.name}'"
+        if cls is None:
+            hint = registry.suggest(decl.type)
+            problems.append(
+                Problem(
+                    decl.where,
+                    f"{label}: unknown node type '{decl.type}'"
+                    + (f" (did you mean '{hint}'?)" if hint else ""),
+                )
+            )
+            continue
+        try:
+            values = cls.resolve_params(decl.args, decl.params)
+            for key, value in over.get(decl.name, {}).items():
+                p = cls.param(key)
+                if p is None:
+                    raise ParamError(
+                        f"--set: unknown parameter '{key}' (parameters: "
+                        f"{', '.join(q.name for q in cls.params) or 'none'})"
+                    )
+                values[key] = p.coerce(value)
+            ins, outs = cls.layout(values)
+        except (ParamError, ValueError) as exc:
+            problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}"))
+            continue
+        result.nodes[decl.name] = Resolved(decl, cls, values, ins, outs)
+    fan: dict[tuple[str, int, str], list[Wire]] = {}
+    for w in flat.wires:
+        ok = True
+        for end in (w.src, w.dst):
+            if end not in names:
+                hint = _close(end, names)
+                problems.append(
+                    Problem(
+                        w.where,
+                        f"wire {w}: no node named '{end}'" + (f" (did you mean '{hint}'?)" if hint else ""),
+                    )
+                )
+                ok = False
+        if not ok or w.src not in result.nodes or w.dst not in result.nodes:
+            continue
+        s, d = result.nodes[w.src], result.nodes[w.dst]
+        o = _port_index(s.outlets, w.outlet)
+        i = _port_index(d.inlets, w.inlet)
+        if o is None:
+            problems.append(
+                Problem(
+                    w.where,
+                    f"wire {w}: node '{w.src}' ({s.decl.type}) has no outlet {w.outlet!r}; "
+                    f"outlets are {_port_list(s.outlets)}",
+                )
+            )
+        if i is None:
+            problems.append(
+                Problem(
+                    w.where,
+                    f"wire {w}: node '{w.dst}' ({d.decl.type}) has no inlet {w.inlet!r}; "
+                    f"inlets are {_port_list(d.inlets)}",
+                )
+            )
+        if o is None or i is None:
+            continue
+        if not _kinds_meet(s.outlets[o], d.inlets[i]):
+            problems.append(
+                Problem(
+                    w.where,
+                    f"wire {w}: outlet '{s.outlets[o].name}' sends {s.outlets[o].kind}, inlet "
+                    f"'{d.inlets[i].name}' of '{w.dst}' accepts {'|'.join(d.inlets[i].accepts)}",
+                )
+            )
+            continue
+        result.wires.append((w.src, o, w.dst, i))
+        fan.setdefault((w.src, o, w.dst), []).append(w)
+    for (src, o, dst), ws in fan.items():
+        if len(ws) > 1:
+            result.warnings.append(
+                Problem(
+                    ws[-1].where,
+                    f"outlet {o} of '{src}' feeds {len(ws)} inlets of '{dst}': they receive "
+                    f"in wire order ({', '.join(str(w.inlet) for w in ws)}); use a trigger to make it explicit",
+                    "warning",
+                )
+            )
+    if not problems:
+        problems += _cycles(result)
+    if problems:
+        raise PatchError(problems)
+    return result
+
+
+def _close(name: str, names: Mapping[str, Any]) -> str | None:
+    import difflib
+
+    m = difflib.get_close_matches(name, list(names), n=1)
+    return m[0] if m else None
+
+
+def _cycles(result: Checked) -> list[Problem]:
+    """Feedback loops through hot inlets with no deferring node (delay, metro) on them."""
+    edges: dict[str, list[str]] = {n: [] for n in result.nodes}
+    for src, _o, dst, i in result.wires:
+        s, d = result.nodes[src], result.nodes[dst]
+        inlet = d.inlets[i]
+        hot = inlet.hot if inlet.hot is not None else i == 0
+        if hot and not s.cls.defers:
+            edges[src].append(dst)
+    # send -> receive by bus name
+    buses: dict[str, list[str]] = {}
+    for name, r in result.nodes.items():
+        if r.cls.type_name == "receive":
+            buses.setdefault(str(r.values.get("bus")), []).append(name)
+    for name, r in result.nodes.items():
+        if r.cls.type_name == "send":
+            edges[name] += buses.get(str(r.values.get("bus")), [])
+    # Tarjan's strongly connected components
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    sccs: list[list[str]] = []
+    counter = [0]
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in edges[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            sccs.append(comp)
+
+    for v in edges:
+        if v not in index:
+            visit(v)
+    problems = []
+    for comp in sccs:
+        if len(comp) > 1 or comp[0] in edges[comp[0]]:
+            order = sorted(comp, key=list(result.nodes).index)
+            where = result.nodes[order[0]].decl.where
+            problems.append(
+                Problem(
+                    where,
+                    f"feedback loop with no delay: {' -> '.join([*order, order[0]])}; "
+                    f"messages would go round forever (put a delay or a cold inlet in the loop)",
+                )
+            )
+    return problems
+
+
+# --------------------------------------------------------------------------- building
+def build(checked: Checked, *, realtime: bool = True) -> Runtime:
+    """Instantiate the checked nodes and wires into a :class:`~pointat.runtime.Runtime`."""
+    rt = Runtime(realtime=realtime)
+    for name, r in checked.nodes.items():
+        try:
+            node = r.cls(name, r.values)
+        except Exception as exc:
+            raise PatchError(
+                f"node '{name}' ({r.decl.type}): cannot be created: {exc}", r.decl.where
+            ) from exc
+        rt.add(node)
+    for src, o, dst, i in checked.wires:
+        rt.connect(src, o, dst, i)
+    return rt
+
+
+def parse_overrides(items: Sequence[str]) -> list[tuple[str, str, Any]]:
+    """``["node.param=value", ...]`` -> triples; raises :class:`PatchError` for a malformed item."""
+    out = []
+    for item in items:
+        target, eq, value = item.partition("=")
+        node, dot, param = target.rpartition(".")
+        if not eq or not dot or not node or not param:
+            raise PatchError(f"--set {item!r}: expected node.param=value")
+        out.append((node, param, parse_value(value)))
+    return out
+
+
+def load(
+    path: str | Path,
+    *,
+    registry: Registry | None = None,
+    overrides: Sequence[str] = (),
+    realtime: bool = True,
+) -> Runtime:
+    """Read, check and build a patch file in one call."""
+    registry = registry or default_registry.load_builtins()
+    checked = check(read_spec(path), registry, parse_overrides(overrides))
+    return build(checked, realtime=realtime)

@@ -1,0 +1,450 @@
+r"""The node model: a node class declares its inlets, outlets and parameters in one place.
+
+This is Pure Data's object model in Python.  A node type is a :class:`Node` subclass that declares
+
+* ``inlets``: the left inlet is *hot* (a message there computes and outputs), the others are *cold*
+  (they only store) unless an :class:`Inlet` says ``hot=True``;
+* ``outlets``: a node that outputs on several outlets does so **right to left** (:meth:`Node.emit`);
+* ``params``: name, type, default, unit, doc, and whether it can change while running (``live``).
+  Creation arguments come from this declaration, by name (``k=0.5``) or by position (``metro 100``).
+
+A message reaching inlet ``gyro`` calls ``on_gyro(msg)``; a cold inlet without a handler stores the
+message in ``self.cold["name"]``; a cold inlet declared with ``param=`` sets that parameter.  A *method*
+message (``recalibrate``, ``k 0.5``) at the left inlet calls ``do_recalibrate()`` or sets a live
+parameter.  Dispatch is synchronous and depth first: :meth:`Node.out` delivers to every connected inlet,
+in connection order, before it returns.
+
+A minimal node::
+
+    @register("double")
+    class Double(Node):
+        "Output twice the input."
+        inlets = (Inlet("in", ("float",), "a number"),)
+        outlets = (Outlet("out", "float", "twice the number"),)
+
+        def on_in(self, msg):
+            self.out(0, 2.0 * as_float(msg))
+"""
+
+from __future__ import annotations
+
+import inspect
+import logging
+import threading
+import types
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from .errors import FeedbackError
+from .message import KINDS, Message, make
+
+if TYPE_CHECKING:
+    from .runtime import Runtime, Timer
+
+__all__ = ["REQUIRED", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError"]
+
+log = logging.getLogger("pointat.node")
+
+#: Default of a parameter that must be given.
+REQUIRED: Any = type("Required", (), {"__repr__": lambda self: "REQUIRED"})()
+#: Placeholder in :meth:`Node.emit` for an outlet that stays silent.
+SKIP: Any = type("Skip", (), {"__repr__": lambda self: "SKIP"})()
+
+#: How deep synchronous dispatch may go before it is called a feedback loop (Pd's stack limit is 1000
+#: objects; a Python hop costs several interpreter frames, and real chains are a few dozen deep).
+MAX_DEPTH = 250
+
+PARAM_TYPES = ("float", "int", "bool", "symbol", "path", "list", "vector")
+
+
+class ParamError(ValueError):
+    """A parameter value does not fit its declaration; the loader adds the place."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """A node parameter: its type, default, unit and documentation.
+
+    ``type`` is one of ``float``, ``int``, ``bool``, ``symbol``, ``path``, ``list`` (numbers and symbols)
+    and ``vector`` (numbers, ``size`` of them when given).  ``choices`` restricts a symbol.  ``variadic``
+    collects every remaining positional creation argument (``trigger b b f``).  ``live`` parameters can be
+    set while the patch runs (by a message to the node, or from outside by name).
+    """
+
+    name: str
+    type: str
+    default: Any = REQUIRED
+    doc: str = ""
+    unit: str = ""
+    live: bool = False
+    choices: tuple[str, ...] = ()
+    variadic: bool = False
+    size: int | None = None
+
+    def coerce(self, value: Any) -> Any:
+        """The value converted to the declared type; :class:`ParamError` says expected and got."""
+        t = self.type
+        try:
+            if t == "float":
+                if isinstance(value, bool) or not isinstance(value, (int, float, np.number, str)):
+                    raise TypeError
+                return float(value)
+            if t == "int":
+                if isinstance(value, float) and value.is_integer():
+                    return int(value)
+                if isinstance(value, bool) or not isinstance(value, (int, np.integer, str)):
+                    raise TypeError
+                return int(value)
+            if t == "bool":
+                if isinstance(value, str):
+                    low = value.lower()
+                    if low in ("true", "yes", "on", "1"):
+                        return True
+                    if low in ("false", "no", "off", "0"):
+                        return False
+                    raise ValueError
+                if isinstance(value, (bool, int, float)) and value in (0, 1):
+                    return bool(value)
+                raise TypeError
+            if t in ("symbol", "path"):
+                if isinstance(value, (list, tuple, np.ndarray)):
+                    raise TypeError
+                s = str(value) if not isinstance(value, float) else repr(value)
+                if self.choices and s not in self.choices:
+                    raise ParamError(
+                        f"parameter '{self.name}' expects one of {', '.join(self.choices)}; got {s!r}"
+                    )
+                return s
+            if t == "list":
+                items = value if isinstance(value, (list, tuple)) else [value]
+                return tuple(items)
+            if t == "vector":
+                items = value if isinstance(value, (list, tuple, np.ndarray)) else [value]
+                arr = np.array([float(x) for x in items], dtype=float)
+                if self.size is not None and arr.size != self.size:
+                    raise ParamError(
+                        f"parameter '{self.name}' expects a vector of {self.size} numbers; got {arr.size}"
+                    )
+                return tuple(arr.tolist())
+        except ParamError:
+            raise
+        except (TypeError, ValueError):
+            pass
+        expected = {"float": "a number", "int": "a whole number", "bool": "true or false"}.get(t, f"a {t}")
+        raise ParamError(f"parameter '{self.name}' expects {expected}; got {value!r}")
+
+    def describe_type(self) -> str:
+        if self.choices:
+            return "|".join(self.choices)
+        if self.type == "vector" and self.size:
+            return f"vector[{self.size}]"
+        return self.type + ("..." if self.variadic else "")
+
+
+@dataclass(frozen=True)
+class Inlet:
+    """An inlet: name, accepted message kinds (``any`` for all), doc; hot when leftmost unless said."""
+
+    name: str
+    accepts: tuple[str, ...] = ("any",)
+    doc: str = ""
+    hot: bool | None = None
+    param: str | None = None
+
+
+@dataclass(frozen=True)
+class Outlet:
+    """An outlet: name, the kind of message it sends (``any`` when it varies), doc."""
+
+    name: str
+    kind: str = "any"
+    doc: str = ""
+
+
+class Node:
+    """Base class of every node type.  See the module docstring for the model.
+
+    Subclasses declare ``inlets``, ``outlets``, ``params`` and optionally ``example`` (a patch snippet
+    shown by ``pointat help``), and override the hooks they need: :meth:`setup`, :meth:`start`,
+    :meth:`loadbang`, :meth:`param_changed`, :meth:`close`.
+    """
+
+    type_name: ClassVar[str] = ""
+    aliases: ClassVar[tuple[str, ...]] = ()
+    inlets: ClassVar[tuple[Inlet, ...]] = ()
+    outlets: ClassVar[tuple[Outlet, ...]] = ()
+    params: ClassVar[tuple[Param, ...]] = ()
+    example: ClassVar[str] = ""
+    #: True for nodes whose output never happens inside the call that fed them (delay, metro):
+    #: a loop through such a node is not a synchronous feedback loop.
+    defers: ClassVar[bool] = False
+    #: Where the class came from (module, entry point or plugin file), for error messages.
+    origin: ClassVar[str] = ""
+
+    # ----------------------------------------------------------------- declaration
+    @classmethod
+    def layout(cls, values: Mapping[str, Any]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
+        """Inlets and outlets for these parameter values; override when they depend on parameters."""
+        return tuple(cls.inlets), tuple(cls.outlets)
+
+    @classmethod
+    def param(cls, name: str) -> Param | None:
+        for p in cls.params:
+            if p.name == name:
+                return p
+        return None
+
+    @classmethod
+    def resolve_params(cls, positional: Sequence[Any] = (), named: Mapping[str, Any] | None = None) -> dict:
+        """Creation arguments -> a complete, typed parameter dict.
+
+        Positional arguments fill the parameters in declaration order (a variadic parameter takes the
+        rest); named ones override.  Raises :class:`ParamError` naming the parameter, expected and got.
+        """
+        named = dict(named or {})
+        values: dict[str, Any] = {}
+        pos = list(positional)
+        for p in cls.params:
+            if not pos:
+                break
+            if p.variadic:
+                values[p.name] = tuple(pos)
+                pos = []
+            else:
+                values[p.name] = pos.pop(0)
+        if pos:
+            raise ParamError(
+                f"too many creation arguments: {len(positional)} given, "
+                f"{len([p for p in cls.params if not p.variadic])} expected ({', '.join(map(repr, pos))} left over)"
+            )
+        for key, value in named.items():
+            p = cls.param(key)
+            if p is None:
+                names = ", ".join(q.name for q in cls.params) or "none"
+                raise ParamError(f"unknown parameter '{key}' (parameters: {names})")
+            if key in values:
+                raise ParamError(f"parameter '{key}' given twice (by position and by name)")
+            values[key] = value
+        out = {}
+        for p in cls.params:
+            if p.name in values:
+                out[p.name] = p.coerce(values[p.name])
+            elif p.default is REQUIRED:
+                raise ParamError(f"parameter '{p.name}' is required ({p.doc or p.type})")
+            else:
+                out[p.name] = p.default
+        return out
+
+    # ----------------------------------------------------------------- instance
+    def __init__(self, name: str = "", values: Mapping[str, Any] | None = None):
+        self.name = name or self.type_name
+        cls = type(self)
+        if values is None or any(p.name not in values for p in cls.params):
+            values = cls.resolve_params(named=values)
+        self.p = types.SimpleNamespace(**values)
+        self.in_specs, self.out_specs = cls.layout(values)
+        self._targets: list[list[tuple[Node, int]]] = [[] for _ in self.out_specs]
+        self.cold: dict[str, Message] = {}
+        self.time = 0.0
+        self.rt: Runtime | None = None
+        self.active = False
+        self.errors = 0
+        self._handlers = [self._make_handler(i, inlet) for i, inlet in enumerate(self.in_specs)]
+        self.setup()
+
+    def __repr__(self) -> str:
+        return f"<{self.type_name} '{self.name}'>"
+
+    def _make_handler(self, index: int, inlet: Inlet) -> Callable[[Message], None]:
+        handler = getattr(self, "on_" + inlet.name, None)
+        if handler is not None:
+            return handler
+        if inlet.param is not None:
+            pname = inlet.param
+
+            def set_from_inlet(msg: Message) -> None:
+                self.set_param(pname, msg.value if msg.kind != "list" else list(msg.value))
+
+            return set_from_inlet
+
+        def store(msg: Message) -> None:
+            self.cold[inlet.name] = msg
+
+        return store
+
+    # hooks ------------------------------------------------------------------
+    def setup(self) -> None:
+        """Build the node's state from ``self.p`` (no I/O here)."""
+
+    def start(self) -> None:
+        """Open ports, start threads or timers. Called once when the patch starts running."""
+
+    def loadbang(self) -> None:
+        """Called once after every node has started."""
+
+    def param_changed(self, name: str) -> None:
+        """A parameter was set while running; rebuild what depends on it."""
+
+    def close(self) -> None:
+        """Release ports, files and threads. Must be idempotent."""
+
+    # receiving --------------------------------------------------------------
+    def receive(self, index: int, msg: Message) -> None:
+        """Deliver ``msg`` to inlet ``index`` (synchronously)."""
+        self.time = msg.time
+        if msg.kind in KINDS or not self._method(index, msg):
+            self._handlers[index](msg)
+
+    def _method(self, index: int, msg: Message) -> bool:
+        """Handle a method message; False passes it on to an inlet that accepts ``any`` message."""
+        sel = msg.kind
+        p = type(self).param(sel)
+        fn = getattr(self, "do_" + sel, None)
+        if (p is not None or fn is not None) and index != 0:
+            raise TypeError(f"method '{sel}' must be sent to the left inlet")
+        if p is not None:
+            args = msg.value
+            self.set_param(sel, args[0] if len(args) == 1 else list(args))
+            return True
+        if fn is not None:
+            fn(*msg.value)
+            return True
+        if "any" in self.in_specs[index].accepts:
+            return False
+        methods = sorted(n[3:] for n in dir(self) if n.startswith("do_"))
+        live = sorted(q.name for q in type(self).params if q.live)
+        known = ", ".join(methods + live) or "none"
+        raise TypeError(f"no method '{sel}' (methods and live parameters: {known})")
+
+    def set_param(self, name: str, value: Any) -> None:
+        """Set a parameter, validated against its declaration; only ``live`` ones while running."""
+        p = type(self).param(name)
+        if p is None:
+            raise ParamError(f"node '{self.name}' ({self.type_name}) has no parameter '{name}'")
+        if self.rt is not None and self.rt.running and not p.live:
+            raise ParamError(f"parameter '{name}' of node '{self.name}' cannot change while running")
+        setattr(self.p, name, p.coerce(value))
+        self.param_changed(name)
+
+    def fail(self, index: int, msg: Message, exc: BaseException) -> None:
+        """A message could not be handled: log it with the node's name and drop it (rate-limited)."""
+        self.errors += 1
+        if self.errors <= 5 or self.errors % 1000 == 0:
+            inlet = self.in_specs[index].name if index < len(self.in_specs) else index
+            log.error(
+                "node '%s' (%s), inlet '%s': dropped %s: %s%s",
+                self.name,
+                self.type_name,
+                inlet,
+                msg.describe()[:80],
+                exc,
+                f" ({self.errors} errors so far)" if self.errors > 5 else "",
+            )
+
+    # sending ----------------------------------------------------------------
+    def out(self, outlet: int, value: Any, time: float | None = None) -> None:
+        """Send ``value`` from ``outlet`` to every connected inlet, depth first, in connection order."""
+        targets = self._targets[outlet]
+        if not targets:
+            return
+        msg = value if type(value) is Message else make(value, self.time if time is None else time)
+        rt = self.rt
+        if rt is not None:
+            rt.depth += 1
+            if rt.depth > MAX_DEPTH:
+                rt.depth = 0
+                raise FeedbackError(
+                    f"feedback loop: more than {MAX_DEPTH} nested messages, last from node '{self.name}' "
+                    f"outlet {outlet}; put a delay in the loop"
+                )
+        try:
+            for node, inlet in targets:
+                try:
+                    node.receive(inlet, msg)
+                except FeedbackError:
+                    raise
+                except RecursionError as exc:
+                    raise FeedbackError(f"feedback loop: recursion too deep at node '{node.name}'") from exc
+                except Exception as exc:  # a bad message never stops the patch
+                    node.fail(inlet, msg, exc)
+        finally:
+            if rt is not None and rt.depth > 0:
+                rt.depth -= 1
+
+    def emit(self, *values: Any) -> None:
+        """Output one value per outlet, right to left (Pd order); :data:`SKIP` leaves an outlet silent."""
+        for i in range(len(values) - 1, -1, -1):
+            if values[i] is not SKIP:
+                self.out(i, values[i])
+
+    # scheduler access -------------------------------------------------------
+    @property
+    def now(self) -> float:
+        """The scheduler's logical time in seconds."""
+        return self.rt.clock.now() if self.rt is not None else 0.0
+
+    def call_later(self, delay: float, fn: Callable[..., Any], *args: Any) -> Timer:
+        """Run ``fn(*args)`` on the scheduler thread ``delay`` seconds from now (logical time)."""
+        return self._runtime().call_at(self._runtime().clock.now() + delay, self, fn, *args)
+
+    def call_at(self, when: float, fn: Callable[..., Any], *args: Any) -> Timer:
+        """Run ``fn(*args)`` on the scheduler thread at logical time ``when`` (a deadline: no drift)."""
+        return self._runtime().call_at(when, self, fn, *args)
+
+    def post(self, fn: Callable[..., Any], *args: Any) -> bool:
+        """From any thread: queue ``fn(*args)`` to run on the scheduler thread. False if it was dropped."""
+        return self._runtime().post(self, fn, *args)
+
+    def spawn(self, target: Callable[[], Any], what: str = "") -> threading.Thread:
+        """Start a thread for blocking I/O; the runtime joins it at shutdown."""
+        return self._runtime().spawn(self, target, what)
+
+    def _runtime(self) -> Runtime:
+        if self.rt is None:
+            raise RuntimeError(f"node '{self.name}' is not part of a running patch")
+        return self.rt
+
+    # documentation ----------------------------------------------------------
+    @classmethod
+    def help_text(cls) -> str:
+        """The help page of the node type, generated from its declaration."""
+        doc = inspect.cleandoc(cls.__doc__ or "")
+        lines = [f"{cls.type_name}" + (f" (aliases: {', '.join(cls.aliases)})" if cls.aliases else ""), ""]
+        if doc:
+            lines += [doc, ""]
+        try:
+            ins, outs = cls.layout({p.name: p.default for p in cls.params})
+        except Exception:
+            ins, outs = cls.inlets, cls.outlets
+        lines.append("inlets:")
+        for i, inlet in enumerate(ins):
+            hot = inlet.hot if inlet.hot is not None else i == 0
+            lines.append(
+                f"  {i} {inlet.name:<10} {'hot ' if hot else 'cold'} {'|'.join(inlet.accepts):<14} {inlet.doc}"
+            )
+        if not ins:
+            lines.append("  (none)")
+        lines.append("outlets:")
+        for i, outlet in enumerate(outs):
+            lines.append(f"  {i} {outlet.name:<10} {outlet.kind:<19} {outlet.doc}")
+        if not outs:
+            lines.append("  (none)")
+        lines.append("parameters (by name, or by position in this order):")
+        for p in cls.params:
+            default = "required" if p.default is REQUIRED else f"default {p.default!r}"
+            flags = ", live" if p.live else ""
+            unit = f" [{p.unit}]" if p.unit else ""
+            lines.append(f"  {p.name:<12} {p.describe_type():<10} {default}{unit}{flags}")
+            if p.doc:
+                lines.append(f"      {p.doc}")
+        if not cls.params:
+            lines.append("  (none)")
+        methods = sorted(n[3:] for n in dir(cls) if n.startswith("do_"))
+        if methods:
+            lines.append("methods (messages to the left inlet): " + ", ".join(methods))
+        if cls.example:
+            lines += ["example:", *("  " + ln for ln in cls.example.strip().splitlines())]
+        return "\n".join(lines)

@@ -1,0 +1,324 @@
+"""The runtime: one scheduler thread runs the graph; sources hand it events through a bounded queue.
+
+* **Logical time.**  ``clock.now()`` is seconds since the patch started.  With ``realtime=True`` it
+  follows ``time.monotonic()`` and timers are *deadlines*: a metro that ticks every 10 ms schedules tick
+  ``n`` at ``start + n * 0.01``, so it never drifts.  With ``realtime=False`` time stands still until a
+  test calls :meth:`Runtime.advance`, which runs every timer due on the way, in order.
+* **Sources** (serial readers, OSC servers, file replay) do their blocking I/O in their own threads
+  (:meth:`Node.spawn <pointat.node.Node.spawn>`) and hand results to the scheduler with
+  :meth:`Node.post <pointat.node.Node.post>`.  The queue is bounded: a fast file replay waits for the graph
+  instead of filling memory.
+* **Ending.**  :meth:`Runtime.run` returns when :meth:`stop` is called (Ctrl-C, SIGTERM, ``--for``), or by
+  itself when nothing can happen any more: no active source, no pending timer, nothing queued.  Every
+  node's ``close()`` runs and every thread is joined.
+* **Live control.**  :meth:`set_param` and :meth:`send` may be called from any thread (the OSC bridge
+  uses them); they are carried out on the scheduler thread.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import logging
+import queue
+import threading
+import time
+from collections.abc import Callable, Iterable
+from typing import Any
+
+from .errors import FeedbackError
+from .message import make, method
+from .node import Node
+
+__all__ = ["ManualClock", "RealClock", "Runtime", "Timer"]
+
+log = logging.getLogger("pointat.runtime")
+
+
+class RealClock:
+    """Seconds since :meth:`reset`, from ``time.monotonic``."""
+
+    def __init__(self) -> None:
+        self.t0 = time.monotonic()
+
+    def reset(self) -> None:
+        self.t0 = time.monotonic()
+
+    def now(self) -> float:
+        return time.monotonic() - self.t0
+
+
+class ManualClock:
+    """A clock that moves only when told to (tests)."""
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def reset(self) -> None:
+        self.t = 0.0
+
+    def now(self) -> float:
+        return self.t
+
+
+class Timer:
+    """A scheduled call; :meth:`cancel` it to drop it."""
+
+    __slots__ = ("when", "seq", "node", "fn", "args", "cancelled", "daemon")
+
+    def __init__(self, when: float, seq: int, node: Node | None, fn: Callable, args: tuple, daemon: bool):
+        self.when, self.seq, self.node, self.fn, self.args = when, seq, node, fn, args
+        self.cancelled = False
+        self.daemon = daemon
+
+    def __lt__(self, other: Timer) -> bool:
+        return (self.when, self.seq) < (other.when, other.seq)
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+
+class Runtime:
+    """Runs a graph of connected nodes.  Build one with :func:`pointat.loader.build` or by hand."""
+
+    def __init__(self, nodes: Iterable[Node] = (), *, realtime: bool = True, queue_size: int = 4096):
+        self.nodes: dict[str, Node] = {}
+        self.clock: RealClock | ManualClock = RealClock() if realtime else ManualClock()
+        self.realtime = realtime
+        self.running = False
+        self.depth = 0
+        self.bus: dict[str, list[Node]] = {}
+        self.dropped = 0
+        self.stopping = threading.Event()
+        self._timers: list[Timer] = []
+        self._seq = itertools.count()
+        self._queue: queue.Queue = queue.Queue(maxsize=queue_size)
+        self._threads: list[threading.Thread] = []
+        self._closed = False
+        #: Where ``print`` nodes write; the CLI points it at the terminal, tests at a list.
+        self.console: Callable[[str], None] = logging.getLogger("pointat.console").info
+        for node in nodes:
+            self.add(node)
+
+    # building ----------------------------------------------------------------------
+    def add(self, node: Node) -> Node:
+        if node.name in self.nodes:
+            raise ValueError(f"a node named '{node.name}' exists already")
+        node.rt = self
+        self.nodes[node.name] = node
+        return node
+
+    def connect(self, src: Node | str, outlet: int, dst: Node | str, inlet: int) -> None:
+        """Wire ``src`` outlet -> ``dst`` inlet (appended: fan-out follows connection order)."""
+        s = self.nodes[src] if isinstance(src, str) else src
+        d = self.nodes[dst] if isinstance(dst, str) else dst
+        if not 0 <= outlet < len(s.out_specs):
+            raise ValueError(f"node '{s.name}' has no outlet {outlet}")
+        if not 0 <= inlet < len(d.in_specs):
+            raise ValueError(f"node '{d.name}' has no inlet {inlet}")
+        s._targets[outlet].append((d, inlet))
+
+    # scheduling --------------------------------------------------------------------
+    def call_at(
+        self, when: float, node: Node | None, fn: Callable, *args: Any, daemon: bool = False
+    ) -> Timer:
+        """Schedule ``fn(*args)`` at logical time ``when`` (scheduler thread only).
+
+        A ``daemon`` timer (the ``--for`` limit) does not keep an otherwise finished patch alive.
+        """
+        t = Timer(when, next(self._seq), node, fn, args, daemon)
+        heapq.heappush(self._timers, t)
+        return t
+
+    def post(self, node: Node | None, fn: Callable, *args: Any, block: bool = True) -> bool:
+        """Queue ``fn(*args)`` for the scheduler thread; safe from any thread.
+
+        With ``block`` the caller waits while the queue is full (back-pressure) until the runtime stops;
+        without it a full queue drops the event and counts it.  Returns whether it was queued.
+        """
+        item = (node, fn, args)
+        if not block:
+            try:
+                self._queue.put_nowait(item)
+                return True
+            except queue.Full:
+                self.dropped += 1
+                return False
+        while not self.stopping.is_set():
+            try:
+                self._queue.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def spawn(self, node: Node, target: Callable[[], Any], what: str = "") -> threading.Thread:
+        """Start a daemon thread for ``node``'s blocking I/O; exceptions are logged with the node's name."""
+
+        def guarded() -> None:
+            try:
+                target()
+            except Exception:
+                log.exception("node '%s' (%s): thread %s failed", node.name, node.type_name, what or "")
+
+        th = threading.Thread(target=guarded, name=f"pointat-{node.name}-{what}".rstrip("-"), daemon=True)
+        self._threads.append(th)
+        th.start()
+        return th
+
+    # live control ------------------------------------------------------------------
+    def set_param(self, node_name: str, param: str, value: Any) -> None:
+        """Set a live parameter by name, from any thread (validated on the scheduler thread)."""
+        self.send(node_name, param, value)
+
+    def send(self, node_name: str, selector: str | Any, *args: Any, inlet: int = 0) -> None:
+        """Send a message to a node by name, from any thread: a method (``recalibrate``, ``k 0.5``) or a value."""
+        node = self.nodes.get(node_name)
+        if node is None:
+            log.error("no node named '%s' (nodes: %s)", node_name, ", ".join(self.nodes))
+            return
+        if selector == "bang":
+            msg = make(None)
+        elif selector in ("float", "int", "symbol"):
+            msg = make(args[0])
+        elif selector == "list":
+            msg = make(tuple(args))
+        elif isinstance(selector, str):
+            msg = method(selector, *args)
+        else:
+            msg = make(selector)
+
+        def deliver() -> None:
+            node.receive(inlet, msg._replace(time=self.clock.now()))
+
+        self.post(node, deliver, block=False)
+
+    # running -----------------------------------------------------------------------
+    def start(self) -> None:
+        """Start every node (ports, threads, timers), then fire the loadbangs."""
+        if self.running:
+            return
+        self.clock.reset()
+        self.running = True
+        for node in list(self.nodes.values()):
+            self._guard(node, node.start)
+        for node in list(self.nodes.values()):
+            self._guard(node, node.loadbang)
+
+    def run(self, duration: float | None = None) -> None:
+        """Run on this thread until stopped, ``duration`` seconds pass, or nothing is left to happen."""
+        self.start()
+        if duration is not None:
+            self.call_at(self.clock.now() + duration, None, self.stop, daemon=True)
+        try:
+            while not self.stopping.is_set():
+                self._run_due()
+                if self.stopping.is_set() or self._finished():
+                    break
+                timeout = 0.25
+                if self._timers:
+                    timeout = min(timeout, max(0.0, self._timers[0].when - self.clock.now()))
+                try:
+                    item = self._queue.get(timeout=timeout)
+                except queue.Empty:
+                    continue
+                self._run_item(item)
+        finally:
+            self.shutdown()
+
+    def run_in_thread(self, duration: float | None = None) -> threading.Thread:
+        """:meth:`run` on a new thread (tests, embedding); :meth:`stop` ends it."""
+        th = threading.Thread(target=self.run, args=(duration,), name="pointat-scheduler", daemon=True)
+        th.start()
+        return th
+
+    def stop(self) -> None:
+        """Ask the scheduler to stop; safe from any thread and from signal handlers."""
+        self.stopping.set()
+        try:
+            self._queue.put_nowait(None)
+        except queue.Full:
+            pass
+
+    def shutdown(self) -> None:
+        """Close every node (in reverse order) and join the threads. Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        self.stopping.set()
+        self.running = False
+        for node in reversed(list(self.nodes.values())):
+            self._guard(node, node.close)
+        deadline = time.monotonic() + 3.0
+        for th in self._threads:
+            th.join(timeout=max(0.0, deadline - time.monotonic()))
+            if th.is_alive():
+                log.warning("thread %s did not stop within 3 s", th.name)
+
+    # manual stepping (tests) -------------------------------------------------------
+    def advance(self, seconds: float) -> None:
+        """Move a manual clock forward, running every timer due on the way in time order, then the queue."""
+        if not isinstance(self.clock, ManualClock):
+            raise RuntimeError("advance() needs a runtime built with realtime=False")
+        if not self.running:
+            self.start()
+        target = self.clock.t + seconds
+        self.drain()
+        while self._timers and self._timers[0].when <= target:
+            self.clock.t = max(self.clock.t, self._timers[0].when)
+            self._run_due()
+            self.drain()
+        self.clock.t = target
+        self.drain()
+
+    def drain(self, timeout: float = 0.0) -> int:
+        """Run queued events; wait up to ``timeout`` seconds for the first one. Returns how many ran."""
+        n = 0
+        try:
+            item = self._queue.get(timeout=timeout) if timeout > 0 else self._queue.get_nowait()
+            while True:
+                self._run_item(item)
+                n += 1
+                item = self._queue.get_nowait()
+        except queue.Empty:
+            return n
+
+    # internals ---------------------------------------------------------------------
+    def _finished(self) -> bool:
+        if not self._queue.empty() or any(n.active for n in self.nodes.values()):
+            return False
+        return all(t.cancelled or t.daemon for t in self._timers)
+
+    def _run_due(self) -> None:
+        timers = self._timers
+        now = self.clock.now()
+        while timers and timers[0].when <= now:
+            t = heapq.heappop(timers)
+            if t.cancelled:
+                continue
+            if t.node is not None:
+                t.node.time = t.when
+                self._guard(t.node, t.fn, *t.args)
+            else:
+                t.fn(*t.args)
+            if self.stopping.is_set():
+                return
+
+    def _run_item(self, item: tuple | None) -> None:
+        if item is None:
+            return
+        node, fn, args = item
+        self._guard(node, fn, *args)
+
+    def _guard(self, node: Node | None, fn: Callable, *args: Any) -> None:
+        """Run one event; a failure is logged with the node's name and the patch goes on."""
+        self.depth = 0
+        try:
+            fn(*args)
+        except FeedbackError as exc:
+            log.error("%s", exc)
+        except Exception as exc:
+            who = f"node '{node.name}' ({node.type_name})" if node is not None else "runtime"
+            log.error("%s: %s: %s", who, type(exc).__name__, exc, exc_info=log.isEnabledFor(logging.DEBUG))
+        finally:
+            self.depth = 0

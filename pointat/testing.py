@@ -1,0 +1,59 @@
+"""Helpers for testing patches and node types: push values in, collect the output into a list.
+
+>>> rt = patch('''
+... node t trigger f b
+... node out collect
+... t.1 -> out
+... t.0 -> out
+... ''')
+>>> rt.nodes["t"].receive(0, make(3.0))
+>>> [m.kind for m in rt.nodes["out"].messages]
+['bang', 'float']
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .loader import build, check
+from .message import Message, make
+from .node import Inlet, Node
+from .patchfile import parse_patch
+from .registry import Registry, default_registry
+from .runtime import Runtime
+
+__all__ = ["Collect", "make", "patch", "test_registry"]
+
+
+class Collect(Node):
+    """Store every message it receives (``messages``; ``values`` for their values)."""
+
+    type_name = "collect"
+    inlets = (Inlet("in", ("any",), "anything"),)
+
+    def setup(self) -> None:
+        self.messages: list[Message] = []
+
+    def on_in(self, msg: Message) -> None:
+        self.messages.append(msg)
+
+    @property
+    def values(self) -> list[Any]:
+        return [m.value for m in self.messages]
+
+
+def test_registry() -> Registry:
+    """The built-in node types plus ``collect``."""
+    reg = default_registry.load_builtins().copy()
+    reg.add(Collect, "pointat.testing")
+    return reg
+
+
+test_registry.__test__ = False  # type: ignore[attr-defined]  # not a pytest test
+
+
+def patch(text: str, *, realtime: bool = False, registry: Registry | None = None) -> Runtime:
+    """Parse, check and build native patch text; a manual clock unless ``realtime``."""
+    checked = check(parse_patch(text, "<test>"), registry or test_registry())
+    rt = build(checked, realtime=realtime)
+    return rt

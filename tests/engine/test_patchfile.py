@@ -1,0 +1,189 @@
+"""The native patch format and the checker: one test per error class, asserting message and line."""
+
+import pytest
+
+from pointat.errors import PatchError
+from pointat.loader import check, expand, read_spec
+from pointat.patchfile import format_value, parse_patch, parse_value, write_patch
+from pointat.testing import test_registry
+
+REG = test_registry()
+
+
+def errors_of(text, name="p.pat"):
+    with pytest.raises(PatchError) as info:
+        check(parse_patch(text, name), REG)
+    return [(p.where.line if p.where else None, p.message) for p in info.value.problems]
+
+
+def test_parse_nodes_params_wires_and_chain():
+    spec = parse_patch(
+        """# A header comment
+# becomes the doc.
+node m   metro 100           # positional
+node p   print prefix="a b"  \\
+             time=true
+node lst pack values=[1, 2.5, x]
+m -> p
+m.0 -> lst.1 -> p.0
+""",
+        "x.pat",
+    )
+    assert spec.doc == "A header comment\nbecomes the doc."
+    assert [(n.name, n.type, n.args, n.params) for n in spec.nodes] == [
+        ("m", "metro", [100], {}),
+        ("p", "print", [], {"prefix": "a b", "time": True}),
+        ("lst", "pack", [], {"values": [1, 2.5, "x"]}),
+    ]
+    assert [str(w) for w in spec.wires] == ["m.0 -> p.0", "m.0 -> lst.1", "lst.0 -> p.0"]
+    assert spec.wires[2].where.line == 8
+
+
+def test_numbers_keep_full_precision_and_values_round_trip():
+    for v in (0.1 + 0.2, 1e-17, -3, 123456789.123456789, "two words", "sweep", ["a", 1, [2.5]], True, "12"):
+        assert parse_value(format_value(v)) == v
+
+
+def test_write_then_parse_gives_the_same_spec():
+    text = 'node a metro 33.333333333333336\nnode b print prefix="x: "\na -> b.0\n'
+    spec = parse_patch(text)
+    again = parse_patch(write_patch(spec))
+    assert [(n.name, n.type, n.args, n.params) for n in again.nodes] == [
+        (n.name, n.type, n.args, n.params) for n in spec.nodes
+    ]
+    assert [str(w) for w in again.wires] == [str(w) for w in spec.wires]
+
+
+def test_syntax_errors_name_the_line():
+    problems = errors_of('node a metro 100\nnode\nnode b print prefix="open\nwibble wobble\na -> \n')
+    assert [line for line, _ in problems] == [2, 3, 4, 5]
+    assert "expected 'node NAME TYPE" in problems[0][1]
+    assert "unclosed quote" in problems[1][1]
+    assert "unknown statement 'wibble'" in problems[2][1]
+
+
+def test_duplicate_node_name():
+    [(line, msg)] = errors_of("node a metro\nnode a print\n")
+    assert line == 2 and "node 'a' is defined twice (first at line 1)" in msg
+
+
+def test_unknown_node_type_suggests_a_close_name():
+    [(line, msg)] = errors_of("node a metro\nnode b prnt\n")
+    assert line == 2 and "unknown node type 'prnt' (did you mean 'print'?)" in msg
+
+
+def test_unknown_parameter():
+    [(line, msg)] = errors_of("node a metro intervall=3\n")
+    assert line == 1 and "unknown parameter 'intervall' (parameters: interval)" in msg
+
+
+def test_bad_parameter_value_says_expected_and_got():
+    [(line, msg)] = errors_of("\nnode a metro interval=fast\n")
+    assert line == 2 and "parameter 'interval' expects a number; got 'fast'" in msg
+
+
+def test_missing_required_parameter():
+    [(line, msg)] = errors_of("node r receive\n")
+    assert line == 1 and "parameter 'bus' is required" in msg
+
+
+def test_too_many_positional_arguments():
+    [(line, msg)] = errors_of("node m metro 100 200\n")
+    assert "too many creation arguments" in msg
+
+
+def test_unknown_node_in_wire():
+    [(line, msg)] = errors_of("node a metro\nnode b print\na -> bb\n")
+    assert line == 3 and "no node named 'bb' (did you mean 'b'?)" in msg
+
+
+def test_unknown_outlet_and_inlet_list_the_ports():
+    problems = errors_of("node a metro\nnode b print\na.tick -> b\na -> b.3\n")
+    assert problems[0] == (
+        3,
+        "wire a.tick -> b.0: node 'a' (metro) has no outlet 'tick'; outlets are out (0)",
+    )
+    assert problems[1] == (4, "wire a.0 -> b.3: node 'b' (print) has no inlet 3; inlets are in (0)")
+
+
+def test_wire_kinds_that_cannot_meet():
+    [(line, msg)] = errors_of("node a metro\nnode b metro\na -> b.interval\n")
+    assert line == 3 and "outlet 'out' sends bang, inlet 'interval' of 'b' accepts float|int" in msg
+
+
+def test_feedback_loop_without_delay_is_an_error_but_a_delay_breaks_it():
+    [(line, msg)] = errors_of("node a trigger a\nnode b trigger a\na -> b\nb -> a\n")
+    assert line == 1 and "feedback loop with no delay: a -> b -> a" in msg
+    # through a delay, or into a cold inlet, it is fine
+    check(parse_patch("node a trigger b\nnode d delay 10\na -> d\nd -> a\n"), REG)
+    check(parse_patch("node a pack 0 0\nnode t trigger a\na -> t\nt -> a.1\n"), REG)
+    # send/receive by name closes loops too
+    [(line, msg)] = errors_of("node s send x\nnode r receive x\nnode t trigger a\nr -> t -> s\n")
+    assert "feedback loop" in msg
+
+
+def test_fan_out_into_one_node_is_a_warning():
+    checked = check(parse_patch("node t trigger f\nnode p pack 0 0\nt -> p.1\nt -> p.0\n", "w.pat"), REG)
+    [w] = checked.warnings
+    assert w.severity == "warning" and w.where.line == 4 and "in wire order" in w.message
+
+
+def test_all_errors_are_reported_at_once():
+    problems = errors_of("node a metr\nnode b prnt\nnode c metro x=1\n")
+    assert [line for line, _ in problems] == [1, 2, 3]
+
+
+def test_overrides(tmp_path):
+    spec = parse_patch("node m metro 100\n")
+    checked = check(spec, REG, [("m", "interval", 20)])
+    assert checked.nodes["m"].values["interval"] == 20.0
+    with pytest.raises(PatchError, match="--set mm.interval: no node named 'mm'"):
+        check(spec, REG, [("mm", "interval", 20)])
+
+
+def test_abstraction_instantiated_twice_with_arguments(tmp_path):
+    (tmp_path / "voice.pat").write_text(
+        "# one voice\nargs rate=100 bus=x\ninlet go -> m.0\noutlet tick <- m.0\n"
+        "node m metro $rate\nnode s send bus=$0-$bus\nm -> s\n"
+    )
+    (tmp_path / "main.pat").write_text(
+        "node lb loadbang\nnode left voice.pat rate=50\nnode right voice.pat bus=y\nnode p print\n"
+        "lb -> left.go\nlb -> right\nleft.tick -> p\nright.0 -> p\n"
+    )
+    spec = expand(read_spec(tmp_path / "main.pat"))
+    names = [n.name for n in spec.nodes]
+    assert names == ["lb", "left/m", "left/s", "right/m", "right/s", "p"]
+    params = {n.name: (n.args, n.params) for n in spec.nodes}
+    assert params["left/m"] == ([50], {}) and params["right/m"] == ([100], {})
+    assert params["left/s"][1] == {"bus": "left-x"} and params["right/s"][1] == {"bus": "right-y"}
+    assert sorted(str(w) for w in spec.wires) == sorted(
+        [
+            "left/m.0 -> left/s.0",
+            "right/m.0 -> right/s.0",
+            "lb.0 -> left/m.0",
+            "lb.0 -> right/m.0",
+            "left/m.0 -> p.0",
+            "right/m.0 -> p.0",
+        ]
+    )
+    check(read_spec(tmp_path / "main.pat"), REG)
+
+
+def test_abstraction_errors(tmp_path):
+    (tmp_path / "a.pat").write_text("args x=1\nnode m metro $y\n")
+    (tmp_path / "loop.pat").write_text("node again loop.pat\n")
+    (tmp_path / "main.pat").write_text(
+        "node one a.pat z=2\nnode two missing.pat\nnode three loop.pat\nnode four a.pat\n"
+    )
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "main.pat"), REG)
+    msgs = [(p.where.line, p.message) for p in info.value.problems]
+    assert msgs[0][0] == 1 and "has no argument 'z' (arguments: x)" in msgs[0][1]
+    assert msgs[1][0] == 2 and "'missing.pat' not found" in msgs[1][1]
+    assert "includes itself" in msgs[2][1]
+    assert msgs[3][0] == 2 and "$y is not an argument" in msgs[3][1]  # the line inside a.pat
+
+
+def test_unreadable_file_is_a_patch_error(tmp_path):
+    with pytest.raises(PatchError, match="cannot read patch"):
+        read_spec(tmp_path / "nope.pat")
