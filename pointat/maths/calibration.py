@@ -1,0 +1,493 @@
+r"""Sensor calibration: null points, scale factors, hard and soft iron (Bachmann et al. 2001 §3.2.1).
+
+Every sensor axis is modelled as linear,
+
+.. math:: \text{raw} = \text{null} + \text{scale} \cdot \text{physical}
+          \quad\Longleftrightarrow\quad \text{physical} = (\text{raw} - \text{null}) / \text{scale}
+
+so ``scale`` is the *sensitivity* in raw units (ADC counts, volts) per physical unit: per m/s² for the
+accelerometer, per rad/s for the gyro, per field unit for the magnetometer.  Bachmann's Eqs. 30 and 31
+(and Torre 2008 §3.1's "rate resolution") give the reciprocal, the multiplier ``1 / scale``.
+
+The magnetometer may also carry a symmetric soft-iron matrix :math:`W` from :func:`ellipsoid_fit`,
+applied after the null and scale: :math:`m = W\,(\text{raw} - \text{null}) / \text{scale}`.
+
+>>> null, scale = six_position_accel([[2148, 2048, 2048], [1948, 2048, 2048], [2048, 2148, 2048],
+...                                   [2048, 1948, 2048], [2048, 2048, 2148], [2048, 2048, 1948]], g=1.0)
+>>> null.tolist(), scale.tolist()
+([2048.0, 2048.0, 2048.0], [100.0, 100.0, 100.0])
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = [
+    "STANDARD_GRAVITY",
+    "six_position_accel",
+    "minmax_magnetometer",
+    "gyro_null",
+    "gyro_scale",
+    "ellipsoid_fit",
+    "Calibration",
+]
+
+#: Standard gravity, m/s².
+STANDARD_GRAVITY = 9.80665
+
+_SENSORS = ("gyro", "acc", "mag")
+
+
+def _samples(x: ArrayLike, name: str, min_rows: int = 1) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 2 or x.shape[1] != 3 or x.shape[0] < min_rows:
+        raise ValueError(f"{name} must have shape (n, 3) with n >= {min_rows}, got {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name} contains NaN or infinite values")
+    return x
+
+
+def six_position_accel(
+    means: ArrayLike, g: float = STANDARD_GRAVITY, *, order: Literal["auto", "fixed"] = "auto"
+) -> tuple[np.ndarray, np.ndarray]:
+    r"""Accelerometer null and scale from six static poses, each axis up and down (Bachmann 2001, Eqs. 29-30).
+
+    .. math::
+        \text{null}_i = \frac{\text{up}_i + \text{down}_i}{2} \quad (29), \qquad
+        \text{scale}_i = \frac{\text{up}_i - \text{down}_i}{2g} \quad (\text{reciprocal of } 30)
+
+    where :math:`\text{up}_i` is axis *i*'s reading with that axis pointing up (it senses :math:`+g`,
+    the specific force at rest) and :math:`\text{down}_i` with it pointing down.
+
+    Parameters
+    ----------
+    means : array_like, shape (6, 3)
+        Mean raw reading (counts or volts) of each pose, one row per pose.
+    g : float
+        Gravity in the output unit (default m/s²; ``g=1`` calibrates in g).
+    order : {"auto", "fixed"}
+        ``"fixed"``: rows are the poses with +x, -x, +y, -y, +z, -z pointing up.  ``"auto"``: any row
+        order; for each axis the row with the largest reading is "up" and the smallest "down" (assumes
+        positive sensitivities); the six rows must be distinct.
+
+    Returns
+    -------
+    null : numpy.ndarray, shape (3,)
+        Raw reading at zero specific force.
+    scale : numpy.ndarray, shape (3,)
+        Raw units per unit of ``g`` (default counts per m/s²).
+
+    Raises
+    ------
+    ValueError
+        Wrong shape, non-finite values, ``order="auto"`` cannot tell the poses apart, or a zero scale.
+
+    >>> poses = [[0, 0, 120], [0, 0, -80], [120, 0, 20], [-80, 0, 20], [20, 100, 20], [20, -100, 20]]
+    >>> [a.tolist() for a in six_position_accel(poses, g=1.0)]    # rows in any order
+    [[20.0, 0.0, 20.0], [100.0, 100.0, 100.0]]
+    """
+    m = _samples(means, "means", 6)
+    if m.shape[0] != 6:
+        raise ValueError(f"means must have shape (6, 3), got {m.shape}")
+    if order == "fixed":
+        up, down = np.array([0, 2, 4]), np.array([1, 3, 5])
+    elif order == "auto":
+        up, down = np.argmax(m, axis=0), np.argmin(m, axis=0)
+        if len(set(up.tolist()) | set(down.tolist())) != 6:
+            raise ValueError(
+                "cannot tell the six poses apart: each axis needs its own up row (largest reading) and "
+                f"down row (smallest reading); got up rows {up.tolist()}, down rows {down.tolist()}"
+            )
+    else:
+        raise ValueError(f"order must be 'auto' or 'fixed', got {order!r}")
+    cols = np.arange(3)
+    hi, lo = m[up, cols], m[down, cols]
+    null = 0.5 * (hi + lo)
+    scale = (hi - lo) / (2.0 * float(g))
+    if np.any(scale == 0.0):
+        raise ValueError(
+            f"an axis reads the same up and down (scale 0): up {hi.tolist()}, down {lo.tolist()}"
+        )
+    return null, scale
+
+
+def minmax_magnetometer(samples: ArrayLike, field: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    r"""Magnetometer null and scale from the extremes seen while turning the sensor (Bachmann 2001 §3.2.1).
+
+    Each axis is swung through the field's direction both ways, as for the accelerometer (Eqs. 29-30):
+
+    .. math::
+        \text{null}_i = \frac{\max_i + \min_i}{2}, \qquad \text{scale}_i = \frac{\max_i - \min_i}{2F}
+
+    so a calibrated axis reads :math:`\pm F` at its extremes.  Hard iron only (per-axis offset and gain);
+    see :func:`ellipsoid_fit` for soft iron.
+
+    Parameters
+    ----------
+    samples : array_like, shape (n, 3)
+        Raw readings covering all orientations (n >= 2).
+    field : float
+        Field magnitude :math:`F` that the extremes map to (1.0: unit field; or e.g. gauss, µT).
+
+    Returns
+    -------
+    null : numpy.ndarray, shape (3,)
+    scale : numpy.ndarray, shape (3,)
+        Raw units per unit of ``field``.
+
+    >>> [a.tolist() for a in minmax_magnetometer([[300, -50, 10], [-100, 150, 410], [100, 50, 210]])]
+    [[100.0, 50.0, 210.0], [200.0, 100.0, 200.0]]
+    """
+    x = _samples(samples, "samples", 2)
+    hi, lo = x.max(axis=0), x.min(axis=0)
+    if np.any(hi == lo):
+        raise ValueError(f"an axis never changed while turning (min == max): {hi.tolist()}")
+    return 0.5 * (hi + lo), (hi - lo) / (2.0 * float(field))
+
+
+def gyro_null(rest_samples: ArrayLike) -> np.ndarray:
+    r"""Gyro null point: the mean output of the sensor at rest (Bachmann 2001 §3.2.1).
+
+    .. math:: \text{null} = \frac{1}{n}\sum_{k=1}^{n} \text{raw}_k
+
+    Torre 2008 §3.1 uses the first thousand samples.
+
+    Parameters
+    ----------
+    rest_samples : array_like, shape (n, 3)
+        Raw readings of the motionless sensor.
+
+    Returns
+    -------
+    numpy.ndarray, shape (3,)
+
+    >>> gyro_null([[2047, 2050, 2046], [2049, 2048, 2046]]).tolist()
+    [2048.0, 2049.0, 2046.0]
+    """
+    return _samples(rest_samples, "rest_samples").mean(axis=0)
+
+
+def gyro_scale(
+    samples: ArrayLike, dt: ArrayLike, angle_rad: float, axis: int, *, null: ArrayLike = 0.0
+) -> float:
+    r"""Gyro scale of one axis from a known rotation about it (Bachmann 2001, Eq. 31).
+
+    Eq. 31's multiplier is *known rotation / estimated rotation*, the estimate being the output
+    integrated with unit scale.  As a sensitivity (raw units per rad/s) that is
+
+    .. math:: \text{scale} = \frac{\sum_k (\text{raw}_k - \text{null})\,\Delta t_k}{\theta_{known}}
+
+    The sum is the rectangle rule that :class:`pointat.maths.fusion.GyroIntegrator` also uses (each sample
+    held over its interval).  Record from rest to rest so nothing is cut off.
+
+    Parameters
+    ----------
+    samples : array_like, shape (n, 3) or (n,)
+        Raw readings during the rotation (all three axes, or just the one).
+    dt : float or array_like, shape (n,)
+        Sample interval(s), s.
+    angle_rad : float
+        Known rotation about ``+axis``, radians (right-handed; non-zero).
+    axis : int
+        0, 1 or 2 for x, y, z.
+    null : float or array_like, shape (3,)
+        Null point(s) from :func:`gyro_null` (default 0: samples already nulled).
+
+    Returns
+    -------
+    float
+        Raw units per rad/s for that axis.
+
+    >>> raw = np.full((100, 3), 2048.0)
+    >>> raw[:, 2] += 50.0                                     # 50 counts above null for 1 s...
+    >>> gyro_scale(raw, 0.01, np.pi / 2, 2, null=2048.0)      # ...turned 90 deg: 31.8 counts per rad/s
+    31.830988618379
+    """
+    x = np.asarray(samples, dtype=float)
+    if axis not in (0, 1, 2):
+        raise ValueError(f"axis must be 0, 1 or 2, got {axis!r}")
+    nul = np.broadcast_to(np.asarray(null, dtype=float), (3,))[axis]
+    if x.ndim == 2 and x.shape[1] == 3:
+        x = x[:, axis]
+    elif x.ndim != 1:
+        raise ValueError(f"samples must have shape (n, 3) or (n,), got {x.shape}")
+    if not (np.all(np.isfinite(x)) and math.isfinite(angle_rad) and angle_rad != 0.0):
+        raise ValueError("samples must be finite and angle_rad finite and non-zero")
+    dts = np.broadcast_to(np.asarray(dt, dtype=float), x.shape)
+    estimated = float(np.sum((x - nul) * dts))
+    if estimated == 0.0:
+        raise ValueError("the integrated output is zero: no rotation was seen on this axis")
+    return estimated / float(angle_rad)
+
+
+def ellipsoid_fit(samples: ArrayLike, field: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    r"""Hard- and soft-iron magnetometer calibration by a least-squares ellipsoid (general quadric) fit.
+
+    Readings of a constant field :math:`F` in every orientation lie on an ellipsoid
+    :math:`\text{raw} = A\,m + b,\ \lVert m\rVert = F`.  Fit the quadric
+    :math:`x^T M x + 2 n^T x + d = 0` (10 coefficients, the smallest right singular vector of the design
+    matrix, after centring and scaling the data for conditioning), then
+
+    .. math::
+        b = -M^{-1} n, \qquad k = b^T M b - d, \qquad (x - b)^T \tfrac{M}{k} (x - b) = 1,
+        \qquad W = F\,(M/k)^{1/2}
+
+    so that :math:`\lVert W(\text{raw} - b)\rVert = F`.  :math:`W` is the symmetric positive-definite
+    correction; with a symmetric distortion it is :math:`A^{-1}` (a rotation part of :math:`A` is not
+    observable from magnitudes alone).
+
+    Parameters
+    ----------
+    samples : array_like, shape (n, 3)
+        Raw magnetometer readings covering many orientations (n >= 10, not all in a plane).
+    field : float
+        Magnitude the corrected field should have.
+
+    Returns
+    -------
+    offset : numpy.ndarray, shape (3,)
+        Hard-iron offset :math:`b`, raw units.
+    soft_iron : numpy.ndarray, shape (3, 3)
+        Symmetric correction :math:`W`: ``m = soft_iron @ (raw - offset)``.
+
+    Raises
+    ------
+    ValueError
+        Too few points, or the best quadric is not an ellipsoid (e.g. the points span only a plane).
+
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=(200, 3))
+    >>> u /= np.linalg.norm(u, axis=1, keepdims=True)
+    >>> offset, W = ellipsoid_fit(u * [2.0, 3.0, 4.0] + [10.0, -5.0, 1.0])
+    >>> np.round(offset, 9).tolist(), np.round(np.diag(W), 9).tolist()
+    ([10.0, -5.0, 1.0], [0.5, 0.333333333, 0.25])
+    """
+    x = _samples(samples, "samples", 10)
+    c = x.mean(axis=0)
+    s = float(np.sqrt(np.mean(np.sum((x - c) ** 2, axis=1))))
+    if s == 0.0:
+        raise ValueError("all samples are identical")
+    u, v, w = ((x - c) / s).T
+    one = np.ones_like(u)
+    design = np.stack(
+        [u * u, v * v, w * w, 2 * u * v, 2 * u * w, 2 * v * w, 2 * u, 2 * v, 2 * w, one], axis=1
+    )
+    p = np.linalg.svd(design, full_matrices=False)[2][-1]
+    M = np.array([[p[0], p[3], p[4]], [p[3], p[1], p[5]], [p[4], p[5], p[2]]])
+    try:
+        centre = -np.linalg.solve(M, p[6:9])
+    except np.linalg.LinAlgError:
+        raise ValueError("the samples do not determine an ellipsoid (singular quadric)") from None
+    k = centre @ M @ centre - p[9]
+    evals, evecs = np.linalg.eigh(M / k) if k != 0.0 else (np.zeros(3), np.eye(3))
+    if not np.all(evals > 0.0):
+        raise ValueError(f"the best-fitting quadric is not an ellipsoid (eigenvalues {evals.tolist()})")
+    W_u = float(field) * (evecs * np.sqrt(evals)) @ evecs.T
+    return c + s * centre, W_u / s
+
+
+def _zeros() -> np.ndarray:
+    return np.zeros(3)
+
+
+def _ones() -> np.ndarray:
+    return np.ones(3)
+
+
+@dataclass(eq=False)
+class Calibration:
+    r"""Null points, scales and an optional magnetometer soft-iron matrix, with a JSON file format.
+
+    .. math:: \text{physical} = (\text{raw} - \text{null}) / \text{scale}, \qquad
+              m = W\,(\text{raw}_m - \text{null}_m) / \text{scale}_m
+
+    Units: ``scale`` is raw units per rad/s (gyro), per m/s² (acc), per field unit (mag); see the module
+    notes.  The defaults (null 0, scale 1, no soft iron) pass readings through unchanged.
+
+    Attributes
+    ----------
+    gyro_null, gyro_scale, acc_null, acc_scale, mag_null, mag_scale : numpy.ndarray, shape (3,)
+    mag_soft_iron : numpy.ndarray, shape (3, 3), or None
+
+    File format (JSON, floats at full precision)::
+
+        {"format": "pointat-calibration", "version": 1,
+         "gyro": {"null": [x, y, z], "scale": [x, y, z]},
+         "acc":  {"null": [...], "scale": [...]},
+         "mag":  {"null": [...], "scale": [...], "soft_iron": [[...], [...], [...]] or null}}
+
+    A missing sensor section means "uncalibrated" (defaults); unknown keys are an error.
+
+    >>> cal = Calibration(acc_null=[2048.0] * 3, acc_scale=[100.0] * 3)
+    >>> cal.apply("acc", [2048.0, 2148.0, 1948.0]).tolist()
+    [0.0, 1.0, -1.0]
+    >>> Calibration.from_json(cal.to_json()) == cal
+    True
+    """
+
+    gyro_null: np.ndarray = field(default_factory=_zeros)
+    gyro_scale: np.ndarray = field(default_factory=_ones)
+    acc_null: np.ndarray = field(default_factory=_zeros)
+    acc_scale: np.ndarray = field(default_factory=_ones)
+    mag_null: np.ndarray = field(default_factory=_zeros)
+    mag_scale: np.ndarray = field(default_factory=_ones)
+    mag_soft_iron: np.ndarray | None = None
+
+    FORMAT: ClassVar[str] = "pointat-calibration"
+    VERSION: ClassVar[int] = 1
+
+    def __post_init__(self) -> None:
+        for sensor in _SENSORS:
+            for part in ("null", "scale"):
+                name = f"{sensor}_{part}"
+                value = np.array(getattr(self, name), dtype=float)
+                if value.shape != (3,) or not np.all(np.isfinite(value)):
+                    raise ValueError(f"{name} must be 3 finite numbers, got {getattr(self, name)!r}")
+                if part == "scale" and np.any(value == 0.0):
+                    raise ValueError(f"{name} must not contain 0, got {value.tolist()}")
+                setattr(self, name, value)
+        if self.mag_soft_iron is not None:
+            W = np.array(self.mag_soft_iron, dtype=float)
+            if W.shape != (3, 3) or not np.all(np.isfinite(W)):
+                raise ValueError(f"mag_soft_iron must be a finite 3x3 matrix, got {self.mag_soft_iron!r}")
+            self.mag_soft_iron = W
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Calibration):
+            return NotImplemented
+        same = all(
+            np.array_equal(getattr(self, f"{s}_{p}"), getattr(other, f"{s}_{p}"))
+            for s in _SENSORS
+            for p in ("null", "scale")
+        )
+        if self.mag_soft_iron is None or other.mag_soft_iron is None:
+            return same and self.mag_soft_iron is None and other.mag_soft_iron is None
+        return same and np.array_equal(self.mag_soft_iron, other.mag_soft_iron)
+
+    __hash__ = None  # type: ignore[assignment]  # mutable
+
+    def apply(self, sensor: Literal["gyro", "acc", "mag"], raw: ArrayLike) -> np.ndarray:
+        r"""Convert raw readings of one sensor to physical units: :math:`(\text{raw} - \text{null}) / \text{scale}`.
+
+        Parameters
+        ----------
+        sensor : {"gyro", "acc", "mag"}
+        raw : array_like, shape (..., 3)
+            Raw readings.
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3)
+            rad/s (gyro), m/s² (acc), field units (mag, soft iron applied if set).
+        """
+        if sensor not in _SENSORS:
+            raise ValueError(f"sensor must be one of {_SENSORS}, got {sensor!r}")
+        raw = np.asarray(raw, dtype=float)
+        if raw.shape[-1:] != (3,):
+            raise ValueError(f"raw {sensor} readings need a last axis of length 3, got shape {raw.shape}")
+        out = (raw - getattr(self, f"{sensor}_null")) / getattr(self, f"{sensor}_scale")
+        if sensor == "mag" and self.mag_soft_iron is not None:
+            out = out @ self.mag_soft_iron.T
+        return out
+
+    def apply_all(
+        self, raw_gyro: ArrayLike, raw_acc: ArrayLike, raw_mag: ArrayLike
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Apply :meth:`apply` to the three sensors; shapes (..., 3) each; returns (gyro, acc, mag)."""
+        return self.apply("gyro", raw_gyro), self.apply("acc", raw_acc), self.apply("mag", raw_mag)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON-ready dictionary (plain floats and lists)."""
+        d: dict[str, Any] = {"format": self.FORMAT, "version": self.VERSION}
+        for sensor in _SENSORS:
+            d[sensor] = {
+                "null": getattr(self, f"{sensor}_null").tolist(),
+                "scale": getattr(self, f"{sensor}_scale").tolist(),
+            }
+        d["mag"]["soft_iron"] = None if self.mag_soft_iron is None else self.mag_soft_iron.tolist()
+        return d
+
+    def to_json(self, indent: int | None = 2) -> str:
+        """JSON text; floats are written with ``repr`` precision, so :meth:`from_json` restores them exactly."""
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    @classmethod
+    def from_dict(cls, data: Any, *, source: str = "calibration") -> Calibration:
+        """Build from a dictionary as written by :meth:`to_dict`; ``source`` names it in error messages."""
+
+        def bad(key: str, expected: str, got: Any) -> ValueError:
+            return ValueError(f"{source}: key '{key}': expected {expected}, got {got!r}")
+
+        if not isinstance(data, dict):
+            raise bad("<top level>", "a JSON object", type(data).__name__)
+        allowed = {"format", "version", *_SENSORS}
+        for key in data:
+            if key not in allowed:
+                raise bad(key, f"one of {sorted(allowed)}", "an unknown key")
+        if "format" in data and data["format"] != cls.FORMAT:
+            raise bad("format", repr(cls.FORMAT), data["format"])
+        if "version" not in data:
+            raise bad("version", f"the format version {cls.VERSION}", "nothing (missing)")
+        if data["version"] != cls.VERSION or isinstance(data["version"], bool):
+            raise bad("version", f"the format version {cls.VERSION}", data["version"])
+
+        def numbers(key: str, value: Any, nonzero: bool = False) -> list[float]:
+            ok = (
+                isinstance(value, list)
+                and len(value) == 3
+                and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+                and all(math.isfinite(v) and (v != 0 or not nonzero) for v in value)
+            )
+            if not ok:
+                raise bad(key, "a list of 3 finite" + (" non-zero" if nonzero else "") + " numbers", value)
+            return [float(v) for v in value]
+
+        kwargs: dict[str, Any] = {}
+        for sensor in _SENSORS:
+            if sensor not in data:
+                continue
+            section = data[sensor]
+            if not isinstance(section, dict):
+                raise bad(sensor, "an object with 'null' and 'scale'", section)
+            allowed_keys = {"null", "scale", "soft_iron"} if sensor == "mag" else {"null", "scale"}
+            for key in section:
+                if key not in allowed_keys:
+                    raise bad(f"{sensor}.{key}", f"one of {sorted(allowed_keys)}", "an unknown key")
+            if "null" in section:
+                kwargs[f"{sensor}_null"] = numbers(f"{sensor}.null", section["null"])
+            if "scale" in section:
+                kwargs[f"{sensor}_scale"] = numbers(f"{sensor}.scale", section["scale"], nonzero=True)
+            if section.get("soft_iron") is not None:
+                rows = section["soft_iron"]
+                if not (isinstance(rows, list) and len(rows) == 3):
+                    raise bad("mag.soft_iron", "a 3x3 list of finite numbers or null", rows)
+                kwargs["mag_soft_iron"] = [numbers(f"mag.soft_iron[{i}]", r) for i, r in enumerate(rows)]
+        return cls(**kwargs)
+
+    @classmethod
+    def from_json(cls, text: str, *, source: str = "calibration") -> Calibration:
+        """Parse JSON text (see the class notes); ValueError names ``source`` and the bad key."""
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{source}: not valid JSON: {exc}") from None
+        return cls.from_dict(data, source=source)
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the JSON file at ``path`` (UTF-8)."""
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(self.to_json() + "\n")
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Calibration:
+        """Read a JSON file written by :meth:`save`; a bad file raises ValueError naming the file and key."""
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+        return cls.from_json(text, source=f"calibration file {os.fspath(path)!r}")
