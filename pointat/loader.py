@@ -255,6 +255,7 @@ def check(
                         f"{', '.join(q.name for q in cls.params) or 'none'})"
                     )
                 values[key] = p.coerce(value)
+            _anchor_paths(cls, values, decl, over.get(decl.name, {}))
             ins, outs = cls.layout(values)
         except (ParamError, ValueError) as exc:
             problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}"))
@@ -322,6 +323,20 @@ def check(
     if problems:
         raise PatchError(problems)
     return result
+
+
+def _anchor_paths(
+    cls: type[Node], values: dict[str, Any], decl: NodeDecl, overridden: Mapping[str, Any]
+) -> None:
+    """Relative ``path`` parameters written in a patch are relative to that patch file (as in Pd);
+    those given on the command line (``--set``) stay relative to the working directory."""
+    if decl.where is None or decl.where.file.startswith("<"):
+        return
+    base = Path(decl.where.file).parent
+    for p in cls.params:
+        v = values.get(p.name)
+        if p.type == "path" and v and p.name not in overridden and not Path(v).is_absolute():
+            values[p.name] = str(base / v)
 
 
 def _close(name: str, names: Mapping[str, Any]) -> str | None:

@@ -35,7 +35,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["KINDS", "Message", "as_float", "bang", "make", "method", "vector"]
+__all__ = ["KINDS", "Message", "as_float", "as_vector", "bang", "make", "method", "vector"]
 
 #: The kinds of plain data; any other kind is a method selector.
 KINDS = frozenset({"bang", "float", "int", "symbol", "list", "vector"})
@@ -59,16 +59,19 @@ class Message(NamedTuple):
         if self.kind == "bang":
             return "bang"
         if self.kind == "vector":
-            return "vector " + " ".join(f"{x:.6g}" for x in np.ravel(v))
-        if self.kind == "list":
-            return "list " + " ".join(_atom(x) for x in v)
+            return "vector " + " ".join(_atom(float(x)) for x in np.ravel(v))
+        if self.kind == "list":  # as Pd prints it: "list" only before a symbol or nothing
+            head = "list " if not v or isinstance(v[0], str) else ""
+            return head + " ".join(_atom(x) for x in v)
         if self.is_method:
             return " ".join([self.kind, *(_atom(x) for x in v)])
         return _atom(v)
 
 
 def _atom(x: Any) -> str:
-    return f"{x:.6g}" if isinstance(x, float) else str(x)
+    if isinstance(x, float):
+        return f"{x if abs(x) >= 1e-9 else 0.0:.6g}"
+    return str(x)
 
 
 def bang(time: float = 0.0) -> Message:
@@ -126,3 +129,23 @@ def as_float(msg: Message) -> float:
     if kind == "list" and msg.value and isinstance(msg.value[0], (int, float)):
         return float(msg.value[0])
     raise TypeError(f"expected a number, got {kind} {msg.describe()!r}")
+
+
+def as_vector(msg: Message, *sizes: int) -> np.ndarray:
+    """The numbers a vector or list message carries, as a float array of one of the allowed ``sizes``.
+
+    Raises ``TypeError`` saying what was expected and what came.
+    """
+    if msg.kind == "vector":
+        a = msg.value
+    elif msg.kind == "list":
+        try:
+            a = np.array(msg.value, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"expected numbers, got {msg.describe()!r}") from None
+    else:
+        raise TypeError(f"expected a vector, got {msg.kind} {msg.describe()[:40]!r}")
+    if sizes and a.size not in sizes:
+        want = " or ".join(str(s) for s in sizes)
+        raise TypeError(f"expected a vector of {want} numbers, got {a.size}")
+    return a

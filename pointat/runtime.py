@@ -47,6 +47,10 @@ class RealClock:
     def now(self) -> float:
         return time.monotonic() - self.t0
 
+    def from_monotonic(self, t: float) -> float:
+        """Logical time of a ``time.monotonic()`` reading (a source thread's receive time)."""
+        return t - self.t0
+
 
 class ManualClock:
     """A clock that moves only when told to (tests)."""
@@ -58,6 +62,9 @@ class ManualClock:
         self.t = 0.0
 
     def now(self) -> float:
+        return self.t
+
+    def from_monotonic(self, t: float) -> float:
         return self.t
 
 

@@ -1,0 +1,255 @@
+"""From ADC counts to physical units: ``offset`` (nulls), ``scaling`` (resolutions) and ``calibrate``.
+
+Torre §3.1 subtracts the average of the first thousand samples at rest from every channel.  That is the
+right null for the gyros only: at rest they read their bias, but the accelerometers read gravity and the
+magnetometers the Earth's field, so a rest average would erase the very vectors the orientation is
+computed from.  Their nulls come from a calibration file (Bachmann et al. 2001 §3.2.1, made with the
+``calibrate`` node) or, without one, from the ADC mid-scale.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from pointat.devices.mote_frame import DEFAULT_RESOLUTION
+from pointat.maths.calibration import (
+    Calibration,
+    ellipsoid_fit,
+    gyro_null,
+    gyro_scale,
+    minmax_magnetometer,
+    six_position_accel,
+)
+from pointat.message import Message, as_vector, vector
+from pointat.node import Inlet, Node, Outlet, Param
+from pointat.registry import register
+
+ADC = Inlet("adc", ("vector", "list"), "nine ADC counts: gyro x y z, accel x y z, mag x y z")
+STATUS = Outlet("status", "list", "what the node is doing: calibrating, ready, saved PATH...")
+
+
+def _load(path: str) -> Calibration:
+    try:
+        return Calibration.load(path)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"calibration file {path}: {exc}") from exc
+
+
+def _calibrated(cal: Calibration, sensor: str) -> bool:
+    """Whether the file calibrates this sensor (an uncalibrated one has null 0 and scale 1)."""
+    null, scale = getattr(cal, f"{sensor}_null"), getattr(cal, f"{sensor}_scale")
+    return bool(np.any(null != 0.0) or np.any(scale != 1.0))
+
+
+@register("offset")
+class Offset(Node):
+    """Subtract each channel's null from the nine ADC counts (Torre §3.1, done right).
+
+    Gyro nulls: the average of the first ``samples`` samples at rest (the gyros' bias); ``recalibrate``
+    starts a new average.  Accelerometer and magnetometer nulls: from ``calibration`` (a file written by
+    ``calibrate``), else the ADC mid-scale ``null``.  Nothing is output while the gyro average runs.
+    """
+
+    inlets = (ADC,)
+    outlets = (Outlet("adc", "vector", "nine counts relative to their nulls"), STATUS)
+    params = (
+        Param("samples", "int", 1000, "samples averaged at rest for the gyro nulls (0: no averaging)"),
+        Param(
+            "null", "float", 2048.0, "null of channels without a calibration (ADC mid-scale)", unit="counts"
+        ),
+        Param("calibration", "path", "", "calibration file with accel/mag (and gyro) nulls"),
+    )
+
+    def setup(self) -> None:
+        self.nulls = np.full(9, self.p.null)
+        if self.p.calibration:
+            cal = _load(self.p.calibration)
+            for i, sensor in enumerate(("gyro", "acc", "mag")):
+                if _calibrated(cal, sensor):
+                    self.nulls[3 * i : 3 * i + 3] = getattr(cal, f"{sensor}_null")
+        self.do_recalibrate()
+
+    def do_recalibrate(self) -> None:
+        self._sum = np.zeros(3)
+        self._n = 0
+
+    def on_adc(self, msg: Message) -> None:
+        counts = as_vector(msg, 9)
+        if self._n < self.p.samples:
+            if np.all(np.isfinite(counts[:3])):
+                self._sum += counts[:3]
+                self._n += 1
+            if self._n == self.p.samples:
+                self.nulls[:3] = self._sum / self._n
+                self.out(1, ("ready", *np.round(self.nulls[:3], 3).tolist()))
+            elif self._n == 1:
+                self.out(1, ("calibrating", self.p.samples))
+            return
+        self.out(0, vector(counts - self.nulls, msg.time))
+
+
+@register("scaling")
+class Scaling(Node):
+    """Counts relative to their nulls -> gyro rad/s, accelerometer m/s², magnetometer gauss (Torre Table 1).
+
+    Per-sensor resolutions in the table's units (deg/s, m/s², gauss per count), or per-axis scales and
+    the soft-iron matrix from a ``calibration`` file.  Outputs right to left: mag, accel, then gyro, so a
+    filter whose hot inlet is the gyro sees a complete sample.
+    """
+
+    inlets = (Inlet("adc", ("vector", "list"), "nine counts relative to their nulls (from offset)"),)
+    outlets = (
+        Outlet("gyro", "vector", "angular rate, rad/s"),
+        Outlet("accel", "vector", "specific force, m/s²"),
+        Outlet("mag", "vector", "magnetic field, gauss"),
+    )
+    params = (
+        Param("gyro", "float", DEFAULT_RESOLUTION["gyro"], "gyro resolution", unit="deg/s per count"),
+        Param(
+            "accel", "float", DEFAULT_RESOLUTION["accel"], "accelerometer resolution", unit="m/s² per count"
+        ),
+        Param("mag", "float", DEFAULT_RESOLUTION["mag"], "magnetometer resolution", unit="gauss per count"),
+        Param(
+            "calibration", "path", "", "calibration file (per-axis scales, soft iron); overrides the above"
+        ),
+    )
+
+    def setup(self) -> None:
+        self.soft_iron: np.ndarray | None = None
+        self.factor = np.array([math.radians(self.p.gyro)] * 3 + [self.p.accel] * 3 + [self.p.mag] * 3)
+        if self.p.calibration:
+            cal = _load(self.p.calibration)
+            for i, sensor in enumerate(("gyro", "acc", "mag")):
+                if _calibrated(cal, sensor):
+                    self.factor[3 * i : 3 * i + 3] = 1.0 / getattr(cal, f"{sensor}_scale")
+            self.soft_iron = cal.mag_soft_iron
+
+    def on_adc(self, msg: Message) -> None:
+        v = as_vector(msg, 9) * self.factor
+        mag = v[6:9] if self.soft_iron is None else self.soft_iron @ v[6:9]
+        t = msg.time
+        self.out(2, vector(mag, t))
+        self.out(1, vector(v[3:6], t))
+        self.out(0, vector(v[0:3], t))
+
+
+@register("calibrate")
+class Calibrate(Node):
+    """Calibrate a mote by Bachmann et al.'s procedures (VRST 2001 §3.2.1), driven by messages.
+
+    Feed it the raw counts continuously, then send, in any order:
+
+    * ``rest``: hold still; the next ``samples`` samples give the gyro nulls.
+    * ``pose``: six times, with each accelerometer axis up and then down (any order): accelerometer
+      nulls and scales (Eqs. 29-30).
+    * ``mag_begin`` ... turn the mote every way ... ``mag_end``: magnetometer nulls and scales from min/max,
+      or a hard/soft-iron ellipsoid fit with ``mag_fit=ellipsoid``.
+    * ``turn_begin`` ... rotate by a known angle about one axis ... ``turn_end ANGLE AXIS`` (degrees,
+      0/1/2 for x/y/z): that gyro axis's scale (Eq. 31).
+    * ``save`` (to ``file``, or ``save PATH``); ``load`` reads it back.  ``offset`` and ``scaling`` read
+      the file through their ``calibration`` parameter.
+    """
+
+    inlets = (ADC,)
+    outlets = (STATUS,)
+    params = (
+        Param("file", "path", "calibration.json", "where save and load go"),
+        Param("samples", "int", 200, "samples averaged per rest or pose"),
+        Param(
+            "mag_fit",
+            "symbol",
+            "minmax",
+            "minmax (Bachmann) or ellipsoid (hard and soft iron)",
+            choices=("minmax", "ellipsoid"),
+        ),
+        Param("gravity", "float", 9.80665, "local gravity", unit="m/s²"),
+    )
+
+    def setup(self) -> None:
+        self.calibration = Calibration()
+        self.poses: list[np.ndarray] = []
+        self._collect: str | None = None
+        self._buf: list[np.ndarray] = []
+        self._times: list[float] = []
+
+    def _start(self, what: str) -> None:
+        self._collect, self._buf, self._times = what, [], []
+        self.out(0, ("collecting", what))
+
+    def do_rest(self) -> None:
+        self._start("rest")
+
+    def do_pose(self) -> None:
+        if len(self.poses) >= 6:
+            self.poses = []
+        self._start("pose")
+
+    def do_mag_begin(self) -> None:
+        self._start("mag")
+
+    def do_turn_begin(self) -> None:
+        self._start("turn")
+
+    def do_mag_end(self) -> None:
+        samples = self._take("mag")
+        if len(samples) < 10:
+            raise ValueError(f"mag_end: only {len(samples)} samples since mag_begin; turn the mote longer")
+        if self.p.mag_fit == "ellipsoid":
+            null, W = ellipsoid_fit(samples)
+            self.calibration.mag_null, self.calibration.mag_scale = null, np.ones(3)
+            self.calibration.mag_soft_iron = W
+        else:
+            self.calibration.mag_null, self.calibration.mag_scale = minmax_magnetometer(samples)
+            self.calibration.mag_soft_iron = None
+        self.out(0, ("mag", *self.calibration.mag_null.tolist()))
+
+    def do_turn_end(self, angle_deg: Any = 90.0, axis: Any = 2) -> None:
+        samples = self._take("turn")
+        if len(samples) < 2:
+            raise ValueError("turn_end: no samples since turn_begin")
+        dt = np.diff(self._times, prepend=self._times[0] - (self._times[1] - self._times[0]))
+        ax = int(axis)
+        scale = gyro_scale(
+            samples[:, 0:3], dt, math.radians(float(angle_deg)), ax, null=self.calibration.gyro_null
+        )
+        self.calibration.gyro_scale[ax] = scale
+        self.out(0, ("gyro_scale", ax, scale))
+
+    def do_save(self, path: Any = None) -> None:
+        target = str(path) if path is not None else self.p.file
+        self.calibration.save(target)
+        self.out(0, ("saved", target))
+
+    def do_load(self, path: Any = None) -> None:
+        target = str(path) if path is not None else self.p.file
+        self.calibration = _load(target)
+        self.out(0, ("loaded", target))
+
+    def _take(self, what: str) -> np.ndarray:
+        if self._collect != what:
+            raise ValueError(f"{what}_end without {what}_begin")
+        self._collect = None
+        return np.array(self._buf)
+
+    def on_adc(self, msg: Message) -> None:
+        if self._collect is None:
+            return
+        counts = as_vector(msg, 9)
+        self._buf.append(counts.copy())
+        self._times.append(msg.time)
+        if self._collect in ("rest", "pose") and len(self._buf) >= self.p.samples:
+            data = np.array(self._buf)
+            what, self._collect = self._collect, None
+            if what == "rest":
+                self.calibration.gyro_null = gyro_null(data[:, 0:3])
+                self.out(0, ("rest", *self.calibration.gyro_null.tolist()))
+            else:
+                self.poses.append(data[:, 3:6].mean(axis=0))
+                self.out(0, ("pose", len(self.poses), 6))
+                if len(self.poses) == 6:
+                    null, scale = six_position_accel(np.array(self.poses), self.p.gravity)
+                    self.calibration.acc_null, self.calibration.acc_scale = null, scale
+                    self.out(0, ("accel", *null.tolist(), *scale.tolist()))

@@ -1,0 +1,540 @@
+"""Orientation nodes: Torre et al.'s chain and the McGhee/Bachmann quaternion filter.
+
+The math is in :mod:`pointat.maths`; these nodes only move messages.  Orientations travel as one vector:
+a quaternion ``(w, x, y, z)`` or a 3x3 rotation matrix, mapping sensor to earth (NWU: x north or the
+reference direction, y west, z up).  Rates are rad/s, accelerations m/s², fields any unit.
+
+Filters take their time step from the messages' time stamps (sensor time), falling back to ``1/rate``
+for the first sample and for gaps over a second.  A bad sample (zero or NaN vector) leaves a filter's
+state as it was and is reported on its ``flags`` outlet; nothing downstream ever sees NaN.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pointat.maths.fusion import GyroIntegrator, RollDistance, accmag_matrix
+from pointat.maths.quaternion import (
+    azimuth_elevation,
+    enu_to_nwu,
+    matrix_to_quat,
+    ned_to_nwu,
+    nwu_to_enu,
+    nwu_to_ned,
+    pointing_direction,
+    quat_conjugate,
+    quat_multiply,
+    quat_normalize,
+    quat_positive,
+    quat_slerp,
+    quat_to_axis_angle,
+    quat_to_euler,
+    quat_to_matrix,
+)
+from pointat.maths.tqt import TQTFilter, TQTFlags
+from pointat.message import Message, as_vector, vector
+from pointat.node import Inlet, Node, Outlet, Param
+from pointat.registry import register
+
+ORIENTATION = ("vector", "list")
+
+
+def _as_quat(msg: Message) -> np.ndarray:
+    """A quaternion from a quaternion or a rotation-matrix message (normalised; NaN is an error)."""
+    a = as_vector(msg, 4, 9)
+    if not np.all(np.isfinite(a)):
+        raise ValueError("orientation has NaN or infinite values")
+    q = matrix_to_quat(a.reshape(3, 3)) if a.size == 9 else a
+    n = float(np.linalg.norm(q))
+    if n < 1e-9:
+        raise ValueError("zero quaternion")
+    return q / n
+
+
+def _finite3(msg: Message | None) -> np.ndarray | None:
+    """A finite, non-zero 3-vector, or None (missing, zero or NaN: the caller keeps its state)."""
+    if msg is None:
+        return None
+    a = as_vector(msg, 3)
+    if not np.all(np.isfinite(a)) or not np.any(a):
+        return None
+    return a
+
+
+class SampleClock:
+    """Time steps from message time stamps, with ``1/rate`` when there is no usable previous stamp."""
+
+    MAX_GAP = 1.0
+
+    def reset_clock(self) -> None:
+        self._last_t: float | None = None
+
+    def step(self, t: float) -> float:
+        last, self._last_t = getattr(self, "_last_t", None), t
+        nominal = 1.0 / self.p.rate
+        if last is None:
+            return nominal
+        dt = t - last
+        return dt if 0.0 < dt <= self.MAX_GAP else nominal
+
+
+class Flagged:
+    """Report a filter's status on its ``flags`` outlet when it changes (``ok`` when all is well)."""
+
+    FLAGS_OUTLET = 1
+
+    def report(self, status: str) -> None:
+        if status != getattr(self, "_status", "ok"):
+            self._status = status
+            self.out(self.FLAGS_OUTLET, status)
+
+
+RATE = Param("rate", "float", 100.0, "nominal sample rate, for the first step and gaps", unit="Hz")
+FLAGS = Outlet("flags", "symbol", "status when it changes: ok, or what was wrong (bad_gyro, bad_accmag...)")
+
+
+@register("gyro_integrator")
+class GyroIntegratorNode(SampleClock, Flagged, Node):
+    """Integrate the gyro rates into an orientation matrix (Torre §3.2).
+
+    ``mode=torre``: the paper's incremental rotation R(w)·R(v)·R(u) per sample; ``mode=exact``: the
+    axis-angle exponential map.  The matrix is re-orthonormalised every ``renormalize`` samples so it
+    stays a rotation over hours.  ``reset`` (or a matrix / quaternion at the right inlet) restarts it.
+    """
+
+    inlets = (
+        Inlet("gyro", ("vector", "list"), "angular rate, rad/s, sensor frame"),
+        Inlet("orientation", ORIENTATION, "set the orientation (matrix or quaternion)"),
+    )
+    outlets = (Outlet("orientation", "vector", "3x3 rotation matrix, sensor -> earth"), FLAGS)
+    params = (
+        Param(
+            "mode",
+            "symbol",
+            "torre",
+            "torre (the paper's product of axis rotations) or exact",
+            choices=("torre", "exact"),
+            live=True,
+        ),
+        Param("renormalize", "int", 100, "re-orthonormalise every N samples"),
+        RATE,
+    )
+
+    def setup(self) -> None:
+        self.integrator = GyroIntegrator(mode=self.p.mode, renormalize_every=self.p.renormalize)
+        self.reset_clock()
+
+    def param_changed(self, name: str) -> None:
+        self.integrator = GyroIntegrator(
+            self.integrator.R, mode=self.p.mode, renormalize_every=self.p.renormalize
+        )
+
+    def on_gyro(self, msg: Message) -> None:
+        w = as_vector(msg, 3)
+        dt = self.step(msg.time)
+        if not np.all(np.isfinite(w)):
+            self.report("bad_gyro")
+        else:
+            self.integrator.update(w, dt)
+            self.report("ok")
+        self.out(0, vector(self.integrator.R, msg.time))
+
+    def on_orientation(self, msg: Message) -> None:
+        self.integrator.reset(quat_to_matrix(_as_quat(msg)))
+
+    def do_reset(self) -> None:
+        self.integrator.reset()
+        self.reset_clock()
+
+
+@register("accmag_matrix")
+class AccMagMatrix(Flagged, Node):
+    """The orientation matrix from gravity and the Earth's magnetic field (Torre §3.3, corrected).
+
+    TRIAD: up from the accelerometer, west = up x field, north = west x up.  Unlike the paper's matrix
+    it is a proper rotation whatever the magnetic dip.  Zero, NaN or parallel vectors output nothing and
+    raise ``bad_accmag`` on ``flags``.
+    """
+
+    inlets = (
+        Inlet("accel", ("vector", "list"), "specific force (+g up at rest), sensor frame"),
+        Inlet("mag", ("vector", "list"), "magnetic field, sensor frame"),
+    )
+    outlets = (Outlet("orientation", "vector", "3x3 rotation matrix, sensor -> earth (NWU)"), FLAGS)
+
+    def on_accel(self, msg: Message) -> None:
+        acc, mag = _finite3(msg), _finite3(self.cold.get("mag"))
+        C = accmag_matrix(acc, mag) if acc is not None and mag is not None else None
+        if C is None:
+            self.report("bad_accmag")
+            return
+        self.report("ok")
+        self.out(0, vector(C, msg.time))
+
+
+@register("complementary")
+class Complementary(SampleClock, Flagged, Node):
+    """Fuse the gyro orientation (short term) with the accel/mag orientation (long term), on rotations.
+
+    Each gyro orientation's change since the previous one is applied to the estimate, which is then
+    pulled toward the accel/mag orientation by slerp with alpha = dt/(tau + dt), tau = 1/(2 pi crossover):
+    a first-order complementary pair crossing at ``crossover`` Hz (Torre §3: "short-term precision of the
+    gyroscopes with the long-term precision of accelerometers and magnetometers").
+    """
+
+    inlets = (
+        Inlet("gyro_orientation", ORIENTATION, "orientation from gyro_integrator (matrix or quaternion)"),
+        Inlet("accmag", ORIENTATION, "orientation from accmag_matrix (matrix or quaternion)"),
+    )
+    outlets = (Outlet("orientation", "vector", "fused 3x3 rotation matrix, sensor -> earth"), FLAGS)
+    params = (
+        Param(
+            "crossover", "float", 0.2, "crossover frequency of the complementary pair", unit="Hz", live=True
+        ),
+        RATE,
+    )
+    example = """
+node gyro gyro_integrator
+node am   accmag_matrix
+node fuse complementary crossover=0.2
+gyro -> fuse.gyro_orientation
+am -> fuse.accmag
+"""
+
+    def setup(self) -> None:
+        self.q: np.ndarray | None = None
+        self._prev_gyro: np.ndarray | None = None
+        self.reset_clock()
+
+    def on_gyro_orientation(self, msg: Message) -> None:
+        g = _as_quat(msg)
+        dt = self.step(msg.time)
+        am_msg = self.cold.pop("accmag", None)
+        am = _as_quat(am_msg) if am_msg is not None else None
+        if self.q is None:
+            if am is None:
+                self.report("waiting_accmag")
+                self._prev_gyro = g
+                return
+            self.q = am
+        elif self._prev_gyro is not None:
+            delta = quat_multiply(quat_conjugate(self._prev_gyro), g)  # body-frame increment
+            self.q = quat_normalize(quat_multiply(self.q, delta))
+        self._prev_gyro = g
+        if am is not None:
+            if float(np.dot(am, self.q)) < 0.0:
+                am = -am
+            tau = 1.0 / (2.0 * math.pi * self.p.crossover)
+            self.q = quat_normalize(quat_slerp(self.q, am, dt / (tau + dt)))
+            self.report("ok")
+        else:
+            self.report("gyro_only")
+        self.out(0, vector(quat_to_matrix(self.q), msg.time))
+
+    def do_reset(self) -> None:
+        self.setup()
+
+
+@register("tqt")
+class TQT(SampleClock, Flagged, Node):
+    """McGhee/Bachmann's quaternion MARG filter: gyro rates corrected by gravity and the magnetic field.
+
+    Gauss-Newton correction with the reduced 3x3 X matrix (Bachmann patent Eq. 29), gain ``k``
+    (crossover k/2pi Hz), magnetometer weight ``rho``.  ``mode=paper`` is the seeds' filter exactly;
+    ``mode=robust`` (default) adds heading-only magnetic correction, gyro bias learned at rest, earth-frame
+    acceleration averaging and magnetic gating.  ``use_gyro=false`` tracks from accel/mag alone.
+    Send the gyro last (the left inlet is hot): mote and scaling nodes output right to left, so wiring
+    gyro, accel and mag outlets to the same-named inlets does this.
+    """
+
+    inlets = (
+        Inlet("gyro", ("vector", "list"), "angular rate, rad/s, sensor frame"),
+        Inlet("accel", ("vector", "list"), "specific force (+g up at rest), sensor frame"),
+        Inlet("mag", ("vector", "list"), "magnetic field, sensor frame"),
+    )
+    outlets = (Outlet("quat", "vector", "orientation quaternion (w, x, y, z), sensor -> earth (NWU)"), FLAGS)
+    params = (
+        Param(
+            "mode",
+            "symbol",
+            "robust",
+            "robust (default) or paper (the seeds' filter)",
+            choices=("robust", "paper"),
+        ),
+        Param(
+            "k",
+            "float",
+            0.0,
+            "gravity-correction gain (0: the mode's default: robust 2, paper 0.1)",
+            unit="1/s",
+            live=True,
+        ),
+        Param("rho", "float", 0.5, "magnetometer weight (paper mode)", live=True),
+        Param("iterations", "int", 1, "Gauss-Newton cycles per sample (paper mode)"),
+        Param("use_gyro", "bool", True, "false: accel/mag-only tracking"),
+        Param("k_heading", "float", 0.03, "heading-correction gain (robust mode)", unit="1/s", live=True),
+        Param("dip", "float", float("nan"), "magnetic dip; NaN: learned from the first sample", unit="deg"),
+        RATE,
+    )
+    example = """
+node glove simulate
+node cal   scaling
+node fuse  tqt mode=robust
+glove -> cal
+cal.gyro -> fuse.gyro
+cal.accel -> fuse.accel
+cal.mag -> fuse.mag
+"""
+
+    def setup(self) -> None:
+        dip = None if math.isnan(self.p.dip) else math.radians(self.p.dip)
+        self.filter = TQTFilter(
+            self.p.k or None,
+            rho=self.p.rho,
+            iterations=self.p.iterations,
+            mode=self.p.mode,
+            use_gyro=self.p.use_gyro,
+            dip=dip,
+            k_heading=self.p.k_heading,
+        )
+        self.reset_clock()
+
+    def param_changed(self, name: str) -> None:
+        if name == "k" and self.p.k > 0:
+            self.filter.k = self.p.k
+        elif name in ("rho", "k_heading"):
+            setattr(self.filter, name, getattr(self.p, name))
+
+    def on_gyro(self, msg: Message) -> None:
+        gyro = as_vector(msg, 3)
+        acc, mag = self.cold.get("accel"), self.cold.get("mag")
+        nan3 = (math.nan, math.nan, math.nan)
+        q = self.filter.update(
+            gyro,
+            as_vector(acc, 3) if acc is not None else nan3,
+            as_vector(mag, 3) if mag is not None else nan3,
+            self.step(msg.time),
+        )
+        flags = self.filter.flags & ~(TQTFlags.REST)
+        self.report("ok" if not flags else str(flags.name or flags).lower().replace("|", ","))
+        if self.filter.initialised:
+            self.out(0, vector(q, msg.time))
+
+    def do_reset(self) -> None:
+        self.filter.reset()
+        self.reset_clock()
+
+
+@register("reference")
+class Reference(Node):
+    """The offset quaternion (Bachmann Eqs. 32-34): outputs are relative to a captured reference pose.
+
+    "Point at the front speaker and press": a bang (or ``set``) at the right inlet captures the next
+    orientation as the reference.  ``mode=heading`` removes only the reference's heading, so 0 azimuth is
+    where you pointed and elevation stays true; ``mode=full`` removes the whole reference orientation.
+    ``clear`` forgets it.
+    """
+
+    inlets = (
+        Inlet("quat", ORIENTATION, "orientation (quaternion or matrix)"),
+        Inlet("capture", ("bang",), "capture the next orientation as the reference", hot=False),
+    )
+    outlets = (Outlet("quat", "vector", "orientation relative to the reference"),)
+    params = (
+        Param(
+            "mode",
+            "symbol",
+            "heading",
+            "heading (remove the reference's heading) or full",
+            choices=("heading", "full"),
+            live=True,
+        ),
+        Param("capture_first", "bool", False, "capture the first orientation that arrives"),
+    )
+
+    def setup(self) -> None:
+        self.offset = np.array([1.0, 0.0, 0.0, 0.0])
+        self._capture = self.p.capture_first
+
+    def on_capture(self, msg: Message) -> None:
+        self._capture = True
+
+    def do_set(self) -> None:
+        self._capture = True
+
+    def do_clear(self) -> None:
+        self.offset = np.array([1.0, 0.0, 0.0, 0.0])
+
+    def on_quat(self, msg: Message) -> None:
+        q = _as_quat(msg)
+        if self._capture:
+            self._capture = False
+            if self.p.mode == "heading":
+                yaw = float(quat_to_euler(q)[0])
+                self.offset = np.array([math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2)])
+            else:
+                self.offset = quat_conjugate(q)
+        # the reference earth frame is the earth frame turned by the reference: q_rel = offset ⊗ q
+        self.out(0, vector(quat_normalize(quat_multiply(self.offset, q)), msg.time))
+
+
+@register("matrix2quat")
+class Matrix2Quat(Node):
+    """Rotation matrix -> quaternion (w, x, y, z), w >= 0; robust for every rotation (Shepperd)."""
+
+    inlets = (Inlet("matrix", ("vector", "list"), "3x3 rotation matrix (9 numbers, row major)"),)
+    outlets = (Outlet("quat", "vector", "quaternion (w, x, y, z)"),)
+
+    def on_matrix(self, msg: Message) -> None:
+        self.out(0, vector(matrix_to_quat(as_vector(msg, 9).reshape(3, 3)), msg.time))
+
+
+@register("quat2matrix")
+class Quat2Matrix(Node):
+    """Quaternion (w, x, y, z) -> 3x3 rotation matrix."""
+
+    inlets = (Inlet("quat", ("vector", "list"), "quaternion (w, x, y, z)"),)
+    outlets = (Outlet("matrix", "vector", "3x3 rotation matrix"),)
+
+    def on_quat(self, msg: Message) -> None:
+        self.out(0, vector(quat_to_matrix(_as_quat(msg)), msg.time))
+
+
+@register("quat2axis")
+class Quat2Axis(Node):
+    """Quaternion -> angle, x, y, z (Torre's "angle, x, y, z format"): rotation angle and unit axis."""
+
+    inlets = (Inlet("quat", ORIENTATION, "quaternion or matrix"),)
+    outlets = (Outlet("axis", "vector", "(angle, x, y, z), angle in degrees unless degrees=false"),)
+    params = (Param("degrees", "bool", True, "angle in degrees (false: radians)"),)
+
+    def on_quat(self, msg: Message) -> None:
+        angle, axis = quat_to_axis_angle(_as_quat(msg))
+        a = math.degrees(float(angle)) if self.p.degrees else float(angle)
+        self.out(0, vector([a, *np.asarray(axis, dtype=float).tolist()], msg.time))
+
+
+@register("quat2euler")
+class Quat2Euler(Node):
+    """Quaternion -> yaw, pitch, roll: the intrinsic Z-Y'-X'' (aerospace) sequence, degrees.
+
+    Yaw about earth z (up, positive left), pitch about the new y, roll about the hand's own x axis.
+    At pitch +-90 deg all heading goes into yaw and roll is 0.
+    """
+
+    inlets = (Inlet("quat", ORIENTATION, "quaternion or matrix"),)
+    outlets = (
+        Outlet("yaw", "float", "degrees"),
+        Outlet("pitch", "float", "degrees"),
+        Outlet("roll", "float", "degrees"),
+    )
+
+    def on_quat(self, msg: Message) -> None:
+        yaw, pitch, roll = quat_to_euler(_as_quat(msg), degrees=True)
+        self.emit(float(yaw), float(pitch), float(roll))
+
+
+@register("azi_ele")
+class AziEle(Node):
+    """Pointing direction -> azimuth and elevation (degrees), ready for VBAP and spatialisers.
+
+    ADM-OSC convention: 0 = front (earth x: north, or the reference pose), positive = left, -180..180;
+    elevation positive up.  Pointing straight up or down the azimuth is undefined: the last one is held.
+    """
+
+    inlets = (Inlet("quat", ORIENTATION, "orientation, quaternion or matrix"),)
+    outlets = (Outlet("azimuth", "float", "degrees, + left"), Outlet("elevation", "float", "degrees, + up"))
+    params = (
+        Param("axis", "vector", (1.0, 0.0, 0.0), "the sensor axis that points (the hand's x)", size=3),
+        Param("pole", "float", 1.0, "within this angle of straight up/down the azimuth holds", unit="deg"),
+    )
+
+    def setup(self) -> None:
+        self._az: float | None = None
+
+    def on_quat(self, msg: Message) -> None:
+        d = pointing_direction(_as_quat(msg), self.p.axis)
+        az, el = azimuth_elevation(d, previous_azimuth=self._az, pole_deg=self.p.pole)
+        self._az = float(az)
+        self.emit(self._az, float(el))
+
+
+@register("roll_distance")
+class RollDistanceNode(Node):
+    """Torre §5.2: roll the hand 90 deg and the azimuth becomes a distance, 0 (far) .. 90 (near).
+
+    Hysteresis: distance mode starts at |roll| >= ``enter`` and ends below ``leave``.  In distance mode
+    the azimuth output holds, and sweeping the rolled hand left brings the source closer.
+    """
+
+    inlets = (Inlet("quat", ORIENTATION, "orientation, quaternion or matrix"),)
+    outlets = (
+        Outlet("azimuth", "float", "degrees (held in distance mode)"),
+        Outlet("distance", "float", "0 far .. 90 near"),
+        Outlet("mode", "symbol", "azimuth or distance, when it changes"),
+    )
+    params = (
+        Param("enter", "float", 70.0, "|roll| that starts distance mode", unit="deg", live=True),
+        Param("leave", "float", 45.0, "|roll| below which it ends", unit="deg", live=True),
+        Param("gain", "float", 1.0, "distance per degree of azimuth", live=True),
+        Param("distance", "float", 0.0, "initial distance, 0..90"),
+    )
+
+    def setup(self) -> None:
+        self.state = RollDistance(self.p.enter, self.p.leave, self.p.gain, self.p.distance)
+        self._mode = self.state.mode
+        self._az: float | None = None
+
+    def param_changed(self, name: str) -> None:
+        self.state.enter_deg, self.state.leave_deg, self.state.gain = self.p.enter, self.p.leave, self.p.gain
+
+    def on_quat(self, msg: Message) -> None:
+        q = _as_quat(msg)
+        az, _el = azimuth_elevation(pointing_direction(q), previous_azimuth=self._az)
+        self._az = float(az)
+        roll = float(quat_to_euler(q, degrees=True)[2])
+        mode, az_out, dist = self.state.update(self._az, roll)
+        if mode != self._mode:
+            self._mode = mode
+            self.out(2, mode)
+        self.emit(az_out, dist)
+
+
+_FRAMES = {
+    ("nwu", "enu"): nwu_to_enu,
+    ("enu", "nwu"): enu_to_nwu,
+    ("nwu", "ned"): nwu_to_ned,
+    ("ned", "nwu"): ned_to_nwu,
+}
+
+
+@register("reframe")
+class Reframe(Node):
+    """Re-express an orientation in another earth frame (NWU inside pointat; ENU, NED at the edges).
+
+    Also ``positive=true`` makes w >= 0 (one sign for each rotation).
+    """
+
+    inlets = (Inlet("quat", ORIENTATION, "quaternion or matrix, sensor -> earth"),)
+    outlets = (Outlet("quat", "vector", "quaternion in the target frame"),)
+    params = (
+        Param("source", "symbol", "nwu", "the frame it comes in", choices=("nwu", "enu", "ned")),
+        Param("target", "symbol", "enu", "the frame it goes out in", choices=("nwu", "enu", "ned")),
+        Param("positive", "bool", True, "make w >= 0"),
+    )
+
+    def setup(self) -> None:
+        pair = (self.p.source, self.p.target)
+        if pair[0] == pair[1]:
+            self._convert = lambda q: q
+        elif pair in _FRAMES:
+            self._convert = _FRAMES[pair]
+        else:  # through NWU
+            a, b = _FRAMES[(pair[0], "nwu")], _FRAMES[("nwu", pair[1])]
+            self._convert = lambda q: b(a(q))
+
+    def on_quat(self, msg: Message) -> None:
+        q = self._convert(_as_quat(msg))
+        self.out(0, vector(quat_positive(q) if self.p.positive else q, msg.time))

@@ -1,0 +1,269 @@
+"""``record`` any stream to a file, ``replay`` a recording (ours, or a BROAD data-set trial) into a patch.
+
+Files
+-----
+CSV (``.csv``, also gzipped ``.csv.gz`` for replay): optional ``#`` comment lines, a header line of
+column names, then one row per message, the first column ``t`` (seconds).  ``record`` writes
+``t,<columns>``: for the evaluation patches ``columns=[qw, qx, qy, qz]`` gives ``t,qw,qx,qy,qz``.
+
+NDJSON (``.ndjson`` or ``.jsonl``): one JSON object per message, ``{"t": 1.5, "kind": "vector",
+"value": [1, 0, 0, 0]}``; any kind of message round-trips.
+
+Both are line-buffered: every message is on disk when the next arrives, so Ctrl-C loses nothing.
+
+``replay`` recognises columns by name: ``gyr_x``/``gyro_x``..., ``acc_x``/``accel_x``..., ``mag_x``...
+go to the ``gyro``, ``accel`` and ``mag`` outlets; a BROAD trial's optical ground truth ``gt_qw``... (ENU)
+goes to ``truth`` converted to pointat's NWU frame (``qw``... columns go there as they are); every row
+also goes to ``row`` as one vector of all columns but ``t``.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from pointat.maths.quaternion import enu_to_nwu
+from pointat.message import Message, vector
+from pointat.node import Inlet, Node, Outlet, Param
+from pointat.registry import register
+
+_GROUPS = {
+    "gyro": (("gyr_x", "gyr_y", "gyr_z"), ("gyro_x", "gyro_y", "gyro_z")),
+    "accel": (("acc_x", "acc_y", "acc_z"), ("accel_x", "accel_y", "accel_z")),
+    "mag": (("mag_x", "mag_y", "mag_z"),),
+    "truth": (("gt_qw", "gt_qx", "gt_qy", "gt_qz"), ("qw", "qx", "qy", "qz")),
+}
+
+
+def _format(path: str, fmt: str) -> str:
+    if fmt != "auto":
+        return fmt
+    name = path.lower().removesuffix(".gz")
+    return "ndjson" if name.endswith((".ndjson", ".jsonl")) else "csv"
+
+
+def read_csv_table(path: str | Path) -> tuple[list[str], np.ndarray]:
+    """Column names and rows of a CSV recording (``#`` comments, one header line; ``.gz`` allowed)."""
+    path = Path(path)
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rt", encoding="utf-8") as fh:
+        header: list[str] = []
+        for line in fh:
+            if line.strip() and not line.startswith("#"):
+                header = [c.strip() for c in line.strip().split(",")]
+                break
+        if not header or header[0] != "t":
+            raise ValueError(f"{path}: expected a header line starting with 't', got {','.join(header)!r}")
+        rows = np.loadtxt(fh, delimiter=",", ndmin=2, comments="#")
+    if rows.size and rows.shape[1] != len(header):
+        raise ValueError(f"{path}: {len(header)} columns in the header, {rows.shape[1]} in the rows")
+    return header, rows.reshape(-1, len(header))
+
+
+@register("record")
+class Record(Node):
+    """Write every message with its time stamp to a CSV or NDJSON file, line by line (nothing lost on Ctrl-C).
+
+    CSV rows are ``t`` then the message's numbers (a vector or list spread over columns); the header is
+    ``t`` and ``columns`` (default ``v0, v1...``, or ``value`` for a single number).
+    """
+
+    inlets = (Inlet("in", ("any",), "the stream to record"),)
+    params = (
+        Param("file", "path", doc="the file to write (.csv, .ndjson)"),
+        Param(
+            "format",
+            "symbol",
+            "auto",
+            "auto (by extension), csv or ndjson",
+            choices=("auto", "csv", "ndjson"),
+        ),
+        Param("columns", "list", (), "CSV column names after t"),
+        Param("append", "bool", False, "append instead of replacing the file"),
+    )
+    example = """
+node sink record file=out.csv columns=[qw, qx, qy, qz]
+"""
+
+    def setup(self) -> None:
+        self._fh: TextIO | None = None
+        self._width: int | None = None
+        self.count = 0
+        self._fmt = _format(self.p.file, self.p.format)
+
+    def start(self) -> None:
+        exists = Path(self.p.file).exists() and self.p.append
+        try:
+            self._fh = open(self.p.file, "a" if self.p.append else "w", buffering=1, encoding="utf-8")
+        except OSError as exc:
+            raise OSError(f"cannot write {self.p.file}: {exc.strerror}") from exc
+        if self.p.columns and self._fmt == "csv":
+            self._width = len(self.p.columns)
+            if not exists:
+                self._fh.write(",".join(["t", *map(str, self.p.columns)]) + "\n")
+
+    def on_in(self, msg: Message) -> None:
+        if self._fh is None:
+            raise RuntimeError(f"record: {self.p.file} is not open")
+        if self._fmt == "ndjson":
+            value = msg.value.tolist() if msg.kind == "vector" else msg.value
+            if msg.is_method:
+                value = list(value)
+            self._fh.write(json.dumps({"t": msg.time, "kind": msg.kind, "value": value}) + "\n")
+        else:
+            values = self._numbers(msg)
+            if self._width is None:
+                self._width = len(values)
+                names = ["value"] if len(values) == 1 else [f"v{i}" for i in range(len(values))]
+                self._fh.write(",".join(["t", *names]) + "\n")
+            if len(values) != self._width:
+                raise ValueError(f"expected {self._width} values per row (the header's), got {len(values)}")
+            self._fh.write(",".join([repr(float(msg.time)), *(repr(float(v)) for v in values)]) + "\n")
+        self.count += 1
+
+    @staticmethod
+    def _numbers(msg: Message) -> list[Any]:
+        if msg.kind == "vector":
+            return np.ravel(msg.value).tolist()
+        if msg.kind in ("float", "int"):
+            return [msg.value]
+        if msg.kind == "list" and all(isinstance(v, (int, float)) for v in msg.value):
+            return list(msg.value)
+        if msg.kind == "bang":
+            return []
+        raise TypeError(f"CSV takes numbers; got {msg.describe()[:40]!r} (use an .ndjson file)")
+
+    def close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+
+@register("replay")
+class Replay(Node):
+    """Play a recording back: in real time (``speed=1``), faster or slower, or as fast as possible (``speed=0``).
+
+    Reads ``record``'s CSV and NDJSON and the BROAD data set's CSV (``*.csv.gz``), so real recordings
+    drive patches.  Messages carry the file's time stamps.  At the end it bangs ``done`` and, unless
+    ``loop``, its part in the patch is over: a patch whose sources have all ended stops by itself.
+    """
+
+    outlets = (
+        Outlet("gyro", "vector", "angular rate, rad/s (gyr_*/gyro_* columns)"),
+        Outlet("accel", "vector", "specific force, m/s² (acc_*/accel_* columns)"),
+        Outlet("mag", "vector", "magnetic field (mag_* columns)"),
+        Outlet("truth", "vector", "ground-truth quaternion, sensor -> NWU (gt_q* from ENU, or q* as is)"),
+        Outlet("row", "any", "every row but t, as one vector (NDJSON: the message as recorded)"),
+        Outlet("done", "bang", "at the end of the file"),
+    )
+    params = (
+        Param("file", "path", doc="the recording (.csv, .csv.gz, .ndjson)"),
+        Param("speed", "float", 1.0, "1 real time, 2 twice as fast, 0 as fast as possible"),
+        Param("loop", "bool", False, "start again at the end"),
+        Param(
+            "format",
+            "symbol",
+            "auto",
+            "auto (by extension), csv or ndjson",
+            choices=("auto", "csv", "ndjson"),
+        ),
+    )
+    example = """
+node source replay file=trial.csv.gz speed=0
+node fuse   tqt
+source.gyro -> fuse.gyro
+source.accel -> fuse.accel
+source.mag -> fuse.mag
+"""
+
+    def setup(self) -> None:
+        self.emitted = 0
+
+    def start(self) -> None:
+        path = self.p.file
+        if _format(path, self.p.format) == "ndjson":
+            self._load_ndjson(path)
+        else:
+            self._load_csv(path)
+        self.active = True
+        self.spawn(self._pump, "replay")
+
+    def _load_csv(self, path: str) -> None:
+        header, rows = read_csv_table(path)
+        self._times = rows[:, 0]
+        self._rows = rows[:, 1:]
+        col = {name: i for i, name in enumerate(header)}
+        self._groups: dict[int, np.ndarray] = {}
+        for outlet, alternatives in enumerate(_GROUPS.values()):
+            for names in alternatives:
+                if all(n in col for n in names):
+                    data = rows[:, [col[n] for n in names]]
+                    if names[0] == "gt_qw":  # the BROAD data set: ENU ground truth
+                        ok = np.all(np.isfinite(data), axis=1)
+                        data = data.copy()
+                        data[ok] = enu_to_nwu(data[ok])
+                    self._groups[outlet] = data
+                    break
+        self._messages: list[Message] | None = None
+
+    def _load_ndjson(self, path: str) -> None:
+        messages = []
+        with open(path, encoding="utf-8") as fh:
+            for lineno, line in enumerate(fh, 1):
+                if not line.strip():
+                    continue
+                try:
+                    d = json.loads(line)
+                    kind, value, t = d["kind"], d["value"], float(d["t"])
+                except (ValueError, KeyError, TypeError) as exc:
+                    raise ValueError(f"{path}:{lineno}: not a recorded message: {exc}") from exc
+                if kind == "vector":
+                    messages.append(vector(value, t))
+                elif kind in ("bang", "float", "int", "symbol"):
+                    messages.append(Message(kind, value, t))
+                else:  # a list, or a method message
+                    messages.append(Message(kind, tuple(value), t))
+        self._messages = messages
+        self._times = np.array([m.time for m in messages])
+
+    def _pump(self) -> None:
+        """Reader thread: hand rows to the scheduler on time (or as fast as it takes them)."""
+        n = len(self._times)
+        stopping = self._runtime().stopping
+        while True:
+            t_start = time.monotonic()
+            t_first = self._times[0] if n else 0.0
+            for i in range(n):
+                if self.p.speed > 0:
+                    due = t_start + (self._times[i] - t_first) / self.p.speed
+                    delay = due - time.monotonic()
+                    if delay > 0 and stopping.wait(delay):
+                        return
+                if not self.post(self._emit, i):
+                    return
+            if not self.p.loop or stopping.is_set() or n == 0:
+                break
+        self.post(self._done)
+
+    def _emit(self, i: int) -> None:
+        t = float(self._times[i])
+        self.emitted += 1
+        if self._messages is not None:
+            self.out(4, self._messages[i])
+            return
+        self.out(4, vector(self._rows[i], t))
+        for outlet in (3, 2, 1, 0):  # right to left: the gyro (a filter's hot inlet) last
+            data = self._groups.get(outlet)
+            if data is not None and (outlet != 3 or not math.isnan(data[i, 0])):
+                self.out(outlet, vector(data[i], t))
+
+    def _done(self) -> None:
+        self.time = float(self._times[-1]) if len(self._times) else 0.0
+        self.active = False
+        self.out(5, None)

@@ -1,0 +1,248 @@
+"""Sources of motion data: the serial ``mote`` base station and the built-in simulated glove.
+
+Both output each sample as one vector of the nine raw ADC counts (gyro x y z, accel x y z, mag x y z;
+see :mod:`pointat.devices.mote_frame`), time-stamped with the sensor's time.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from typing import Any
+
+import numpy as np
+
+from pointat.devices.glove_sim import GloveSimulator, PtyGlove, SensorModel
+from pointat.devices.mote_frame import CorruptFrame, Frame, LostPackets
+from pointat.devices.serial_reader import DeviceLost, DeviceOpened, OpenFailed, SerialMoteReader
+from pointat.message import Message, vector
+from pointat.node import Inlet, Node, Outlet, Param
+from pointat.registry import register
+from pointat.runtime import Timer
+
+log = logging.getLogger("pointat.nodes.sensors")
+
+ADC_DOC = "nine ADC counts 0..4095: gyro x y z, accel x y z, mag x y z"
+
+
+class _MoteClock:
+    """Sensor time of one mote from its packet counter: lost packets advance time, a restart re-anchors."""
+
+    def __init__(self, rate: float, max_gap: int = 1000):
+        self.rate, self.max_gap = rate, max_gap
+        self.t0: float | None = None
+        self.count = 0
+        self.last_n = 0
+
+    def time(self, n_pack: int, host_time: float) -> float:
+        if self.t0 is not None:
+            gap = (n_pack - self.last_n) & 0xFFFF
+            if 0 < gap <= self.max_gap:
+                self.count += gap
+                self.last_n = n_pack
+                return self.t0 + self.count / self.rate
+        self.t0, self.count, self.last_n = host_time, 0, n_pack  # first frame, or the mote restarted
+        return host_time
+
+
+@register("mote")
+class Mote(Node):
+    """Read IMU motes from a wireless base station on a serial port (Torre §3.1).
+
+    Binary frames or text lines (auto-detected, see ``pointat.devices.mote_frame``).  One outlet per mote
+    id in ``ids``; each sample is a vector of nine ADC counts stamped with sensor time (from the packet
+    counter at ``rate``, so lost packets keep the timing right).  Garbage is skipped, corrupt frames
+    dropped and counted, lost packets reported on ``events``; when the device vanishes the port is
+    reopened as soon as it comes back.  ``open PATH`` / ``close`` switch device while running; a
+    symbol at the left inlet opens that path (wire ``simulate``'s ``device`` outlet here).
+    """
+
+    inlets = (
+        Inlet("control", ("symbol", "bang"), "a device path to open; methods: open PATH, close, stats"),
+    )
+    params = (
+        Param("device", "path", "", "serial device (/dev/ttyUSB0...); empty: wait for 'open'"),
+        Param("ids", "list", (1,), "mote ids, one outlet each, in this order"),
+        Param("baud", "int", 115200, "line speed"),
+        Param("format", "symbol", "auto", "auto, binary or text", choices=("auto", "binary", "text")),
+        Param("rate", "float", 100.0, "the motes' sample rate, for time stamps", unit="Hz"),
+    )
+    example = """
+node base mote device=/dev/ttyUSB0 ids=[1, 2]
+node left  scaling
+node right scaling
+base.0 -> left
+base.1 -> right
+"""
+
+    @classmethod
+    def layout(cls, values):
+        ids = values.get("ids", (1,)) or (1,)
+        outs = tuple(Outlet(f"m{int(i)}", "vector", f"mote {int(i)}: {ADC_DOC}") for i in ids)
+        return cls.inlets, (*outs, Outlet("events", "list", "lost, corrupt, device_lost, opened..."))
+
+    def setup(self) -> None:
+        self._outlet = {int(i): k for k, i in enumerate(self.p.ids)}
+        self._clocks = {i: _MoteClock(self.p.rate) for i in self._outlet}
+        self._reader: SerialMoteReader | None = None
+        self._unknown: set[int] = set()
+        self.received = 0
+
+    def start(self) -> None:
+        self.active = True  # a base station runs until the patch is stopped
+        if self.p.device:
+            self.do_open(self.p.device)
+
+    def on_control(self, msg: Message) -> None:
+        if msg.kind == "symbol":
+            self.do_open(msg.value)
+        elif msg.kind == "bang":
+            self.do_stats()
+
+    def do_open(self, path: Any) -> None:
+        self.do_close()
+        self.p.device = str(path)
+        self._reader = SerialMoteReader(
+            self.p.device, self.p.baud, self._on_frame, self._on_event, format=self.p.format
+        ).start()
+
+    def do_close(self) -> None:
+        if self._reader is not None:
+            self._reader.stop()
+            self._reader = None
+
+    def do_stats(self) -> None:
+        if self._reader is None:
+            return
+        s = self._reader.stats
+        self.out(len(self.out_specs) - 1, ("stats", self.received, s.corrupt, s.lost, s.garbage_bytes))
+
+    def close(self) -> None:
+        self.do_close()
+
+    # reader thread -> scheduler
+    def _on_frame(self, frame: Frame, host_time: float) -> None:
+        self.post(self._frame, frame, self._runtime().clock.from_monotonic(host_time))
+
+    def _on_event(self, event: object) -> None:
+        self.post(self._event, event)
+
+    # scheduler thread
+    def _frame(self, frame: Frame, host_time: float) -> None:
+        k = self._outlet.get(frame.mote)
+        if k is None:
+            if frame.mote not in self._unknown:
+                self._unknown.add(frame.mote)
+                self.out(len(self.out_specs) - 1, ("unknown_mote", frame.mote))
+            return
+        self.received += 1
+        t = self._clocks[frame.mote].time(frame.n_pack, host_time)
+        self.out(k, vector(np.array(frame.channels, dtype=float), t))
+
+    def _event(self, event: object) -> None:
+        ev = len(self.out_specs) - 1
+        self.time = self.now
+        if isinstance(event, LostPackets):
+            self.out(ev, ("lost", event.mote, event.count))
+        elif isinstance(event, CorruptFrame):
+            self.out(ev, ("corrupt", event.reason if hasattr(event, "reason") else "frame"))
+        elif isinstance(event, DeviceLost):
+            log.warning(
+                "mote '%s': device %s lost: %s; waiting for it to come back",
+                self.name,
+                self.p.device,
+                getattr(event, "reason", ""),
+            )
+            self.out(ev, ("device_lost", self.p.device))
+        elif isinstance(event, DeviceOpened):
+            self.out(ev, ("opened", self.p.device))
+        elif isinstance(event, OpenFailed):
+            self.out(ev, ("open_failed", self.p.device))
+
+
+@register("simulate")
+class Simulate(Node):
+    """A virtual Pointing-at glove: scripted hand motion through a realistic sensor model.
+
+    Pointing sweeps, holds at loudspeaker directions, raising and lowering, a 90 deg roll gesture; gyro
+    bias and noise, accelerometer and magnetometer noise, the Earth field with dip, 12-bit counts.  The
+    script loops (``duration`` ends it).  ``output=direct`` sends the counts from the ``adc`` outlet;
+    ``output=pty`` writes real mote frames into a pseudo-terminal instead and sends its path from the
+    ``device`` outlet (wire it to a ``mote``), so the whole serial path runs.  ``truth`` is the true
+    orientation quaternion (sensor -> NWU).
+    """
+
+    outlets = (
+        Outlet("adc", "vector", ADC_DOC + " (output=direct)"),
+        Outlet("truth", "vector", "true orientation quaternion (w, x, y, z), sensor -> NWU"),
+        Outlet("device", "symbol", "the pseudo-terminal's path, once at start (output=pty)"),
+    )
+    params = (
+        Param("rate", "float", 100.0, "sample rate", unit="Hz"),
+        Param(
+            "output",
+            "symbol",
+            "direct",
+            "direct (counts from the adc outlet) or pty (frames into a pseudo-terminal)",
+            choices=("direct", "pty"),
+        ),
+        Param("format", "symbol", "binary", "frame format written to the pty", choices=("binary", "text")),
+        Param("mote", "int", 1, "mote id in the frames"),
+        Param("seed", "int", 0, "noise and bias seed (the same seed, the same data)"),
+        Param("noise", "bool", True, "false: ideal sensors (no bias, no noise)"),
+        Param("duration", "float", 0.0, "stop after this long; 0: run until the patch stops", unit="s"),
+        Param("link", "path", "", "also make this path a symlink to the pty (output=pty)"),
+    )
+    example = """
+node glove simulate rate=100
+node cal   scaling
+glove -> cal
+"""
+
+    def setup(self) -> None:
+        sensor = SensorModel(seed=self.p.seed) if self.p.noise else SensorModel.ideal()
+        self.sim = GloveSimulator(rate_hz=self.p.rate, mote_id=self.p.mote, seed=self.p.seed, sensor=sensor)
+        self._timer: Timer | None = None
+        self._pty: PtyGlove | None = None
+        self._k = 0
+
+    def start(self) -> None:
+        self.active = True
+        if self.p.output == "pty":
+            self._pty = PtyGlove(self.sim, format=self.p.format).start()
+            if self.p.link:
+                if os.path.islink(self.p.link):
+                    os.unlink(self.p.link)
+                os.symlink(self._pty.device_path, self.p.link)
+        self._timer = self.call_at(0.0, self._tick)
+
+    def loadbang(self) -> None:
+        if self._pty is not None:
+            self.time = self.now
+            self.out(2, self.p.link or self._pty.device_path)
+
+    def _tick(self) -> None:
+        k = self._k
+        t = k / self.p.rate
+        if self.p.duration and t >= self.p.duration:
+            self.close()
+            return
+        self._k += 1
+        self._timer = self.call_at((k + 1) / self.p.rate, self._tick)
+        if self._pty is not None:
+            self.out(1, vector(self.sim.truth(k).q, t))
+            return
+        s = self.sim.sample(k)
+        self.out(1, vector(s.q, t))
+        self.out(0, vector(np.array(s.frame.channels, dtype=float), t))
+
+    def close(self) -> None:
+        self.active = False
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        if self._pty is not None:
+            self._pty.close()
+            self._pty = None
+            if self.p.link and os.path.islink(self.p.link):
+                os.unlink(self.p.link)

@@ -1,0 +1,17 @@
+# Evaluate the tqt filter on a recording: one output row per input sample, t,qw,qx,qy,qz, the estimated
+# orientation mapping sensor -> the recording's earth frame (ENU for the BROAD data set, like its ground
+# truth).  Ends by itself at the end of the file.
+#
+#   pointat run patches/evaluate_tqt.pat --set source.file=IN.csv.gz --set sink.file=OUT.csv
+#
+# Try the paper's filter with --set fuse.mode=paper.
+
+node source replay file=../pointat/data/broad_04_undisturbed_slow_rotation_with_breaks_A.csv.gz speed=0
+node fuse   tqt mode=robust rate=285.7142857142857
+node enu    reframe source=nwu target=enu
+node sink   record file=evaluate_tqt.csv columns=[qw, qx, qy, qz]
+
+source.mag -> fuse.mag
+source.accel -> fuse.accel
+source.gyro -> fuse.gyro
+fuse.quat -> enu -> sink

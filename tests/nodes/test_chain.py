@@ -1,0 +1,166 @@
+"""The Pointing-at chain on the simulated glove, against its ground truth."""
+
+import numpy as np
+import pytest
+
+from pointat.maths.quaternion import matrix_to_quat, quat_angle
+from pointat.testing import patch
+
+FRONT_END = """
+node glove simulate rate=100 seed={seed}
+node nulls offset samples=150
+node units scaling
+node truth collect
+glove.truth -> truth
+glove.adc -> nulls -> units
+"""
+
+
+def _errors(rt, est_name, t_from=3.0):
+    est = {round(m.time, 6): m.value for m in rt.nodes[est_name].messages}
+    pairs = [
+        (est[round(m.time, 6)], m.value)
+        for m in rt.nodes["truth"].messages
+        if m.time >= t_from and round(m.time, 6) in est
+    ]
+    q_est = np.array([p[0] for p in pairs])
+    q_true = np.array([p[1] for p in pairs])
+    if q_est.shape[1:] == (3, 3):
+        q_est = matrix_to_quat(q_est)
+    return np.degrees(quat_angle(q_est, q_true))
+
+
+@pytest.mark.parametrize("mode, mean_bound, max_bound", [("robust", 1.5, 4.0), ("paper", 3.0, 8.0)])
+def test_tqt_tracks_the_simulated_glove(mode, mean_bound, max_bound):
+    rt = patch(
+        FRONT_END.format(seed=1)
+        + f"""
+node fuse tqt mode={mode}
+node est collect
+units.mag -> fuse.mag
+units.accel -> fuse.accel
+units.gyro -> fuse.gyro
+fuse.quat -> est
+"""
+    )
+    rt.advance(45.0)  # the whole demo script: sweeps, holds, raise, the roll gesture
+    err = _errors(rt, "est")
+    assert len(err) > 4000
+    assert err.mean() < mean_bound and err.max() < max_bound, (err.mean(), err.max())
+
+
+def test_torre_chain_tracks_the_simulated_glove():
+    rt = patch(
+        FRONT_END.format(seed=2)
+        + """
+node gyro gyro_integrator mode=torre
+node accmag accmag_matrix
+node fuse complementary crossover=0.2
+node est collect
+units.mag -> accmag.mag
+units.accel -> accmag.accel
+units.gyro -> gyro
+accmag -> fuse.accmag
+gyro -> fuse.gyro_orientation
+fuse -> est
+"""
+    )
+    rt.advance(45.0)
+    err = _errors(rt, "est")
+    assert len(err) > 4000
+    assert err.mean() < 3.0 and err.max() < 10.0, (err.mean(), err.max())
+
+
+def test_gyro_integrator_alone_drifts_with_the_bias():
+    rt = patch(
+        FRONT_END.format(seed=3)
+        + """
+node gyro gyro_integrator mode=exact
+node est collect
+units.gyro -> gyro -> est
+"""
+    )
+    rt.advance(45.0)
+    err = _errors(rt, "est", t_from=0)
+    # the offset node removed the bias it saw at rest, so what remains is noise integrated: small but growing
+    assert err[-1] < 15.0
+    assert err[-1] > err[100]
+
+
+def test_azimuth_elevation_follow_the_script():
+    rt = patch(
+        FRONT_END.format(seed=4)
+        + """
+node fuse tqt
+node dir azi_ele
+node az collect
+node el collect
+units.mag -> fuse.mag
+units.accel -> fuse.accel
+units.gyro -> fuse.gyro
+fuse.quat -> dir
+dir.azimuth -> az
+dir.elevation -> el
+"""
+    )
+    rt.advance(25.0)
+    az = {round(m.time, 2): m.value for m in rt.nodes["az"].messages}
+    el = {round(m.time, 2): m.value for m in rt.nodes["el"].messages}
+    # the script holds at +30 (3.5-4.5 s), +110 (6.5-7.5 s), -110 (11.5-12.5 s), up 45 (18.5-19.5 s)
+    assert az[4.0] == pytest.approx(30.0, abs=2.0)
+    assert az[7.0] == pytest.approx(110.0, abs=2.0)
+    assert az[12.0] == pytest.approx(-110.0, abs=2.0)
+    assert el[19.0] == pytest.approx(45.0, abs=2.0)
+
+
+def test_roll_gesture_switches_azimuth_to_distance():
+    rt = patch(
+        FRONT_END.format(seed=5)
+        + """
+node fuse tqt
+node roll roll_distance
+node az collect
+node dist collect
+node mode collect
+units.mag -> fuse.mag
+units.accel -> fuse.accel
+units.gyro -> fuse.gyro
+fuse.quat -> roll
+roll.azimuth -> az
+roll.distance -> dist
+roll.mode -> mode
+"""
+    )
+    rt.advance(40.0)
+    modes = [(round(m.time, 1), m.value) for m in rt.nodes["mode"].messages]
+    assert [m for _, m in modes] == ["distance", "azimuth"]  # once in, once out: no flicker
+    t_in, t_out = modes[0][0], modes[1][0]
+    assert 25.0 < t_in < 26.0 and 32.5 < t_out < 33.5  # roll 25-26 s, roll back 32.5-33.5 s
+    dist = {round(m.time, 2): m.value for m in rt.nodes["dist"].messages}
+    az = {round(m.time, 2): m.value for m in rt.nodes["az"].messages}
+    # rolled, the hand sweeps 0 -> 60 deg left (distance rises by ~60), then back to 20
+    assert dist[29.5] == pytest.approx(60.0, abs=3.0)
+    assert dist[32.0] == pytest.approx(20.0, abs=3.0)
+    assert az[29.5] == pytest.approx(0.0, abs=2.0)  # the azimuth holds while rolled
+
+
+def test_bad_samples_never_reach_downstream_as_nan():
+    from pointat.message import vector
+
+    rt = patch("""
+node fuse tqt
+node out collect
+node flags collect
+fuse.quat -> out
+fuse.flags -> flags
+""")
+    f = rt.nodes["fuse"]
+    good = ([0.0, 0.0, 0.0], [0.0, 0.0, 9.8], [0.2, 0.0, -0.4])
+    nan = [float("nan")] * 3
+    for k, (g, a, m) in enumerate([good, (nan, [0, 0, 0], good[2]), good]):
+        f.receive(2, vector(m, k * 0.01))
+        f.receive(1, vector(a, k * 0.01))
+        f.receive(0, vector(g, k * 0.01))
+    assert all(np.all(np.isfinite(q)) for q in rt.nodes["out"].values)
+    assert rt.nodes["flags"].values[0].startswith("gyro_invalid")
+    assert rt.nodes["flags"].values[-1] == "ok"
