@@ -238,7 +238,7 @@ class OscIn(Node):
         while not stopping.is_set() and self._sock is not None:
             try:
                 data, sender = self._sock.recvfrom(65536)
-            except (TimeoutError, socket.timeout):
+            except TimeoutError:
                 continue
             except OSError:
                 return
