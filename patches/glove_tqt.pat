@@ -1,14 +1,16 @@
 # The Pointing-at glove with McGhee and Bachmann's quaternion filter (tqt) at its core.
 #
-#   simulate -> offset -> scaling -> tqt -> reference -> azi_ele -> osc_out
-#                                                    \-> roll_distance
+#   mote -> offset -> scaling -> tqt -> reference -> azi_ele -> osc_out
+#                                                \-> roll_distance
 #
-# Press "reference" (send /pointat/ref/set over OSC, or a bang to its right inlet) while pointing at the
-# front loudspeaker: azimuths are then relative to it.  For a real base station: --set glove.output=pty
-# is replaced by --set base.device=/dev/ttyUSB0 (see patches/pointing_at.pat for the mote wiring).
-# Directions go to 127.0.0.1:9000 as /pointat/1/aed azimuth elevation distance; live control on 9001.
+# The source is the built-in simulated glove writing real mote frames into a pseudo-terminal, read by the
+# mote node.  For a real base station:  --set glove.output=direct --set base.device=/dev/ttyUSB0
+# Point at the front loudspeaker and send /pointat/ref/set (OSC, port 9001) to make it azimuth 0.
+# Directions go to 127.0.0.1:9000 as /pointat/1/aed azimuth elevation distance; live control on 9001,
+# e.g. /pointat/fuse/k_heading 0.05 or /pointat/nulls/recalibrate.
 
-node glove  simulate rate=100
+node glove  simulate rate=100 output=pty
+node base   mote ids=[1] rate=100
 node nulls  offset samples=150
 node units  scaling
 node fuse   tqt mode=robust
@@ -21,7 +23,8 @@ node both   pack 0 0 0
 node slow   speedlim 500
 node show   print prefix="azimuth elevation distance"
 
-glove.adc -> nulls -> units
+glove.device -> base
+base.m1 -> nulls -> units
 units.mag -> fuse.mag
 units.accel -> fuse.accel
 units.gyro -> fuse.gyro
