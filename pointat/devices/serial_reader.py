@@ -1,0 +1,325 @@
+"""Read mote frames from a serial port in a background thread, surviving unplugs.
+
+:class:`SerialMoteReader` opens the base station's serial device with pyserial, parses the byte stream
+with a :class:`~pointat.devices.mote_frame.FrameParser`, stamps every frame with the host's
+:func:`time.monotonic` at receipt and hands it to ``on_frame(frame, host_time)``.  Parser events
+(lost packets, corrupt frames, garbage) and device events (:class:`DeviceOpened`, :class:`DeviceLost`,
+:class:`OpenFailed`, :class:`ReaderError`) go to ``on_event(event)``.
+
+When the device disappears (a read raises :class:`serial.SerialException` or :class:`OSError`, or its
+path vanishes or now names another device) the reader reports :class:`DeviceLost`, closes the port and
+tries to reopen the path with a bounded exponential backoff until it comes back or :meth:`stop` is
+called.  The parser keeps each mote's packet counter across a reconnection, so the samples missed
+during the outage are reported as lost packets when the stream resumes.
+
+Nothing raised in the thread kills it silently: callback errors are logged and reported as
+:class:`ReaderError` and the loop goes on; an unexpected error in the loop itself is logged, reported,
+and followed by a reopen.
+
+Examples
+--------
+A pseudo-terminal stands in for the base station:
+
+>>> import os, time, tty
+>>> from pointat.devices.mote_frame import Frame, encode_frame
+>>> master, slave = os.openpty()
+>>> _ = tty.setraw(slave)  # no echo, no line editing until the reader configures it
+>>> got = []
+>>> with SerialMoteReader(os.ttyname(slave), on_frame=lambda frame, t: got.append(frame)) as reader:
+...     reader.wait_open(timeout=5.0)
+...     _ = os.write(master, encode_frame(Frame(1, 0, (2048,) * 9)))
+...     deadline = time.monotonic() + 5.0
+...     while not got and time.monotonic() < deadline:
+...         time.sleep(0.01)
+True
+>>> got
+[Frame(mote=1, n_pack=0, channels=(2048, 2048, 2048, 2048, 2048, 2048, 2048, 2048, 2048))]
+>>> os.close(master); os.close(slave)
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import serial
+
+from pointat.devices.mote_frame import Frame, FrameEvent, FrameFormat, FrameParser, ParserStats
+
+__all__ = [
+    "DeviceLost",
+    "DeviceOpened",
+    "OpenFailed",
+    "ReaderError",
+    "ReaderEvent",
+    "SerialMoteReader",
+]
+
+log = logging.getLogger(__name__)
+
+
+class DeviceOpened(NamedTuple):
+    """The port at ``path`` (resolving to ``device``) was opened; ``count`` opens so far, this included."""
+
+    path: str
+    device: str
+    count: int
+
+
+class DeviceLost(NamedTuple):
+    """The open port at ``path`` failed or vanished; it was closed and will be reopened."""
+
+    path: str
+    reason: str
+
+
+class OpenFailed(NamedTuple):
+    """Opening ``path`` failed (reported once per outage; retries go on quietly)."""
+
+    path: str
+    reason: str
+
+
+class ReaderError(NamedTuple):
+    """An exception in a callback (``where`` = ``"on_frame"``) or in the reader loop (``"loop"``)."""
+
+    path: str
+    where: str
+    reason: str
+
+
+ReaderEvent = DeviceOpened | DeviceLost | OpenFailed | ReaderError
+"""Device-level events of a :class:`SerialMoteReader` (parser events come through too)."""
+
+FrameCallback = Callable[[Frame, float], Any]
+EventCallback = Callable[[Any], Any]
+
+
+class SerialMoteReader:
+    """Background reader of mote frames from a serial device, reopening it when it comes back.
+
+    Parameters
+    ----------
+    port_path : str
+        Serial device path (``/dev/ttyUSB0``, a udev symlink, a pseudo-terminal slave...).
+    baudrate : int
+        Line speed; ignored by pseudo-terminals.
+    on_frame : callable, optional
+        ``on_frame(frame, host_time)``, called in the reader thread for every good frame, in stream
+        order; ``host_time`` is :func:`time.monotonic` (seconds) when the bytes that completed the
+        frame were read (frames completed by one read share it).
+    on_event : callable, optional
+        ``on_event(event)``, called in the reader thread with every parser event
+        (:data:`~pointat.devices.mote_frame.FrameEvent`) and device event (:data:`ReaderEvent`).
+        The parser events of one read come after that read's frames.
+    format : {"auto", "binary", "text"}
+        Framing, passed to :class:`~pointat.devices.mote_frame.FrameParser`.
+    read_timeout : float
+        Seconds a read waits for data; bounds how quickly :meth:`stop` and path checks react.
+    backoff : tuple of float
+        ``(first, largest)`` delay in seconds between attempts to reopen; doubles up to ``largest``.
+    max_gap : int
+        Passed to the parser (largest counter gap counted as lost packets).
+
+    Notes
+    -----
+    Callbacks run in the reader thread: keep them short, or hand the work to a queue.
+    """
+
+    def __init__(
+        self,
+        port_path: str | os.PathLike[str],
+        baudrate: int = 115200,
+        on_frame: FrameCallback | None = None,
+        on_event: EventCallback | None = None,
+        *,
+        format: FrameFormat = "auto",
+        read_timeout: float = 0.05,
+        backoff: tuple[float, float] = (0.05, 1.0),
+        max_gap: int = 0x7FFF,
+    ) -> None:
+        if read_timeout <= 0:
+            raise ValueError(f"read_timeout must be > 0, got {read_timeout}")
+        if not 0 < backoff[0] <= backoff[1]:
+            raise ValueError(f"backoff must be (first, largest) with 0 < first <= largest, got {backoff}")
+        self.port_path = os.fspath(port_path)
+        self.baudrate = baudrate
+        self.on_frame = on_frame
+        self.on_event = on_event
+        self.read_timeout = read_timeout
+        self.backoff = (float(backoff[0]), float(backoff[1]))
+        self._parser = FrameParser(format, max_gap=max_gap)
+        self._lock = threading.Lock()  # guards the parser stats against concurrent snapshots
+        self._stop = threading.Event()
+        self._opened = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._port: serial.Serial | None = None
+        self._rdev: int | None = None
+        self._open_count = 0
+        self._got_data = False
+
+    # -- public -----------------------------------------------------------------------------------
+
+    @property
+    def is_running(self) -> bool:
+        """True while the reader thread is alive."""
+        return self._thread is not None and self._thread.is_alive()
+
+    @property
+    def is_open(self) -> bool:
+        """True while the device is open."""
+        return self._opened.is_set()
+
+    @property
+    def open_count(self) -> int:
+        """How many times the device was opened (reconnections + 1)."""
+        return self._open_count
+
+    def stats(self) -> ParserStats:
+        """A snapshot of the parser's counters (frames, garbage, per-mote received / lost / corrupt)."""
+        with self._lock:
+            return self._parser.stats.copy()
+
+    def start(self) -> SerialMoteReader:
+        """Start the reader thread (no-op if running).  Returns ``self``."""
+        if self.is_running:
+            return self
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name=f"mote-reader:{self.port_path}", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self, timeout: float = 2.0) -> None:
+        """Stop the thread and close the port; idempotent.  Waits at most ``timeout`` seconds."""
+        self._stop.set()
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout)
+            if thread.is_alive():
+                log.warning("mote reader on %s did not stop within %.1f s", self.port_path, timeout)
+        self._close()  # idempotent; if the thread is stuck in a callback, its next read fails and it ends
+
+    def wait_open(self, timeout: float) -> bool:
+        """Block until the device is open or ``timeout`` seconds pass; return whether it is open."""
+        return self._opened.wait(timeout)
+
+    def __enter__(self) -> SerialMoteReader:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    # -- thread -----------------------------------------------------------------------------------
+
+    def _run(self) -> None:
+        delay = self.backoff[0]
+        failed_since_open = False
+        while not self._stop.is_set():
+            if self._port is None:
+                try:
+                    self._open()
+                except (serial.SerialException, OSError, ValueError) as exc:
+                    if not failed_since_open:
+                        log.warning("cannot open mote port %s: %s (retrying)", self.port_path, exc)
+                        self._emit(OpenFailed(self.port_path, str(exc)))
+                        failed_since_open = True
+                    self._stop.wait(delay)
+                    delay = min(2.0 * delay, self.backoff[1])
+                    continue
+                failed_since_open = False
+                self._emit(DeviceOpened(self.port_path, os.path.realpath(self.port_path), self._open_count))
+            try:
+                self._poll()
+            except (serial.SerialException, OSError) as exc:
+                self._lose(str(exc) or type(exc).__name__)
+            except Exception as exc:  # keep the thread alive whatever happens, but say so
+                log.exception("mote reader on %s: unexpected error", self.port_path)
+                self._emit(ReaderError(self.port_path, "loop", repr(exc)))
+                self._lose(repr(exc))
+            if self._port is None and not self._stop.is_set():
+                # lost: a device that delivered data retries at once; one that fails right after
+                # opening backs off, so a broken but openable device cannot make the loop spin
+                if self._got_data:
+                    delay = self.backoff[0]
+                else:
+                    self._stop.wait(delay)
+                    delay = min(2.0 * delay, self.backoff[1])
+        self._close()
+
+    def _open(self) -> None:
+        port = serial.Serial(self.port_path, self.baudrate, timeout=self.read_timeout)
+        try:
+            self._rdev = os.stat(self.port_path).st_rdev
+        except OSError:
+            self._rdev = None
+        self._port = port
+        self._got_data = False
+        self._open_count += 1
+        self._opened.set()
+        log.info("opened mote port %s", self.port_path)
+
+    def _poll(self) -> None:
+        port = self._port
+        assert port is not None
+        data = port.read(max(1, port.in_waiting))
+        if not data:  # idle: is the device still where its path says?
+            reason = self._path_problem()
+            if reason:
+                self._lose(reason)
+            return
+        host_time = time.monotonic()
+        with self._lock:
+            frames = self._parser.feed(data)
+            events = self._parser.pop_events()
+        for frame in frames:
+            if self.on_frame is not None:
+                try:
+                    self.on_frame(frame, host_time)
+                except Exception as exc:
+                    log.exception("mote reader on %s: on_frame failed", self.port_path)
+                    self._emit(ReaderError(self.port_path, "on_frame", repr(exc)))
+        for event in events:
+            self._emit(event)
+        self._got_data = True
+
+    def _path_problem(self) -> str:
+        try:
+            rdev = os.stat(self.port_path).st_rdev
+        except FileNotFoundError:
+            return "device path vanished"
+        except OSError as exc:
+            return f"device path unreadable: {exc}"
+        if self._rdev is not None and rdev != self._rdev:
+            return "device path now names another device"
+        return ""
+
+    def _lose(self, reason: str) -> None:
+        log.warning("lost mote port %s: %s", self.port_path, reason)
+        self._close()
+        with self._lock:
+            self._parser.flush()  # a frame cut by the outage is garbage
+            events = self._parser.pop_events()
+        for event in events:
+            self._emit(event)
+        self._emit(DeviceLost(self.port_path, reason))
+
+    def _close(self) -> None:
+        port, self._port = self._port, None
+        self._opened.clear()
+        if port is not None:
+            try:
+                port.close()
+            except (serial.SerialException, OSError) as exc:
+                log.debug("closing %s: %s", self.port_path, exc)
+
+    def _emit(self, event: FrameEvent | ReaderEvent) -> None:
+        if self.on_event is None:
+            return
+        try:
+            self.on_event(event)
+        except Exception:
+            log.exception("mote reader on %s: on_event failed for %r", self.port_path, event)

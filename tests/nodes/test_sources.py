@@ -1,0 +1,168 @@
+"""Sources and sinks through real parts: a pseudo-terminal for the mote, files for record and replay."""
+
+import os
+import time
+
+import numpy as np
+import pytest
+
+from pointat.devices.glove_sim import GloveSimulator
+from pointat.devices.mote_frame import Frame, encode_frame, encode_text
+from pointat.testing import patch
+
+
+def _wait(predicate, timeout=5.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def _run(rt):
+    th = rt.run_in_thread()
+    return th
+
+
+def test_mote_reads_a_pty_separates_motes_and_reports_lost_packets(tmp_path):
+    master, slave = os.openpty()
+    link = tmp_path / "base"
+    os.symlink(os.ttyname(slave), link)
+    rt = patch(
+        f"""
+node base mote device={link} ids=[1, 2] rate=100
+node one collect
+node two collect
+node ev collect
+base.m1 -> one
+base.m2 -> two
+base.events -> ev
+""",
+        realtime=True,
+    )
+    th = _run(rt)
+    try:
+        assert _wait(lambda: any(m.value[0] == "opened" for m in rt.nodes["ev"].messages))
+        data = b"garbage\xa5\x5a\x00" + encode_frame(Frame(1, 10, (2048,) * 9))
+        data += encode_text(Frame(2, 7, (1,) * 9))
+        data += encode_frame(Frame(1, 11, (2049,) * 9))
+        data += encode_frame(Frame(1, 15, (2050,) * 9))  # 12, 13, 14 lost
+        data += encode_frame(Frame(9, 0, (0,) * 9))  # a mote nobody asked for
+        os.write(master, data)
+        assert _wait(lambda: len(rt.nodes["one"].messages) == 3)
+        assert _wait(lambda: any(m.value[0] == "lost" for m in rt.nodes["ev"].messages))
+        one = rt.nodes["one"].messages
+        assert [m.value[0] for m in one] == [2048, 2049, 2050]
+        assert rt.nodes["two"].values[0].tolist() == [1.0] * 9
+        # sensor time from the packet counter: 1 sample, then 4 (3 lost) at 100 Hz
+        assert one[1].time - one[0].time == pytest.approx(0.01)
+        assert one[2].time - one[1].time == pytest.approx(0.04)
+        events = [m.value for m in rt.nodes["ev"].messages]
+        assert ("lost", 1, 3) in events and ("unknown_mote", 9) in events
+    finally:
+        rt.stop()
+        th.join(5)
+        os.close(master)
+        os.close(slave)
+    assert not th.is_alive()
+
+
+def test_mote_survives_the_device_vanishing_and_coming_back(tmp_path):
+    link = tmp_path / "base"
+    master, slave = os.openpty()
+    os.symlink(os.ttyname(slave), link)
+    rt = patch(
+        f"node base mote device={link}\nnode out collect\nnode ev collect\nbase.m1 -> out\nbase.events -> ev\n",
+        realtime=True,
+    )
+    th = _run(rt)
+    try:
+        assert _wait(lambda: len(rt.nodes["ev"].messages) >= 1)
+        os.write(master, encode_frame(Frame(1, 0, (100,) * 9)))
+        assert _wait(lambda: len(rt.nodes["out"].messages) == 1)
+        os.close(master)  # the base station is unplugged
+        os.close(slave)
+        os.unlink(link)
+        assert _wait(lambda: any(m.value[0] == "device_lost" for m in rt.nodes["ev"].messages))
+        master, slave = os.openpty()  # ... and plugged in again
+        os.symlink(os.ttyname(slave), link)
+        assert _wait(lambda: sum(m.value[0] == "opened" for m in rt.nodes["ev"].messages) >= 2, 10)
+        os.write(master, encode_frame(Frame(1, 1, (200,) * 9)))
+        assert _wait(lambda: len(rt.nodes["out"].messages) == 2)
+        assert rt.nodes["out"].values[-1][0] == 200.0
+    finally:
+        rt.stop()
+        th.join(5)
+        os.close(master)
+        os.close(slave)
+
+
+def test_simulate_through_a_pty_matches_simulate_direct():
+    rt = patch(
+        """
+node glove simulate rate=200 output=pty duration=0.5
+node base mote rate=200
+node out collect
+glove.device -> base
+base.m1 -> out
+""",
+        realtime=True,
+    )
+    th = _run(rt)
+    assert _wait(lambda: len(rt.nodes["out"].messages) >= 90, 10)
+    rt.stop()
+    th.join(5)
+    sim = GloveSimulator(rate_hz=200.0)
+    got = [m.value for m in rt.nodes["out"].messages]
+    # frames written before the mote opened the pty may be gone; from the first one read, all arrive in order
+    first = next(k for k in range(10) if np.array_equal(got[0], sim.sample(k).frame.channels))
+    assert all(np.array_equal(g, sim.sample(first + i).frame.channels) for i, g in enumerate(got))
+
+
+def test_record_then_replay_gives_back_the_stream(tmp_path):
+    out = tmp_path / "rec.csv"
+    rt = patch(f"""
+node glove simulate rate=100 duration=1
+node sink record file={out}
+glove.truth -> sink
+""")
+    rt.advance(2.0)
+    rt.shutdown()
+    lines = out.read_text().splitlines()
+    assert lines[0] == "t,v0,v1,v2,v3" and len(lines) == 101
+    rt2 = patch(f"node src replay file={out} speed=0\nnode got collect\nsrc.row -> got\n", realtime=True)
+    rt2.run(10)
+    got = rt2.nodes["got"].messages
+    sim = GloveSimulator(rate_hz=100.0)
+    assert len(got) == 100
+    assert got[37].time == pytest.approx(0.37)
+    assert np.array_equal(got[37].value, sim.sample(37).q)  # full precision
+
+
+def test_ndjson_keeps_every_kind(tmp_path):
+    out = tmp_path / "rec.ndjson"
+    rt = patch(f"node m msg set 3 , 1.5 , bang , hello\nnode sink record file={out}\nm -> sink\n")
+    rt.start()
+    rt.nodes["m"].receive(0, __import__("pointat.message", fromlist=["bang"]).bang(0.25))
+    rt.shutdown()
+    rt2 = patch(f"node src replay file={out} speed=0\nnode got collect\nsrc.row -> got\n", realtime=True)
+    rt2.run(10)
+    got = [(m.kind, m.value, m.time) for m in rt2.nodes["got"].messages]
+    assert got == [("set", (3,), 0.25), ("float", 1.5, 0.25), ("bang", None, 0.25), ("hello", (), 0.25)]
+
+
+def test_replay_in_real_time_keeps_the_pace(tmp_path):
+    f = tmp_path / "r.csv"
+    f.write_text("t,value\n" + "".join(f"{i * 0.05},{i}\n" for i in range(6)))
+    rt = patch(f"node src replay file={f} speed=1\nnode got collect\nsrc.row -> got\n", realtime=True)
+    t0 = time.monotonic()
+    rt.run(10)
+    assert 0.2 < time.monotonic() - t0 < 2.0
+    assert [float(m.value[0]) for m in rt.nodes["got"].messages] == [0, 1, 2, 3, 4, 5]
+
+
+def test_replay_of_a_missing_file_is_a_clear_error(tmp_path, caplog):
+    rt = patch(f"node src replay file={tmp_path / 'nope.csv'}\n", realtime=True)
+    rt.run(2)
+    assert "node 'src' (replay)" in caplog.text and "nope.csv" in caplog.text
