@@ -1,0 +1,98 @@
+"""The command line as a user meets it: every shipped patch checks and runs; errors never show a traceback."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pointat.cli import main
+from pointat.registry import default_registry
+
+ROOT = Path(__file__).resolve().parent.parent
+PATCHES = sorted((ROOT / "patches").glob("*.pat")) + sorted((ROOT / "examples").glob("**/*.pat"))
+
+
+def pointat(*args, timeout=60):
+    return subprocess.run(
+        [sys.executable, "-m", "pointat.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=ROOT,
+    )
+
+
+@pytest.mark.parametrize("path", PATCHES, ids=lambda p: p.name)
+def test_every_shipped_patch_checks(path, capsys):
+    assert main(["check", str(path)]) == 0
+    assert "ok (" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("path", [p for p in PATCHES if "evaluate" not in p.name], ids=lambda p: p.name)
+def test_every_shipped_patch_runs_briefly(path, tmp_path):
+    out = pointat("run", path, "--for", "1.5", timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert "Traceback" not in out.stderr
+    assert "ERROR" not in out.stderr, out.stderr
+
+
+def test_main_job_prints_directions():
+    out = pointat("run", "patches/glove_tqt.pat", "--for", "3")
+    assert out.returncode == 0, out.stderr
+    lines = [ln for ln in out.stdout.splitlines() if ln.startswith("azimuth elevation distance:")]
+    assert len(lines) >= 3
+    az = float(lines[-1].split(":")[1].split()[0])
+    assert -180 <= az < 180
+
+
+def test_a_bad_patch_gives_located_errors_and_no_traceback(tmp_path):
+    bad = tmp_path / "bad.pat"
+    bad.write_text("node a metr 100\nnode b print\nnode c tqt k=fast\na -> b.3\n")
+    out = pointat("check", bad)
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr
+    assert f"{bad}:1: error: node 'a': unknown node type 'metr' (did you mean 'metro'?)" in out.stderr
+    assert f"{bad}:3: error: node 'c' (tqt): parameter 'k' expects a number; got 'fast'" in out.stderr
+    out = pointat("run", bad)
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+
+
+def test_missing_patch_file_is_a_clear_error(tmp_path):
+    out = pointat("run", tmp_path / "nope.pat")
+    assert out.returncode == 2 and "cannot read patch" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_nodes_and_help_cover_every_node_type(capsys):
+    assert main(["nodes"]) == 0
+    listing = capsys.readouterr().out
+    for cls in default_registry:
+        assert cls.type_name in listing
+        text = cls.help_text()
+        assert "inlets:" in text and "outlets:" in text and "parameters" in text
+        assert cls.__doc__, f"{cls.type_name} has no help text"
+    assert main(["help", "tqt"]) == 0
+    assert "Gauss-Newton" in capsys.readouterr().out
+    assert main(["help", "tqtt"]) == 2
+    assert "did you mean 'tqt'" in capsys.readouterr().err
+
+
+def test_help_examples_are_valid_patches():
+    from pointat.loader import check
+    from pointat.patchfile import parse_patch
+
+    for cls in default_registry:
+        if cls.example:
+            check(parse_patch(cls.example, f"<example of {cls.type_name}>"), default_registry)
+
+
+def test_graph_writes_dot(tmp_path):
+    out = pointat("graph", "patches/pointing_at.pat", "-o", tmp_path / "g.dot")
+    assert out.returncode == 0
+    dot = (tmp_path / "g.dot").read_text()
+    assert dot.startswith('digraph "pointing_at"') and '"glove" -> "base"' in dot
+
+
+def test_set_overrides_and_reports_unknown_nodes():
+    out = pointat("check", "patches/glove_tqt.pat", "--set", "fuse.k=0.5", "--set", "nope.k=1")
+    assert out.returncode == 2 and "--set nope.k: no node named 'nope'" in out.stderr
