@@ -194,7 +194,7 @@ class Calibrate(Node):
         self._start("turn")
 
     def do_mag_end(self) -> None:
-        samples = self._take("mag")
+        samples = self._take("mag")[:, 6:9]
         if len(samples) < 10:
             raise ValueError(f"mag_end: only {len(samples)} samples since mag_begin; turn the mote longer")
         if self.p.mag_fit == "ellipsoid":
@@ -232,7 +232,7 @@ class Calibrate(Node):
         if self._collect != what:
             raise ValueError(f"{what}_end without {what}_begin")
         self._collect = None
-        return np.array(self._buf)
+        return np.array(self._buf).reshape(-1, 9)
 
     def on_adc(self, msg: Message) -> None:
         if self._collect is None:

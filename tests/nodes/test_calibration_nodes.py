@@ -1,0 +1,130 @@
+"""offset, scaling and calibrate: known nulls and scales recovered, and the file used by the chain."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pointat.maths.calibration import Calibration
+from pointat.message import method, vector
+from pointat.testing import patch
+
+
+def test_offset_nulls_gyros_from_rest_and_keeps_gravity():
+    rt = patch(
+        "node nulls offset samples=10\nnode out collect\nnode status collect\nnulls -> out\nnulls.status -> status\n"
+    )
+    nulls = rt.nodes["nulls"]
+    rest = [2050.0, 2040.0, 2049.0, 2048.0, 2048.0, 2559.0, 2448.0, 2048.0, 1606.0]
+    for k in range(10):
+        nulls.receive(0, vector(rest, k * 0.01))
+    assert rt.nodes["out"].messages == []  # nothing while averaging
+    assert rt.nodes["status"].values[-1][0] == "ready"
+    nulls.receive(0, vector(rest, 0.1))
+    got = rt.nodes["out"].values[0]
+    assert got[:3].tolist() == [0.0, 0.0, 0.0]  # gyro bias removed
+    assert got[5] == 511.0 and got[8] == -442.0  # gravity and the field stay (mid-scale nulls)
+    nulls.receive(0, method("recalibrate"))
+    nulls.receive(0, vector(rest, 0.2))
+    assert len(rt.nodes["out"].messages) == 1
+
+
+def test_scaling_converts_to_si_right_to_left():
+    rt = patch("""
+node units scaling gyro=0.1 accel=0.02 mag=0.001
+node log collect
+units.gyro -> log
+units.accel -> log
+units.mag -> log
+""")
+    rt.nodes["units"].receive(0, vector([10, 0, -10, 0, 0, 490, 400, 0, -900]))
+    g, a, m = rt.nodes["log"].values[2], rt.nodes["log"].values[1], rt.nodes["log"].values[0]
+    assert [x.kind for x in rt.nodes["log"].messages] == ["vector"] * 3
+    assert g.tolist() == pytest.approx([math.radians(1.0), 0.0, -math.radians(1.0)])
+    assert a.tolist() == pytest.approx([0.0, 0.0, 9.8])
+    assert m.tolist() == pytest.approx([0.4, 0.0, -0.9])
+
+
+def test_calibrate_recovers_known_nulls_and_scales_and_the_chain_uses_the_file(tmp_path):
+    rng = np.random.default_rng(7)
+    acc_null, acc_scale = np.array([2040.0, 2060.0, 2050.0]), np.array([52.0, 49.0, 51.0])  # counts per m/s²
+    gyro_null = np.array([2051.0, 2046.0, 2049.5])
+    mag_null, mag_scale = np.array([2030.0, 2070.0, 2000.0]), np.array([1000.0, 1100.0, 950.0])  # per gauss
+    g = 9.80665
+    path = tmp_path / "glove1.json"
+    rt = patch(f"node cal calibrate file={path} samples=50\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    t = [0.0]
+
+    def feed(gyro_rate, acc, mag, n):
+        for _ in range(n):
+            counts = np.concatenate(
+                [gyro_null + gyro_rate, acc_null + acc_scale * acc, mag_null + mag_scale * mag]
+            )
+            cal.receive(0, vector(counts + rng.normal(0, 0.2, 9), t[0]))
+            t[0] += 0.01
+
+    cal.receive(0, method("rest"))
+    feed(0.0, np.array([0, 0, g]), np.array([0.2, 0, -0.4]), 50)
+    for axis in range(3):
+        for sign in (1, -1):
+            cal.receive(0, method("pose"))
+            up = np.zeros(3)
+            up[axis] = sign * g
+            feed(0.0, up, np.array([0.2, 0, -0.4]), 50)
+    cal.receive(0, method("mag_begin"))
+    for d in rng.normal(size=(400, 3)):
+        feed(0.0, np.array([0, 0, g]), 0.45 * d / np.linalg.norm(d), 1)
+    cal.receive(0, method("mag_end"))
+    cal.receive(0, method("save"))
+    saved = Calibration.load(path)
+    assert saved.gyro_null == pytest.approx(gyro_null, abs=0.1)
+    assert saved.acc_null == pytest.approx(acc_null, abs=0.2)
+    assert saved.acc_scale == pytest.approx(acc_scale, rel=2e-3)
+    assert saved.mag_null == pytest.approx(mag_null, abs=15)
+    assert rt.nodes["st"].values[-1] == ("saved", str(path))
+    # offset and scaling read the file: a level, still sensor reads (0, 0, g)
+    rt2 = patch(f"""
+node nulls offset samples=0 calibration={path}
+node units scaling calibration={path}
+node acc collect
+nulls -> units
+units.accel -> acc
+""")
+    counts = np.concatenate([gyro_null, acc_null + acc_scale * np.array([0, 0, g]), mag_null])
+    rt2.nodes["nulls"].receive(0, vector(counts, 0.0))
+    assert rt2.nodes["acc"].values[0] == pytest.approx([0, 0, g], abs=0.01)
+
+
+def test_a_bad_calibration_file_is_a_load_error_naming_it(tmp_path):
+    from pointat.errors import PatchError
+
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"format": "pointat-calibration", "version": 1, "acc": {"null": [1, 2]}}')
+    with pytest.raises(PatchError) as info:
+        patch(f"node nulls offset calibration={bad}\n")
+    assert "bad.json" in str(info.value) and "nulls" in str(info.value)
+
+
+def test_reference_makes_the_captured_heading_azimuth_zero():
+    from pointat.maths.quaternion import euler_to_quat
+
+    rt = patch("""
+node ref reference
+node dir azi_ele
+node az collect
+node el collect
+ref -> dir
+dir.azimuth -> az
+dir.elevation -> el
+""")
+    ref = rt.nodes["ref"]
+    pointing = euler_to_quat(40.0, -10.0, 0.0, degrees=True)  # 40 left, 10 up
+    ref.receive(0, vector(pointing))
+    assert rt.nodes["az"].values[-1] == pytest.approx(40.0)
+    ref.receive(0, method("set"))
+    ref.receive(0, vector(pointing))
+    assert rt.nodes["az"].values[-1] == pytest.approx(0.0, abs=1e-9)
+    assert rt.nodes["el"].values[-1] == pytest.approx(10.0)  # heading mode keeps the true elevation
+    ref.receive(0, vector(euler_to_quat(70.0, 0.0, 0.0, degrees=True)))
+    assert rt.nodes["az"].values[-1] == pytest.approx(30.0)
