@@ -1,26 +1,21 @@
 # Pointing-at (Torre et al., NIME 2008): the paper's chain end to end.
 #
-#   mote -> offset -> scaling -> gyro_integrator ---\
+#   mote -> offset -> scaling -> gyro_integrator --\
 #                            \-> accmag_matrix -----> complementary -> matrix2quat -> quat2axis
-#                                                                                 \-> azi_ele -> osc_out
-#                                                                                 \-> roll_distance
+#                                                                                \-> azi_ele -> osc_out
+#                                                                                \-> roll_distance
 #
-# The source is the built-in simulated glove, writing real mote frames into a pseudo-terminal that the
-# mote node reads.  For a real base station: pointat run patches/pointing_at.pat \
-#     --set glove.output=direct --set base.device=/dev/ttyUSB0
+# The fusion half (gyro_integrator ... roll_distance) is the abstraction lib/torre_fusion.pat, shared
+# with replay_pointing_at.pat.  The source is the built-in simulated glove writing real mote frames into
+# a pseudo-terminal that the mote node reads.  For a real base station:
+#     pointat run patches/pointing_at.pat --set glove.output=direct --set base.device=/dev/ttyUSB0
 # Directions go to 127.0.0.1:9000 as /pointat/1/aed azimuth elevation distance.
 
 node glove  simulate rate=100 output=pty
 node base   mote ids=[1] rate=100
 node nulls  offset samples=150
 node units  scaling
-node gyro   gyro_integrator mode=torre
-node accmag accmag_matrix
-node fuse   complementary crossover=0.2
-node quat   matrix2quat
-node axis   quat2axis
-node dir    azi_ele
-node roll   roll_distance
+node torre  lib/torre_fusion.pat rate=100 crossover=0.2 integrator=torre
 node out    osc_out profile=pointat host=127.0.0.1 port=9000
 node both   pack 0 0 0
 node slow   speedlim 500
@@ -28,19 +23,13 @@ node show   print prefix="azimuth elevation distance"
 
 glove.device -> base
 base.m1 -> nulls -> units
-units.mag -> accmag.mag
-units.accel -> accmag.accel
-units.gyro -> gyro
-accmag -> fuse.accmag
-gyro -> fuse.gyro_orientation
-fuse -> quat
-quat -> axis
-quat -> roll
-quat -> dir
-roll.distance -> out.distance
-roll.distance -> both.2
-dir.elevation -> out.elevation
-dir.elevation -> both.1
-dir.azimuth -> out.azimuth
-dir.azimuth -> both.0
+units.mag -> torre.mag
+units.accel -> torre.accel
+units.gyro -> torre.gyro
+torre.distance -> out.distance
+torre.distance -> both.2
+torre.elevation -> out.elevation
+torre.elevation -> both.1
+torre.azimuth -> out.azimuth
+torre.azimuth -> both.0
 both -> slow -> show

@@ -1,0 +1,32 @@
+# The fusion half of Torre et al.'s chain (NIME 2008 §3-5), as an abstraction:
+# gyro, accel, mag (rad/s, m/s², any field unit) -> orientation, azimuth, elevation, distance.
+#
+#   gyro -------> gyro_integrator --\
+#   accel, mag -> accmag_matrix -----> complementary -> matrix2quat -> quat2axis
+#                                                                 \-> azi_ele, roll_distance
+# Send mag and accel before gyro (the hot inlet), as scaling and replay do.
+
+args rate=100 crossover=0.2 integrator=torre
+inlet  gyro -> gyro.gyro
+inlet  accel -> accmag.accel
+inlet  mag -> accmag.mag
+outlet quat <- quat.quat
+outlet axis <- axis.axis
+outlet azimuth <- dir.azimuth
+outlet elevation <- dir.elevation
+outlet distance <- roll.distance
+
+node gyro   gyro_integrator mode=$integrator rate=$rate
+node accmag accmag_matrix
+node fuse   complementary crossover=$crossover rate=$rate
+node quat   matrix2quat
+node axis   quat2axis
+node dir    azi_ele
+node roll   roll_distance
+
+accmag -> fuse.accmag
+gyro -> fuse.gyro_orientation
+fuse -> quat
+quat -> axis
+quat -> roll
+quat -> dir
