@@ -15,23 +15,18 @@ import math
 
 import numpy as np
 
-from pointat.maths.fusion import GyroIntegrator, RollDistance, accmag_matrix
+from pointat.maths import scalar as sq
+from pointat.maths.fusion import GyroIntegrator, RollDistance
 from pointat.maths.quaternion import (
     azimuth_elevation,
     enu_to_nwu,
-    matrix_to_quat,
     ned_to_nwu,
     nwu_to_enu,
     nwu_to_ned,
     pointing_direction,
-    quat_conjugate,
-    quat_multiply,
-    quat_normalize,
     quat_positive,
-    quat_slerp,
     quat_to_axis_angle,
     quat_to_euler,
-    quat_to_matrix,
 )
 from pointat.maths.tqt import TQTFilter, TQTFlags
 from pointat.message import Message, as_vector, vector
@@ -41,16 +36,17 @@ from pointat.registry import register
 ORIENTATION = ("vector", "list")
 
 
-def _as_quat(msg: Message) -> np.ndarray:
-    """A quaternion from a quaternion or a rotation-matrix message (normalised; NaN is an error)."""
+def _as_quat(msg: Message) -> sq.Quat:
+    """A unit quaternion (floats) from a quaternion or a rotation-matrix message; NaN is an error."""
     a = as_vector(msg, 4, 9)
-    if not np.all(np.isfinite(a)):
+    values = a.ravel().tolist()
+    if not all(math.isfinite(v) for v in values):
         raise ValueError("orientation has NaN or infinite values")
-    q = matrix_to_quat(a.reshape(3, 3)) if a.size == 9 else a
-    n = float(np.linalg.norm(q))
-    if n < 1e-9:
-        raise ValueError("zero quaternion")
-    return q / n
+    return sq.matrix_quat(values) if len(values) == 9 else sq.normalize(values)
+
+
+def _matrix(q: sq.Quat, time: float) -> Message:
+    return vector(np.reshape(sq.quat_matrix(q), (3, 3)), time)
 
 
 def _finite3(msg: Message | None) -> np.ndarray | None:
@@ -142,7 +138,7 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
         self.out(0, vector(self.integrator.R, msg.time))
 
     def on_orientation(self, msg: Message) -> None:
-        self.integrator.reset(quat_to_matrix(_as_quat(msg)))
+        self.integrator.reset(np.reshape(sq.quat_matrix(_as_quat(msg)), (3, 3)))
 
     def do_reset(self) -> None:
         self.integrator.reset()
@@ -165,13 +161,17 @@ class AccMagMatrix(Flagged, Node):
     outlets = (Outlet("orientation", "vector", "3x3 rotation matrix, sensor -> earth (NWU)"), FLAGS)
 
     def on_accel(self, msg: Message) -> None:
-        acc, mag = _finite3(msg), _finite3(self.cold.get("mag"))
-        C = accmag_matrix(acc, mag) if acc is not None and mag is not None else None
+        mag = self.cold.get("mag")
+        C = (
+            sq.accmag_matrix(as_vector(msg, 3).tolist(), as_vector(mag, 3).tolist())
+            if mag is not None
+            else None
+        )
         if C is None:
             self.report("bad_accmag")
             return
         self.report("ok")
-        self.out(0, vector(C, msg.time))
+        self.out(0, vector(np.reshape(C, (3, 3)), msg.time))
 
 
 @register("complementary")
@@ -204,8 +204,8 @@ am -> fuse.accmag
 """
 
     def setup(self) -> None:
-        self.q: np.ndarray | None = None
-        self._prev_gyro: np.ndarray | None = None
+        self.q: sq.Quat | None = None
+        self._prev_gyro: sq.Quat | None = None
         self.reset_clock()
 
     def on_gyro_orientation(self, msg: Message) -> None:
@@ -220,18 +220,16 @@ am -> fuse.accmag
                 return
             self.q = am
         elif self._prev_gyro is not None:
-            delta = quat_multiply(quat_conjugate(self._prev_gyro), g)  # body-frame increment
-            self.q = quat_normalize(quat_multiply(self.q, delta))
+            delta = sq.multiply(sq.conjugate(self._prev_gyro), g)  # body-frame increment
+            self.q = sq.normalize(sq.multiply(self.q, delta))
         self._prev_gyro = g
         if am is not None:
-            if float(np.dot(am, self.q)) < 0.0:
-                am = -am
             tau = 1.0 / (2.0 * math.pi * self.p.crossover)
-            self.q = quat_normalize(quat_slerp(self.q, am, dt / (tau + dt)))
+            self.q = sq.normalize(sq.slerp(self.q, am, dt / (tau + dt)))  # slerp takes the shorter arc
             self.report("ok")
         else:
             self.report("gyro_only")
-        self.out(0, vector(quat_to_matrix(self.q), msg.time))
+        self.out(0, _matrix(self.q, msg.time))
 
     def do_reset(self) -> None:
         self.setup()
@@ -355,7 +353,7 @@ class Reference(Node):
     )
 
     def setup(self) -> None:
-        self.offset = np.array([1.0, 0.0, 0.0, 0.0])
+        self.offset: sq.Quat = (1.0, 0.0, 0.0, 0.0)
         self._capture = self.p.capture_first
 
     def on_capture(self, msg: Message) -> None:
@@ -365,7 +363,7 @@ class Reference(Node):
         self._capture = True
 
     def do_clear(self) -> None:
-        self.offset = np.array([1.0, 0.0, 0.0, 0.0])
+        self.offset = (1.0, 0.0, 0.0, 0.0)
 
     def on_quat(self, msg: Message) -> None:
         q = _as_quat(msg)
@@ -373,11 +371,11 @@ class Reference(Node):
             self._capture = False
             if self.p.mode == "heading":
                 yaw = float(quat_to_euler(q)[0])
-                self.offset = np.array([math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2)])
+                self.offset = (math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2))
             else:
-                self.offset = quat_conjugate(q)
+                self.offset = sq.conjugate(q)
         # the reference earth frame is the earth frame turned by the reference: q_rel = offset ⊗ q
-        self.out(0, vector(quat_normalize(quat_multiply(self.offset, q)), msg.time))
+        self.out(0, vector(sq.normalize(sq.multiply(self.offset, q)), msg.time))
 
 
 @register("matrix2quat")
@@ -388,7 +386,8 @@ class Matrix2Quat(Node):
     outlets = (Outlet("quat", "vector", "quaternion (w, x, y, z)"),)
 
     def on_matrix(self, msg: Message) -> None:
-        self.out(0, vector(matrix_to_quat(as_vector(msg, 9).reshape(3, 3)), msg.time))
+        if as_vector(msg, 9) is not None:  # a matrix only: a quaternion here is a wiring mistake
+            self.out(0, vector(_as_quat(msg), msg.time))
 
 
 @register("quat2matrix")
@@ -399,7 +398,7 @@ class Quat2Matrix(Node):
     outlets = (Outlet("matrix", "vector", "3x3 rotation matrix"),)
 
     def on_quat(self, msg: Message) -> None:
-        self.out(0, vector(quat_to_matrix(_as_quat(msg)), msg.time))
+        self.out(0, _matrix(_as_quat(msg), msg.time))
 
 
 @register("quat2axis")

@@ -1,0 +1,50 @@
+"""The float fast path agrees with the numpy reference functions."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pointat.maths import quaternion as Q
+from pointat.maths import scalar as S
+from pointat.maths.fusion import accmag_matrix
+
+rng = np.random.default_rng(11)
+QUATS = Q.quat_normalize(rng.normal(size=(500, 4)))
+
+
+def test_multiply_rotate_and_matrices_match_numpy():
+    for p, q in zip(QUATS[:-1], QUATS[1:], strict=True):
+        assert S.multiply(p, q) == pytest.approx(Q.quat_multiply(p, q).tolist(), abs=1e-14)
+        v = rng.normal(size=3)
+        assert S.rotate(p, *v) == pytest.approx(Q.quat_rotate(p, v).tolist(), abs=1e-13)
+        assert S.quat_matrix(p) == pytest.approx(Q.quat_to_matrix(p).ravel().tolist(), abs=1e-14)
+        assert S.matrix_quat(S.quat_matrix(p)) == pytest.approx(Q.quat_positive(p).tolist(), abs=1e-12)
+
+
+def test_matrix_quat_is_robust_at_half_turns():
+    for axis in np.eye(3):
+        R = Q.quat_to_matrix(Q.quat_from_axis_angle(axis, math.pi))
+        assert S.matrix_quat(R.ravel().tolist()) == pytest.approx(Q.matrix_to_quat(R).tolist(), abs=1e-12)
+
+
+def test_slerp_matches_numpy_including_nearly_equal_and_opposite_signs():
+    for p, q in zip(QUATS[:-1], QUATS[1:], strict=True):
+        for t in (0.0, 0.3, 1.0):
+            ref = Q.quat_slerp(p, q, t)
+            got = np.array(S.slerp(p, -q, t))
+            assert min(np.abs(got - ref).max(), np.abs(got + ref).max()) < 1e-12
+    p = QUATS[0]
+    near = Q.quat_normalize(p + 1e-9)
+    assert S.slerp(p, near, 0.5) == pytest.approx(Q.quat_slerp(p, near, 0.5).tolist(), abs=1e-12)
+
+
+def test_accmag_matches_triad_and_refuses_bad_vectors():
+    for _ in range(200):
+        acc, mag = rng.normal(size=3), rng.normal(size=3)
+        assert S.accmag_matrix(acc, mag) == pytest.approx(accmag_matrix(acc, mag).ravel().tolist(), abs=1e-12)
+    assert S.accmag_matrix((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)) is None
+    assert S.accmag_matrix((0.0, 0.0, 1.0), (0.0, 0.0, 2.0)) is None
+    assert S.accmag_matrix((math.nan, 0.0, 1.0), (1.0, 0.0, 0.0)) is None
+    with pytest.raises(ValueError):
+        S.normalize((0.0, 0.0, 0.0, 0.0))
