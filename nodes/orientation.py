@@ -18,15 +18,11 @@ import numpy as np
 from pointat.maths import scalar as sq
 from pointat.maths.fusion import GyroIntegrator, RollDistance
 from pointat.maths.quaternion import (
-    azimuth_elevation,
     enu_to_nwu,
     ned_to_nwu,
     nwu_to_enu,
     nwu_to_ned,
-    pointing_direction,
     quat_positive,
-    quat_to_axis_angle,
-    quat_to_euler,
 )
 from pointat.maths.tqt import TQTFilter, TQTFlags
 from pointat.message import Message, as_vector, vector
@@ -370,7 +366,7 @@ class Reference(Node):
         if self._capture:
             self._capture = False
             if self.p.mode == "heading":
-                yaw = float(quat_to_euler(q)[0])
+                yaw = sq.euler(q)[0]
                 self.offset = (math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2))
             else:
                 self.offset = sq.conjugate(q)
@@ -410,9 +406,8 @@ class Quat2Axis(Node):
     params = (Param("degrees", "bool", True, "angle in degrees (false: radians)"),)
 
     def on_quat(self, msg: Message) -> None:
-        angle, axis = quat_to_axis_angle(_as_quat(msg))
-        a = math.degrees(float(angle)) if self.p.degrees else float(angle)
-        self.out(0, vector([a, *np.asarray(axis, dtype=float).tolist()], msg.time))
+        angle, x, y, z = sq.axis_angle(_as_quat(msg))
+        self.out(0, vector([math.degrees(angle) if self.p.degrees else angle, x, y, z], msg.time))
 
 
 @register("quat2euler")
@@ -431,8 +426,7 @@ class Quat2Euler(Node):
     )
 
     def on_quat(self, msg: Message) -> None:
-        yaw, pitch, roll = quat_to_euler(_as_quat(msg), degrees=True)
-        self.emit(float(yaw), float(pitch), float(roll))
+        self.emit(*(math.degrees(a) for a in sq.euler(_as_quat(msg))))
 
 
 @register("azi_ele")
@@ -454,10 +448,8 @@ class AziEle(Node):
         self._az: float | None = None
 
     def on_quat(self, msg: Message) -> None:
-        d = pointing_direction(_as_quat(msg), self.p.axis)
-        az, el = azimuth_elevation(d, previous_azimuth=self._az, pole_deg=self.p.pole)
-        self._az = float(az)
-        self.emit(self._az, float(el))
+        self._az, el = sq.azimuth_elevation(_as_quat(msg), self.p.axis, self._az, self.p.pole)
+        self.emit(self._az, el)
 
 
 @register("roll_distance")
@@ -491,10 +483,8 @@ class RollDistanceNode(Node):
 
     def on_quat(self, msg: Message) -> None:
         q = _as_quat(msg)
-        az, _el = azimuth_elevation(pointing_direction(q), previous_azimuth=self._az)
-        self._az = float(az)
-        roll = float(quat_to_euler(q, degrees=True)[2])
-        mode, az_out, dist = self.state.update(self._az, roll)
+        self._az, _el = sq.azimuth_elevation(q, previous=self._az)
+        mode, az_out, dist = self.state.update(self._az, math.degrees(sq.euler(q)[2]))
         if mode != self._mode:
             self._mode = mode
             self.out(2, mode)

@@ -18,6 +18,9 @@ from collections.abc import Sequence
 __all__ = [
     "Quat",
     "accmag_quat",
+    "axis_angle",
+    "azimuth_elevation",
+    "euler",
     "axis_angle_quat",
     "conjugate",
     "matrix_quat",
@@ -143,3 +146,54 @@ def accmag_quat(acc: Sequence[float], mag: Sequence[float]) -> Quat | None:
     """:func:`accmag_matrix` as a quaternion (w >= 0), or ``None``."""
     m = accmag_matrix(acc, mag)
     return None if m is None else matrix_quat(m)
+
+
+def euler(q: Sequence[float]) -> tuple[float, float, float]:
+    """(yaw, pitch, roll) in radians, intrinsic Z-Y'-X'', as :func:`pointat.maths.quaternion.quat_to_euler`.
+
+    At pitch +-90 degrees all of the heading goes into yaw and roll is 0.
+    """
+    w, x, y, z = q
+    s = 2.0 * (w * y - z * x)
+    if s >= 1.0 - 1e-12 or s <= -1.0 + 1e-12:
+        sign = 1.0 if s > 0 else -1.0
+        return _wrap_pi(-2.0 * sign * math.atan2(x, w)), sign * math.pi / 2, 0.0
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    return yaw, math.asin(s), roll
+
+
+def _wrap_pi(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def azimuth_elevation(
+    q: Sequence[float],
+    axis: Sequence[float] = (1.0, 0.0, 0.0),
+    previous: float | None = None,
+    pole_deg: float = 0.1,
+) -> tuple[float, float]:
+    """Azimuth and elevation (degrees, + left, + up) of the sensor ``axis`` rotated by ``q``, as
+    :func:`pointat.maths.quaternion.azimuth_elevation` of :func:`~pointat.maths.quaternion.pointing_direction`:
+    within ``pole_deg`` of straight up or down the azimuth holds ``previous`` (or 0)."""
+    dx, dy, dz = rotate(q, *axis)
+    horizontal = math.hypot(dx, dy)
+    norm = math.sqrt(horizontal * horizontal + dz * dz)
+    elevation = math.degrees(math.atan2(dz, horizontal))
+    if horizontal <= norm * math.sin(math.radians(pole_deg)):
+        az = 0.0 if previous is None else previous
+    else:
+        az = math.degrees(math.atan2(dy, dx))
+    az = (az + 180.0) % 360.0 - 180.0
+    return (az if az < 180.0 else az - 360.0), elevation
+
+
+def axis_angle(q: Sequence[float]) -> tuple[float, float, float, float]:
+    """(angle in [0, pi], axis x, y, z) of a unit quaternion; axis (1, 0, 0) for no rotation."""
+    w, x, y, z = q
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
+    if s < 1e-15:
+        return 0.0, 1.0, 0.0, 0.0
+    return 2.0 * math.atan2(s, w), x / s, y / s, z / s

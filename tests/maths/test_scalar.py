@@ -48,3 +48,18 @@ def test_accmag_matches_triad_and_refuses_bad_vectors():
     assert S.accmag_matrix((math.nan, 0.0, 1.0), (1.0, 0.0, 0.0)) is None
     with pytest.raises(ValueError):
         S.normalize((0.0, 0.0, 0.0, 0.0))
+
+
+def test_euler_azimuth_and_axis_angle_match_numpy():
+    for q in QUATS:
+        assert S.euler(q) == pytest.approx([float(a) for a in Q.quat_to_euler(q)], abs=1e-9)
+        az, el = S.azimuth_elevation(q, previous=12.0)
+        ref = Q.azimuth_elevation(Q.pointing_direction(q), previous_azimuth=12.0)
+        assert (az, el) == pytest.approx([float(r) for r in ref], abs=1e-9)
+        angle, axis = Q.quat_to_axis_angle(q)
+        assert S.axis_angle(q) == pytest.approx([float(angle), *axis.tolist()], abs=1e-9)
+    up = Q.euler_to_quat(0.3, -math.pi / 2, 0.0)  # pointing straight up: the azimuth holds
+    assert S.azimuth_elevation(up, previous=33.0) == pytest.approx((33.0, 90.0))
+    for pitch in (math.pi / 2, -math.pi / 2):
+        q = Q.euler_to_quat(0.7, pitch, 0.0)
+        assert S.euler(q) == pytest.approx([float(a) for a in Q.quat_to_euler(q)], abs=1e-6)
