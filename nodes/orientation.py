@@ -261,14 +261,14 @@ class TQT(SampleClock, Flagged, Node):
             "k",
             "float",
             0.0,
-            "gravity-correction gain (0: the mode's default: robust 2, paper 0.1)",
+            "gravity-correction gain (0: the mode's default: robust 1, paper 0.1)",
             unit="1/s",
             live=True,
         ),
         Param("rho", "float", 0.5, "magnetometer weight (paper mode)", live=True),
         Param("iterations", "int", 1, "Gauss-Newton cycles per sample (paper mode)"),
         Param("use_gyro", "bool", True, "false: accel/mag-only tracking"),
-        Param("k_heading", "float", 0.03, "heading-correction gain (robust mode)", unit="1/s", live=True),
+        Param("k_heading", "float", 0.05, "heading-correction gain (robust mode)", unit="1/s", live=True),
         Param("dip", "float", float("nan"), "magnetic dip; NaN: learned from the first sample", unit="deg"),
         RATE,
     )
@@ -296,10 +296,8 @@ cal.mag -> fuse.mag
         self.reset_clock()
 
     def param_changed(self, name: str) -> None:
-        if name == "k" and self.p.k > 0:
-            self.filter.k = self.p.k
-        elif name in ("rho", "k_heading"):
-            setattr(self.filter, name, getattr(self.p, name))
+        if name != "k" or self.p.k > 0:
+            self.filter.retune(**{name: getattr(self.p, name)})
 
     def on_gyro(self, msg: Message) -> None:
         gyro = as_vector(msg, 3)

@@ -164,3 +164,16 @@ fuse.flags -> flags
     assert all(np.all(np.isfinite(q)) for q in rt.nodes["out"].values)
     assert rt.nodes["flags"].values[0].startswith("gyro_invalid")
     assert rt.nodes["flags"].values[-1] == "ok"
+
+
+def test_tqt_gains_are_live():
+    from pointat.message import method
+
+    rt = patch("node fuse tqt\n")
+    f = rt.nodes["fuse"]
+    rt.start()
+    f.receive(0, method("k_heading", 0.2))
+    f.receive(0, method("k", 3.0))
+    assert (f.filter.k_heading, f.filter.k) == (0.2, 3.0)
+    with pytest.raises(ValueError, match="cannot change while running"):
+        f.receive(0, method("mode", "paper"))
