@@ -122,7 +122,7 @@ class Delay(Node):
         self.do_stop()
 
 
-_TRIGGER_TYPES = {"b": "bang", "f": "float", "s": "symbol", "l": "list", "a": "anything", "v": "vector"}
+_TRIGGER_TYPES = {"b": "bang", "f": "float", "s": "symbol", "l": "list", "a": "any", "v": "vector"}
 
 
 def _convert(kind: str, msg: Message) -> Message:
