@@ -31,7 +31,7 @@ from pointat.maths.smoothing import (
     Schmitt,
 )
 from pointat.message import Message, as_float, as_vector, make, vector
-from pointat.node import REQUIRED, SKIP, Inlet, Node, Outlet, Param, ParamError
+from pointat.node import REQUIRED, SKIP, Inlet, Node, Outlet, Param
 from pointat.registry import register
 
 NUMBERS = ("float", "int", "list", "vector")
@@ -65,48 +65,6 @@ def _like(msg: Message, a: float | np.ndarray) -> Message:
     return vector(a, msg.time)
 
 
-class _Checked(Node):
-    """Parameters validated together, at load and on every live change.
-
-    ``validate(values)`` raises ``ValueError`` for a combination that cannot work.  It runs from
-    :meth:`layout`, so the loader reports it with the patch line (``pointat check`` too), and before any
-    live change takes effect, so a bad change is refused and the old value stays.
-    """
-
-    @classmethod
-    def validate(cls, values: Mapping[str, Any]) -> None:
-        """Raise ``ValueError`` if these parameter values cannot work together."""
-
-    @classmethod
-    def layout(cls, values: Mapping[str, Any]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
-        cls.validate(values)
-        return super().layout(values)
-
-    def set_param(self, name: str, value: Any) -> None:
-        p = type(self).param(name)
-        if p is not None:
-            type(self).validate({**vars(self.p), name: p.coerce(value)})
-        super().set_param(name, value)
-
-    def set_params(self, **values: Any) -> None:
-        """Set several parameters at once, validated as a whole (no half-changed state in between)."""
-        cls = type(self)
-        running = self.rt is not None and self.rt.running
-        new = {}
-        for name, value in values.items():
-            p = cls.param(name)
-            if p is None:
-                raise ParamError(f"node '{self.name}' ({self.type_name}) has no parameter '{name}'")
-            if running and not p.live:
-                raise ParamError(f"parameter '{name}' of node '{self.name}' cannot change while running")
-            new[name] = p.coerce(value)
-        cls.validate({**vars(self.p), **new})
-        for name, value in new.items():
-            setattr(self.p, name, value)
-        for name in new:
-            self.param_changed(name)
-
-
 def _pair(method: str, args: tuple) -> tuple[Any, Any]:
     if len(args) != 2:
         raise TypeError(f"'{method}' takes two numbers, got {len(args)}")
@@ -115,7 +73,7 @@ def _pair(method: str, args: tuple) -> tuple[Any, Any]:
 
 # ----------------------------------------------------------------------------------------- map
 @register("map")
-class Map(_Checked):
+class Map(Node):
     r"""Scale a range onto another, through a curve: the mapping every gesture tool starts with.
 
     u = (x - in_lo) / (in_hi - in_lo), clipped to 0..1 when ``clip``, turned into 1 - u when ``invert``,
@@ -206,7 +164,7 @@ SMOOTH_MODES = ("exp", "euro", "slerp")
 
 
 @register("smooth")
-class Smooth(_Checked):
+class Smooth(Node):
     """Smooth a stream of numbers, vectors or quaternions, at any sample rate.
 
     The time between samples comes from the messages' time stamps (sensor time), so the same settings
@@ -329,7 +287,7 @@ dir.azimuth -> calm -> show
 
 # ----------------------------------------------------------------------------------------- threshold
 @register("threshold")
-class Threshold(_Checked):
+class Threshold(Node):
     """A Schmitt trigger: turn a continuous gesture into events that fire a note or a cue.
 
     A bang leaves the left outlet when the input rises to ``high`` and the middle outlet when it falls
@@ -395,7 +353,7 @@ raise.fall -> rearm
 
 # ----------------------------------------------------------------------------------------- deadband
 @register("deadband")
-class DeadbandNode(_Checked):
+class DeadbandNode(Node):
     """Let a value through only when it moved more than ``width`` from the last value let through.
 
     Holds a reading still until the hand really moves, and saves the receiver from a flood of tiny

@@ -256,6 +256,7 @@ def check(
                     )
                 values[key] = p.coerce(value)
             _anchor_paths(cls, values, decl, over.get(decl.name, {}))
+            cls.validate(values)
             ins, outs = cls.layout(values)
         except (ParamError, ValueError) as exc:
             problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}"))

@@ -191,6 +191,14 @@ class Node:
         return tuple(cls.inlets), tuple(cls.outlets)
 
     @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        """Raise ``ValueError`` when these parameter values cannot work together (an empty range...).
+
+        Runs when a patch is checked, so the error carries the patch line, and before every live change,
+        so a bad change is refused and the old values stay.  Override it; the default accepts anything.
+        """
+
+    @classmethod
     def param(cls, name: str) -> Param | None:
         for p in cls.params:
             if p.name == name:
@@ -321,13 +329,25 @@ class Node:
 
     def set_param(self, name: str, value: Any) -> None:
         """Set a parameter, validated against its declaration; only ``live`` ones while running."""
-        p = type(self).param(name)
-        if p is None:
-            raise ParamError(f"node '{self.name}' ({self.type_name}) has no parameter '{name}'")
-        if self.rt is not None and self.rt.running and not p.live:
-            raise ParamError(f"parameter '{name}' of node '{self.name}' cannot change while running")
-        setattr(self.p, name, p.coerce(value))
-        self.param_changed(name)
+        self.set_params(**{name: value})
+
+    def set_params(self, **values: Any) -> None:
+        """Set several parameters at once, validated as a whole (:meth:`validate`): all or none change."""
+        cls = type(self)
+        running = self.rt is not None and self.rt.running
+        new = {}
+        for name, value in values.items():
+            p = cls.param(name)
+            if p is None:
+                raise ParamError(f"node '{self.name}' ({self.type_name}) has no parameter '{name}'")
+            if running and not p.live:
+                raise ParamError(f"parameter '{name}' of node '{self.name}' cannot change while running")
+            new[name] = p.coerce(value)
+        cls.validate({**vars(self.p), **new})
+        for name, value in new.items():
+            setattr(self.p, name, value)
+        for name in new:
+            self.param_changed(name)
 
     def fail(self, index: int, msg: Message, exc: BaseException) -> None:
         """A message could not be handled: log it with the node's name and drop it (rate-limited)."""
