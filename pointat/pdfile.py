@@ -1,0 +1,856 @@
+r"""Pure Data files (``.pd``): read a Pd patch into a :class:`~pointat.spec.PatchSpec`, write one, write stubs.
+
+**Reading** (:func:`read_pd`).  A Pd file is a list of records, each ending at an unescaped ``;`` (a record
+may span lines).  ``\,`` ``\;`` ``\$1`` and ``\ `` are escapes; an unescaped ``,`` inside a record starts
+a trailing message such as Pd's box width ``, f 40``, which is ignored.  A token is a number only when it
+has no escape and reads as one (``-3``, ``0.5``, ``1e+10``); ``+5``, ``inf`` and ``0x10`` are symbols.
+
+* ``#X obj x y CLASS args...`` is a node of type CLASS.  Atoms ``key=value`` (whose ``=`` is not escaped) are
+  pointat's named parameters, the value read by :func:`~pointat.patchfile.parse_value`; the other atoms
+  are positional.
+* ``#X msg x y content...`` is a node of type ``msg``; an escaped ``,`` / ``;`` stays a ``","`` / ``";"``
+  atom, ``\$1`` becomes ``"$1"``.
+* ``#X floatatom``, ``symbolatom``, ``listbox``, ``#X scalar`` and GUI objects (``bng``, ``tgl``, ``hsl``...)
+  become nodes of that type, so that :func:`pointat.loader.check` reports every one of them (all at once)
+  as an unknown node type, with ``file:line (box N)``.
+* ``#X text`` comments and ``[declare]`` boxes make no node, but every box counts in the 0-based indices of
+  ``#X connect src outlet dst inlet``.  ``#X coords``, ``#X declare``, ``#X f``, ``#X array``, ``#A`` (and
+  other data records such as cyclone's ``#C``) are not boxes and are skipped.  Wires keep the order of the connect records: it is Pd's fan-out
+  order.
+* A subpatch, ``#N canvas ...;`` ... ``#X restore x y pd NAME;``, is one box of its parent.  It is
+  flattened: its boxes become nodes named ``NAME/...``; its ``[inlet]`` and ``[outlet]`` objects, ordered
+  by x position as in Pd, wire straight through (a wire into inlet k of the subpatch box reaches whatever
+  the k-th ``[inlet]`` feeds, in that order).  An array (``#X restore x y graph;``) is one box of type
+  ``graph``, which pointat does not know.  ``[inlet]``/``[outlet]`` objects of the top canvas (a Pd
+  abstraction file) lead nowhere.
+
+**Node names.**  A comment ``@name NODENAME`` names the next box of its canvas (pointat writes one just
+above each box).  A box without one is named ``TYPE_INDEX`` (``metro_1``, ``osc_3`` for ``osc~``); a
+subpatch is named by its ``pd NAME``.  Names are reduced to letters, digits and ``_`` (``/`` separates
+subpatch levels) and made unique with a ``_2``, ``_3``... suffix.
+
+**Writing** (:func:`write_pd`).  Box 0 is ``[declare -path pointat-stubs]`` (Pd then finds the stub
+abstractions written by :func:`write_stubs` next to the patch).  Each node is a ``@name`` comment and,
+20 px below it, the node's box.  Columns follow the topological depth of the wires (sources on the
+left), at least 160 px apart and wider for long boxes; within a column, rows 50 px apart are ordered by
+the mean row of each node's inputs.  Pd's own types (metro, delay, trigger, pack, unpack, route, send,
+receive, loadbang, print, msg, change) get positional atoms only, as Pd expects; pointat's other types get
+``key=value`` atoms for every parameter that differs from its default.  Such a value is one symbol atom,
+so a float keeps its full precision (Pd writes number atoms with 6 significant digits: a positional float
+that would lose digits is logged as a warning).  Symbols that would read as a number or as ``key=value``
+are escaped (``\12``, ``a\=b``); Pd keeps that while the patch is open but drops it when it saves.
+
+**Stubs** (:func:`write_stubs`).  One ``TYPE.pd`` abstraction per pointat-only node type, with its inlets
+and outlets (for the default parameters) and its doc line, so Pd's editor draws and connects the boxes.
+
+>>> spec = parse_pd("#N canvas 0 50 450 300 12;\n#X obj 10 10 metro 100;\n#X text 10 40 @name out;\n"
+...                 "#X obj 10 60 print tick;\n#X connect 0 0 2 0;\n", "t.pd")
+>>> [(n.name, n.type, n.args) for n in spec.nodes], [str(w) for w in spec.wires]
+([('metro_0', 'metro', [100]), ('out', 'print', ['tick'])], ['metro_0.0 -> out.0'])
+"""
+
+from __future__ import annotations
+
+import inspect
+import logging
+import math
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import PatchError, Problem, Where
+from .node import REQUIRED, Inlet, Node, Outlet
+from .patchfile import format_value, parse_value
+from .registry import Registry, default_registry
+from .spec import NodeDecl, PatchSpec, Wire
+
+__all__ = ["STUB_FOLDER", "VANILLA", "parse_pd", "read_pd", "write_pd", "write_stubs"]
+
+log = logging.getLogger("pointat.pdfile")
+
+#: Node types that Pd itself knows: written with positional creation arguments only, and given no stub.
+VANILLA = frozenset(
+    "metro delay del trigger t pack unpack route send s receive r loadbang print msg change".split()
+)
+#: The folder (next to an exported patch) that its ``[declare -path]`` names.
+STUB_FOLDER = "pointat-stubs"
+NAME_TAG = "@name"
+
+_INT = re.compile(r"-?\d+\Z")
+_NUMBER = re.compile(r"-?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
+_KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
+_INNER_ESCAPE = re.compile(r"\\([,;$\s\\])")
+_NOT_NAME = re.compile(r"[^A-Za-z0-9_]+")
+_ATOM_BOXES = ("floatatom", "symbolatom", "listbox")
+
+# layout of written patches (px, font size 10)
+_FONT = 10
+_CHAR = 7
+_MARGIN = 20
+_TOP = 40
+_COLUMN = 160
+_ROW = 50
+_NAME_DY = 20
+
+
+# =========================================================================== reading: tokens and records
+@dataclass
+class _Record:
+    """One record: its first line and its messages (split at unescaped commas; the first is the record)."""
+
+    line: int
+    messages: list[list[Any]]
+
+    @property
+    def atoms(self) -> list[Any]:
+        return self.messages[0]
+
+
+class _Escaped(str):
+    """A symbol that had an escape in the file: never a number; ``key=value`` only if its first ``=`` was
+    not escaped (``keyable``)."""
+
+    keyable = True
+
+
+def _atom(text: str, escaped: bool, keyable: bool) -> Any:
+    """A token -> int, float or str.  Escaped tokens are symbols; a lone escaped ``,``/``;`` is that atom."""
+    if escaped:
+        # Pd 0.53 keeps the backslash of an escape inside a symbol and saves it as "\\\,": drop it too
+        sym = _Escaped(_INNER_ESCAPE.sub(r"\1", text))
+        sym.keyable = keyable
+        return sym
+    if _NUMBER.match(text):
+        return int(text) if _INT.match(text) else float(text)
+    return text
+
+
+def _records(text: str, path: str) -> list[_Record]:
+    """Split Pd text into records, with the line on which each starts."""
+    records: list[_Record] = []
+    messages: list[list[Any]] = []
+    atoms: list[Any] = []
+    buf: list[str] = []
+    escaped = False
+    key: bool | None = None  # whether the token's first '=' was unescaped
+    line, start = 1, 0
+    i, n = 0, len(text)
+
+    def flush() -> None:
+        nonlocal escaped, key
+        if buf:
+            atoms.append(_atom("".join(buf), escaped, bool(key)))
+            buf.clear()
+        escaped, key = False, None
+
+    while i < n:
+        c = text[i]
+        if not (buf or atoms or messages) and not c.isspace():
+            start = line
+        if c == "\\" and i + 1 < n:
+            nxt = text[i + 1]
+            buf.append(nxt)
+            escaped = True
+            if nxt == "=" and key is None:
+                key = False
+            if nxt == "\n":
+                line += 1
+            i += 2
+            continue
+        i += 1
+        if c == "\n":
+            line += 1
+        if c.isspace():
+            flush()
+        elif c == ";":
+            flush()
+            messages.append(atoms)
+            records.append(_Record(start, messages))
+            messages, atoms = [], []
+        elif c == ",":
+            flush()
+            messages.append(atoms)
+            atoms = []
+        else:
+            buf.append(c)
+            if c == "=" and key is None:
+                key = True
+    flush()
+    if atoms or messages:
+        raise PatchError(
+            f"record not ended by ';' (starts with {_show(atoms or messages[0])})", Where(path, start)
+        )
+    return records
+
+
+def _plain(atom: Any) -> Any:
+    return str(atom) if isinstance(atom, str) else atom
+
+
+def _show(atoms: Sequence[Any]) -> str:
+    text = " ".join(str(a) for a in atoms[:6])
+    return repr(text + (" ..." if len(atoms) > 6 else ""))
+
+
+# =========================================================================== reading: canvases and boxes
+@dataclass
+class _Box:
+    """A box of a canvas: a node, a subpatch, an ``[inlet]``/``[outlet]``, or nothing (comment, declare)."""
+
+    uid: int
+    index: int
+    line: int
+    role: str  # "node", "sub", "port" (a control [inlet]/[outlet]) or "none"
+    x: float = 0.0
+    type: str = ""
+    args: list[Any] = field(default_factory=list)
+    params: dict[str, Any] = field(default_factory=dict)
+    port: str = ""  # "in" or "out" for [inlet] [outlet] [inlet~] [outlet~]
+    label: str = ""  # explicit name (@name, or the subpatch's name)
+    sub: _Canvas | None = None
+    name: str = ""  # the final, unique node name
+    dead: bool = False  # inside an array's graph: no node
+
+
+@dataclass
+class _Canvas:
+    line: int
+    boxes: list[_Box] = field(default_factory=list)
+    pending: tuple[str, int] | None = None  # a @name waiting for the next box
+    dead: bool = False  # an array's graph: its content makes no nodes and no wires
+
+    def kill(self) -> None:
+        self.dead = True
+        for b in self.boxes:
+            b.dead = True
+            if b.sub is not None:
+                b.sub.kill()
+
+    def ports(self, kind: str) -> list[_Box]:
+        """The canvas' inlets or outlets, ordered by x position (then box order), as Pd orders them."""
+        return sorted((b for b in self.boxes if b.port == kind), key=lambda b: (b.x, b.index))
+
+
+@dataclass
+class _Connect:
+    line: int
+    canvas: _Canvas
+    src: int
+    outlet: int
+    dst: int
+    inlet: int
+
+
+class _Reader:
+    """Turns the records of one Pd file into a flat :class:`PatchSpec`."""
+
+    def __init__(self, path: str):
+        self.path = path
+        self.problems: list[Problem] = []
+        self.stack: list[_Canvas] = []
+        self.root: _Canvas | None = None
+        self.boxes: list[_Box] = []  # every box, in file order
+        self.connects: list[_Connect] = []
+
+    # ------------------------------------------------------------------ records
+    def problem(self, line: int, message: str, box: int | None = None) -> None:
+        self.problems.append(Problem(Where(self.path, line, box), message))
+
+    def read(self, records: list[_Record]) -> PatchSpec:
+        for rec in records:
+            atoms = rec.atoms
+            if not atoms:
+                continue
+            head = atoms[0]
+            try:
+                if head == "#N":
+                    self.n_record(rec)
+                elif head == "#X":
+                    self.x_record(rec)
+                elif not (isinstance(head, str) and re.fullmatch(r"#[A-Za-z]", head)):
+                    raise ValueError(f"expected a record starting with #N, #X, #A..., got {_show(atoms)}")
+            except ValueError as exc:
+                self.problem(rec.line, str(exc))
+        if self.root is None:
+            raise PatchError(f"not a Pd file: no '#N canvas' record in {self.path}", Where(self.path))
+        while len(self.stack) > 1:
+            inner = self.stack.pop()
+            self.problem(inner.line, "subpatch never closed by '#X restore'")
+        self.close(self.root)
+        return self.finish()
+
+    def n_record(self, rec: _Record) -> None:
+        if len(rec.atoms) > 1 and rec.atoms[1] == "canvas":
+            canvas = _Canvas(rec.line)
+            if self.root is None:
+                self.root = canvas
+            self.stack.append(canvas)
+
+    def x_record(self, rec: _Record) -> None:
+        atoms = rec.atoms
+        kind = atoms[1] if len(atoms) > 1 else ""
+        if not self.stack:
+            raise ValueError(f"'#X {kind}' before any '#N canvas'")
+        canvas = self.stack[-1]
+        if kind == "connect":
+            nums = atoms[2:]
+            if len(nums) != 4 or not all(isinstance(a, int) and a >= 0 for a in nums):
+                raise ValueError(
+                    f"expected '#X connect SRC OUTLET DST INLET' (4 whole numbers), got {_show(atoms)}"
+                )
+            self.connects.append(_Connect(rec.line, canvas, *nums))
+        elif kind == "text":
+            self.add(canvas, rec, "none")
+            words = atoms[4:]
+            if words and words[0] == NAME_TAG:
+                if len(words) != 2:
+                    raise ValueError(f"expected '{NAME_TAG} NODENAME', got {_show(words)}")
+                if canvas.pending is not None:
+                    raise ValueError(
+                        f"two '{NAME_TAG}' comments in a row (line {canvas.pending[1]} and this one)"
+                    )
+                canvas.pending = (str(words[1]), rec.line)
+        elif kind == "obj":
+            cls = atoms[4] if len(atoms) > 4 else None
+            if cls is None or cls == "declare":
+                self.add(canvas, rec, "none")
+            elif cls in ("inlet", "outlet"):
+                self.add(canvas, rec, "port").port = "in" if cls == "inlet" else "out"
+            else:
+                box = self.add(canvas, rec, "node", str(cls))
+                self.arguments(box, atoms[5:], rec.line)
+                if cls in ("inlet~", "outlet~"):
+                    box.port = "in" if cls == "inlet~" else "out"
+        elif kind == "msg":
+            self.add(canvas, rec, "node", "msg").args = [_plain(a) for a in atoms[4:]]
+        elif kind in _ATOM_BOXES:
+            self.add(canvas, rec, "node", kind)
+        elif kind == "scalar":  # '#X scalar TEMPLATE x y ...': no x y up front
+            self.add(canvas, _Record(rec.line, [["#X", "scalar", 0, 0]]), "node", "scalar")
+        elif kind == "restore":
+            self.restore(rec)
+        elif kind not in ("coords", "declare", "f", "array", "pop"):
+            log.warning("%s:%d: skipped an unknown record '#X %s'", self.path, rec.line, kind)
+
+    def add(self, canvas: _Canvas, rec: _Record, role: str, type_: str = "") -> _Box:
+        """A new box at the end of ``canvas``; a pending ``@name`` goes to it unless it is a comment."""
+        atoms = rec.atoms
+        if len(atoms) < 4 or not all(isinstance(a, (int, float)) for a in atoms[2:4]):
+            raise ValueError(f"expected '#X {atoms[1]} X Y ...' with a numeric position, got {_show(atoms)}")
+        box = _Box(len(self.boxes), len(canvas.boxes), rec.line, role, float(atoms[2]), type_)
+        canvas.boxes.append(box)
+        self.boxes.append(box)
+        if atoms[1] != "text" and canvas.pending is not None:
+            box.label = canvas.pending[0]
+            canvas.pending = None
+        return box
+
+    def arguments(self, box: _Box, atoms: list[Any], line: int) -> None:
+        for a in atoms:
+            m = _KEY.match(a) if isinstance(a, str) and getattr(a, "keyable", True) else None
+            if m is None:
+                box.args.append(_plain(a))
+                continue
+            key, text = m.groups()
+            if key in box.params:
+                self.problem(line, f"box {box.index} ({box.type}): parameter '{key}' given twice", box.index)
+                continue
+            try:
+                box.params[key] = parse_value(text)
+            except ValueError as exc:
+                self.problem(line, f"box {box.index} ({box.type}): parameter '{key}': {exc}", box.index)
+
+    def restore(self, rec: _Record) -> None:
+        if len(self.stack) < 2:
+            raise ValueError("'#X restore' without a subpatch to close")
+        inner = self.stack.pop()
+        self.close(inner)
+        rest = rec.atoms[4:]
+        if rest[:1] == ["graph"]:
+            self.add(self.stack[-1], rec, "node", "graph")
+            inner.kill()
+            return
+        box = self.add(self.stack[-1], rec, "sub", "pd")
+        box.sub = inner
+        if len(rest) > 1 and not box.label:
+            box.label = "_".join(str(a) for a in rest[1:])
+
+    def close(self, canvas: _Canvas) -> None:
+        if canvas.pending is not None:
+            self.problem(canvas.pending[1], f"'{NAME_TAG} {canvas.pending[0]}' is followed by no box")
+            canvas.pending = None
+
+    # ------------------------------------------------------------------ naming and wiring
+    def name(self, canvas: _Canvas, prefix: str, used: set[str]) -> None:
+        named = [b for b in canvas.boxes if b.role in ("node", "sub")]
+        for b in named:
+            if b.label:
+                b.name = _unique(prefix + _sanitize_name(b.label), used)
+        for b in named:
+            if not b.label:
+                b.name = _unique(f"{prefix}{_sanitize(b.type)}_{b.index}", used)
+        for b in named:
+            if b.sub is not None:
+                self.name(b.sub, b.name + "/", used)
+
+    def endpoint(self, con: _Connect, out: bool) -> tuple[_Box, int] | None:
+        """The box and port a connect record's source (``out``) or destination refers to.
+
+        A subpatch's port is replaced by its ``[inlet]``/``[outlet]`` object (port 0)."""
+        idx, port = (con.src, con.outlet) if out else (con.dst, con.inlet)
+        boxes = con.canvas.boxes
+        what = "source" if out else "destination"
+        if idx >= len(boxes):
+            self.problem(
+                con.line, f"connect {what} box {idx} does not exist (the canvas has {len(boxes)} boxes)"
+            )
+            return None
+        box = boxes[idx]
+        if box.role == "sub":
+            assert box.sub is not None
+            ports = box.sub.ports("out" if out else "in")
+            if port >= len(ports):
+                self.problem(
+                    con.line,
+                    f"subpatch '{box.name}' (box {idx}) has no {'outlet' if out else 'inlet'} {port} "
+                    f"({len(ports)} {'outlets' if out else 'inlets'})",
+                )
+                return None
+            return ports[port], 0
+        if box.role == "none" or (box.role == "port" and box.port == ("out" if out else "in")):
+            kind = "a comment or declare box" if box.role == "none" else f"an [{box.port}let] object"
+            self.problem(con.line, f"connect {what} box {idx} is {kind}: nothing to connect there")
+            return None
+        return box, port
+
+    def finish(self) -> PatchSpec:
+        assert self.root is not None
+        used: set[str] = set()
+        self.name(self.root, "", used)
+        spec = PatchSpec(path=self.path)
+        for b in self.boxes:
+            if b.role == "node" and not b.dead:
+                spec.nodes.append(
+                    NodeDecl(b.name, b.type, b.args, b.params, Where(self.path, b.line, b.index))
+                )
+        # resolve every connect, then splice out [inlet]/[outlet] objects, keeping the order
+        ends: list[tuple[_Connect, tuple[_Box, int], tuple[_Box, int]]] = []
+        through: dict[int, list[tuple[_Box, int]]] = {}
+        for con in self.connects:
+            if con.canvas.dead:
+                continue
+            src, dst = self.endpoint(con, True), self.endpoint(con, False)
+            if src is None or dst is None:
+                continue
+            if src[0].role == "port":
+                through.setdefault(src[0].uid, []).append(dst)
+            else:
+                ends.append((con, src, dst))
+        for con, (sbox, outlet), dst in ends:
+            for dbox, inlet in self.expand(dst, through, con.line, ()):
+                spec.wires.append(Wire(sbox.name, outlet, dbox.name, inlet, Where(self.path, con.line)))
+        if self.problems:
+            raise PatchError(self.problems)
+        return spec
+
+    def expand(
+        self,
+        end: tuple[_Box, int],
+        through: dict[int, list[tuple[_Box, int]]],
+        line: int,
+        seen: tuple[int, ...],
+    ) -> list[tuple[_Box, int]]:
+        box = end[0]
+        if box.role != "port":
+            return [end]
+        if box.uid in seen:
+            self.problem(line, "a loop made only of subpatch inlets and outlets")
+            return []
+        out: list[tuple[_Box, int]] = []
+        for nxt in through.get(box.uid, []):
+            out += self.expand(nxt, through, line, (*seen, box.uid))
+        return out
+
+
+def _sanitize(text: str) -> str:
+    """Letters, digits and ``_`` only, not starting with a digit (``osc~`` -> ``osc``)."""
+    s = _NOT_NAME.sub("_", text).strip("_") or "box"
+    return "_" + s if s[0].isdigit() else s
+
+
+def _sanitize_name(text: str) -> str:
+    return "/".join(_sanitize(part) for part in str(text).split("/"))
+
+
+def _unique(name: str, used: set[str]) -> str:
+    out, k = name, 2
+    while out in used:
+        out, k = f"{name}_{k}", k + 1
+    used.add(out)
+    return out
+
+
+def parse_pd(text: str, path: str = "<pd>") -> PatchSpec:
+    """Parse Pd file text; every syntax problem is raised together as one :class:`PatchError`."""
+    return _Reader(path).read(_records(text, path))
+
+
+def read_pd(path: str | Path) -> PatchSpec:
+    """Read a Pure Data file into a flat :class:`PatchSpec` (subpatches flattened, names kept)."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise PatchError(f"cannot read patch: {exc.strerror or exc}", Where(str(path))) from exc
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:  # old Pd files are often Latin-1
+        text = raw.decode("latin-1")
+    return parse_pd(text, str(path))
+
+
+# =========================================================================== writing
+def _escape(text: str) -> str:
+    r"""A symbol's text as Pd writes it: ``\`` ``,`` ``;`` ``$`` and white space escaped."""
+    return re.sub(r"([\\,;$\s])", r"\\\1", text)
+
+
+def _atom_text(value: Any) -> str:
+    """One Pd atom: numbers as numbers (full precision), ``,``/``;`` as separators, other text escaped."""
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)
+    text = str(value)
+    if text in (",", ";"):
+        return "\\" + text
+    out = _escape(text)
+    if _NUMBER.match(text):  # keep a symbol "12" a symbol
+        return "\\" + out
+    if _KEY.match(text):  # and "a=b" a positional atom, not a named parameter
+        return out.replace("=", "\\=", 1)
+    return out
+
+
+def _value_text(value: Any) -> str:
+    """A parameter value as :func:`~pointat.patchfile.parse_value` reads it; lists without commas."""
+    if isinstance(value, (list, tuple)):
+        return "[" + " ".join(_value_text(v) for v in value) + "]"
+    return format_value(value)
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equal values, NaN equal to NaN (a NaN default is not worth writing)."""
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):  # numpy arrays and the like
+        return False
+
+
+def _default_of(cls: type[Node], name: str) -> Any:
+    p = cls.param(name)
+    if p is None or p.default is REQUIRED:
+        return REQUIRED
+    try:
+        return p.coerce(p.default)
+    except ValueError:
+        return p.default
+
+
+def _positional(cls: type[Node], values: dict[str, Any], node: str) -> list[str]:
+    """Creation atoms for one of Pd's own types: parameters in order, up to the last one that matters."""
+    params = cls.params
+    last = -1
+    for k, p in enumerate(params):
+        first_number = k == 0 and p.type in ("float", "int")  # "metro 100", never a bare "metro"
+        if p.variadic or first_number or not _same(values[p.name], _default_of(cls, p.name)):
+            last = k
+    atoms: list[str] = []
+    for p in params[: last + 1]:
+        v = values[p.name]
+        items = list(v) if isinstance(v, (list, tuple)) else [v]
+        for item in items:
+            if isinstance(item, float) and p.type == "float" and item.is_integer() and abs(item) < 1e15:
+                atoms.append(str(int(item)))
+                continue
+            _warn_precision(node, cls.type_name, item)
+            atoms.append(_atom_text(item))
+    return atoms
+
+
+def _warn_precision(node: str, type_name: str, value: Any) -> None:
+    """Pd writes number atoms with 6 significant digits: say so when that would change ``value``."""
+    if isinstance(value, float) and math.isfinite(value) and float(f"{value:.6g}") != value:
+        log.warning(
+            "node '%s' (%s): Pd keeps 6 significant digits of %r: it becomes %.6g if Pd saves the file",
+            node,
+            type_name,
+            value,
+            value,
+        )
+
+
+def _named(cls: type[Node], values: dict[str, Any]) -> list[str]:
+    """``key=value`` atoms for every parameter of a pointat-only type that differs from its default."""
+    return [
+        f"{p.name}={_escape(_value_text(values[p.name]))}"
+        for p in cls.params
+        if not _same(values[p.name], _default_of(cls, p.name))
+    ]
+
+
+@dataclass
+class _Out:
+    """A node on its way out: its decl, the text of its box, its ports, and its place."""
+
+    decl: NodeDecl
+    kind: str  # "obj" or "msg"
+    atoms: list[str]
+    inlets: Sequence[Inlet] | None
+    outlets: Sequence[Outlet] | None
+    column: int = 0
+    row: int = 0
+
+
+def _port(ports: Sequence[Inlet] | Sequence[Outlet] | None, port: str | int, what: str, w: Wire) -> int:
+    if isinstance(port, int):
+        return port
+    for i, p in enumerate(ports or ()):
+        if p.name == port:
+            return i
+    raise PatchError(f"wire {w}: no {what} named {port!r}", w.where)
+
+
+def _box(decl: NodeDecl, registry: Registry) -> _Out:
+    cls = registry.get(decl.type)
+    if cls is None:  # not a pointat type: write what the patch says
+        atoms = [_atom_text(a) for a in decl.args]
+        atoms += [f"{k}={_escape(_value_text(v))}" for k, v in decl.params.items()]
+        return _Out(decl, "obj", [_escape(decl.type), *atoms], None, None)
+    try:
+        values = cls.resolve_params(decl.args, decl.params)
+        ins, outs = cls.layout(values)
+    except ValueError as exc:
+        raise PatchError(f"node '{decl.name}' ({decl.type}): {exc}", decl.where) from exc
+    if cls.type_name == "msg":
+        for a in values["content"]:
+            _warn_precision(decl.name, "msg", a)
+        return _Out(decl, "msg", [_atom_text(a) for a in values["content"]], ins, outs)
+    if cls.type_name in VANILLA:
+        return _Out(decl, "obj", [decl.type, *_positional(cls, values, decl.name)], ins, outs)
+    default_ins, default_outs = _default_layout(cls)
+    if len(ins) > len(default_ins) or len(outs) > len(default_outs):
+        log.warning(
+            "node '%s' (%s) has %d inlets and %d outlets, its Pd stub (default parameters) %d and %d: "
+            "Pd will not connect the extra ones",
+            decl.name,
+            decl.type,
+            len(ins),
+            len(outs),
+            len(default_ins),
+            len(default_outs),
+        )
+    return _Out(decl, "obj", [decl.type, *_named(cls, values)], ins, outs)
+
+
+def _columns(n: int, edges: list[tuple[int, int]]) -> list[int]:
+    """Topological depth of each node (longest path from a source), loops broken at their back edges."""
+    succ: list[list[int]] = [[] for _ in range(n)]
+    for a, b in edges:
+        if b not in succ[a]:
+            succ[a].append(b)
+    state = [0] * n  # 0 new, 1 on the DFS stack, 2 done
+    back: set[tuple[int, int]] = set()
+    for root in range(n):
+        if state[root]:
+            continue
+        state[root] = 1
+        stack = [(root, iter(succ[root]))]
+        while stack:
+            v, it = stack[-1]
+            for w in it:
+                if state[w] == 0:
+                    state[w] = 1
+                    stack.append((w, iter(succ[w])))
+                    break
+                if state[w] == 1:
+                    back.add((v, w))
+            else:
+                state[v] = 2
+                stack.pop()
+    dag = [[w for w in succ[v] if (v, w) not in back] for v in range(n)]
+    indeg = [0] * n
+    for v in range(n):
+        for w in dag[v]:
+            indeg[w] += 1
+    depth = [0] * n
+    ready = [v for v in range(n) if indeg[v] == 0]
+    while ready:
+        v = ready.pop(0)
+        for w in dag[v]:
+            depth[w] = max(depth[w], depth[v] + 1)
+            indeg[w] -= 1
+            if indeg[w] == 0:
+                ready.append(w)
+    return depth
+
+
+def _bus_edges(outs: list[_Out], registry: Registry) -> list[tuple[int, int]]:
+    """send -> receive pairs of one bus name: not wires, but they place a receive after its send."""
+    kinds = [getattr(registry.get(o.decl.type), "type_name", "") for o in outs]
+    buses: dict[str, list[int]] = {}
+    for k, o in enumerate(outs):
+        if kinds[k] == "receive":
+            buses.setdefault(" ".join(o.atoms[1:]), []).append(k)
+    return [
+        (k, r) for k, o in enumerate(outs) if kinds[k] == "send" for r in buses.get(" ".join(o.atoms[1:]), [])
+    ]
+
+
+def _place(outs: list[_Out], edges: list[tuple[int, int]]) -> None:
+    """Column = topological depth; rows in a column ordered by the mean row of the inputs (then spec order)."""
+    depth = _columns(len(outs), edges)
+    preds: dict[int, list[int]] = {}
+    for a, b in edges:
+        if depth[a] < depth[b]:
+            preds.setdefault(b, []).append(a)
+
+    def key(k: int) -> tuple[float, int]:
+        rows = [outs[p].row for p in preds.get(k, [])]
+        return (sum(rows) / len(rows) if rows else -1.0, k)
+
+    for col in range(max(depth, default=-1) + 1):
+        members = sorted((k for k in range(len(outs)) if depth[k] == col), key=key)
+        for row, k in enumerate(members):
+            outs[k].column, outs[k].row = col, row
+
+
+def _is_abstraction(type_name: str) -> bool:
+    return type_name.endswith(".pat") or "/" in type_name
+
+
+def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
+    """Pd file text for a patch (abstraction instances are expanded first); see the module docstring.
+
+    Every node is preceded by an ``@name`` comment so that :func:`read_pd` gives back the same names.
+    """
+    if any(_is_abstraction(n.type) for n in spec.nodes):
+        from .loader import expand
+
+        spec = expand(spec)
+    registry = registry or default_registry.load_builtins()
+    outs = [_box(decl, registry) for decl in spec.nodes]
+    index = {o.decl.name: k for k, o in enumerate(outs)}
+    wires: list[tuple[int, int, int, int]] = []
+    for w in spec.wires:
+        if w.src not in index or w.dst not in index:
+            missing = w.src if w.src not in index else w.dst
+            raise PatchError(f"wire {w}: no node named '{missing}'", w.where)
+        s, d = outs[index[w.src]], outs[index[w.dst]]
+        wires.append(
+            (
+                index[w.src],
+                _port(s.outlets, w.outlet, "outlet", w),
+                index[w.dst],
+                _port(d.inlets, w.inlet, "inlet", w),
+            )
+        )
+    _place(outs, [(a, c) for a, _o, c, _i in wires] + _bus_edges(outs, registry))
+    xs = [_MARGIN]
+    for col in range(max((o.column for o in outs), default=0) + 1):
+        texts = [o.atoms for o in outs if o.column == col]
+        chars = max((len(" ".join(t)) for t in texts), default=0)
+        chars = max(chars, *(len(NAME_TAG) + 1 + len(o.decl.name) for o in outs if o.column == col), 0)
+        xs.append(xs[-1] + max(_COLUMN, chars * _CHAR + 40))
+    width = min(max(450, xs[-1] + _MARGIN), 1600)
+    rows = max((o.row for o in outs), default=0) + 1
+    height = min(max(300, _TOP + rows * _ROW + _MARGIN), 1000)
+    lines = [
+        f"#N canvas 0 50 {width} {height} {_FONT};",
+        f"#X declare -path {STUB_FOLDER};",
+        f"#X obj {_MARGIN} 10 declare -path {STUB_FOLDER};",
+    ]
+    for o in outs:
+        x, y = xs[o.column], _TOP + o.row * _ROW
+        lines.append(f"#X text {x} {y} {NAME_TAG} {_escape(o.decl.name)};")
+        lines.append(f"#X {o.kind} {x} {y + _NAME_DY} {' '.join(o.atoms)}".rstrip() + ";")
+    for a, o, b, i in wires:
+        lines.append(f"#X connect {2 + 2 * a} {o} {2 + 2 * b} {i};")
+    return "\n".join(lines) + "\n"
+
+
+# =========================================================================== stubs
+def _default_layout(cls: type[Node]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
+    """Inlets and outlets for the default parameters (the declared ones when that needs a value)."""
+    try:
+        return cls.layout({p.name: p.default for p in cls.params})
+    except Exception:  # a required parameter or a layout that validates: fall back to the declaration
+        return tuple(cls.inlets), tuple(cls.outlets)
+
+
+def _comment(text: str) -> str:
+    r"""Words of a comment: ``,`` and ``;`` as separate escaped atoms, ``$`` and ``\`` escaped."""
+    atoms: list[str] = []
+    for word in text.replace("{", "(").replace("}", ")").split():
+        for part in re.split(r"([,;])", word):
+            if part in (",", ";"):
+                atoms.append("\\" + part)
+            elif part:
+                atoms.append(re.sub(r"([\\$])", r"\\\1", part))
+    return " ".join(atoms)
+
+
+def _stub(name: str, cls: type[Node]) -> str:
+    ins, outs = _default_layout(cls)
+    names = [p.name for p in (*ins, *outs)]
+    step = max(70, max((len(n) for n in names), default=0) * _CHAR + 20)
+    doc = inspect.cleandoc(cls.__doc__ or "").splitlines()
+    first = doc[0] if doc else ""
+    width = max(450, _MARGIN * 2 + step * max(len(ins), len(outs), 1))
+    lines = [f"#N canvas 0 50 {width} 220 {_FONT};"]
+    boxes: list[str] = []
+    for k, inlet in enumerate(ins):
+        boxes.append(f"#X obj {_MARGIN + k * step} 10 inlet;")
+        boxes.append(f"#X text {_MARGIN + k * step} 35 {_comment(inlet.name)};")
+    boxes.append(f"#X text {_MARGIN} 80 {_comment(f'{name} (pointat stub): {first}')};")
+    for k, outlet in enumerate(outs):
+        boxes.append(f"#X text {_MARGIN + k * step} 145 {_comment(outlet.name)};")
+        boxes.append(f"#X obj {_MARGIN + k * step} 170 outlet;")
+    return "\n".join(lines + boxes) + "\n"
+
+
+def write_stubs(
+    folder: str | Path, registry: Registry | None = None, types: Iterable[str] | None = None
+) -> list[Path]:
+    """Write ``TYPE.pd`` stub abstractions into ``folder``: one per pointat-only type (and alias), or ``types``.
+
+    A stub holds ``[inlet]`` and ``[outlet]`` objects left to right in the node's port order (for its
+    default parameters) and a comment with the first line of its doc, so that Pd's editor draws and
+    connects the box.  Returns the paths written.
+    """
+    registry = registry or default_registry.load_builtins()
+    folder = Path(folder)
+    if types is None:
+        names = [n for cls in registry if cls.type_name not in VANILLA for n in (cls.type_name, *cls.aliases)]
+    else:
+        names = list(types)
+        unknown = [n for n in names if registry.get(n) is None]
+        if unknown:
+            raise PatchError(f"no stub for unknown node type(s): {', '.join(unknown)}")
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name in names:
+        cls = registry.get(name)
+        assert cls is not None
+        path = folder / f"{name}.pd"
+        path.write_text(_stub(name, cls), encoding="utf-8")
+        paths.append(path)
+    return paths

@@ -1,0 +1,417 @@
+"""Pure Data files: reading files that Pd itself wrote, writing them back, and the stub abstractions.
+
+The fixtures in tests/data/pd/ were saved by Pd 0.53 (see their README); ``NAME.out`` is what Pd printed
+when it ran ``NAME.pd``, so a patch that prints the same here behaves as it does in Pd.
+"""
+
+import logging
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from pointat.errors import PatchError
+from pointat.loader import build, check, expand
+from pointat.patchfile import parse_patch, read_patch
+from pointat.pdfile import STUB_FOLDER, VANILLA, parse_pd, read_pd, write_pd, write_stubs
+from pointat.registry import default_registry
+from pointat.spec import PatchSpec
+
+DATA = Path(__file__).parent / "data" / "pd"
+PATCHES = Path(__file__).parent.parent / "patches"
+REG = default_registry.load_builtins()
+HEAD = "#N canvas 0 50 450 300 12;\n"
+
+
+def run(spec: PatchSpec, seconds: float = 1.0) -> list[str]:
+    """Check, build with a manual clock, run ``seconds`` of logical time; what the print nodes wrote."""
+    rt = build(check(spec, REG), realtime=False)
+    printed: list[str] = []
+    rt.console = printed.append
+    try:
+        rt.advance(seconds)
+    finally:
+        rt.shutdown()
+    return printed
+
+
+def pd_printed(name: str) -> list[str]:
+    return (DATA / f"{name}.out").read_text().splitlines()
+
+
+def problems_of(text: str) -> list[tuple[int, str]]:
+    with pytest.raises(PatchError) as info:
+        parse_pd(text, "x.pd")
+    return [(p.where.line, p.message) for p in info.value.problems]
+
+
+def graph(spec: PatchSpec) -> tuple[dict, dict]:
+    """Node name -> (type, repr of the resolved parameters); (node, outlet) -> its targets in fan-out order.
+
+    Pd saves connections grouped by source box, so only the order within one outlet is kept (and matters).
+    """
+    nodes = {}
+    for n in expand(spec).nodes:
+        values = REG.get(n.type).resolve_params(n.args, n.params)
+        nodes[n.name] = (n.type, repr(values))
+    fanout: dict[tuple[str, int], list[tuple[str, int]]] = {}
+    for src, outlet, dst, inlet in check(spec, REG).wires:
+        fanout.setdefault((src, outlet), []).append((dst, inlet))
+    return nodes, fanout
+
+
+HAND = """
+node go   loadbang
+node tr   trigger b f b
+node m    msg 1 2 , 3 $1 ; bus 0.5 ; other two words
+node pk   pack 0 0 s
+node rt   route 1 3 a
+node sh   print prefix="two words; x, y" time=true
+node fu   tqt k=0.123456789012 rho=0.25 mode=paper dip=-61.5
+node sp   speedlim 33.333333333333336
+node rec  record file=out.csv columns=[qw, qx, "a b"]
+node bus  receive bus
+node back delay 10.5
+go -> tr
+tr.2 -> m
+tr.1 -> pk.1
+tr.0 -> pk
+pk -> rt -> sh
+rt.1 -> sp -> sh
+rt.2 -> fu
+fu.quat -> rec
+bus -> back -> tr
+"""
+
+
+# --------------------------------------------------------------------------- files written by Pd
+def test_vanilla_objects_load_as_pointat_nodes_and_print_what_pd_printed():
+    spec = read_pd(DATA / "vanilla.pd")
+    types = [n.type for n in spec.nodes]
+    assert types[:8] == ["loadbang", "metro", "print", "delay", "msg", "t", "msg", "route"]
+    assert {"r", "s", "receive", "unpack", "pack", "change"} <= set(types)
+    assert spec.node("metro_1").args == [100]
+    assert spec.node("msg_6").args == [1, 2, ",", 3, 4, ";", "bus", 5, 6]
+    assert spec.node("msg_13").args == ["$1", "$1"]
+    assert spec.node("t_5").where.line == 7 and spec.node("t_5").where.box == 5
+    checked = check(spec, REG)
+    assert checked.warnings == []
+    # loadbang -> metro 100 -> print tick, stopped at 350 ms: ticks at 0, 100, 200, 300 ms, as in Pd
+    assert run(spec, 1.0) == pd_printed("vanilla")
+
+
+def test_unknown_and_gui_boxes_are_reported_all_at_once_with_their_box():
+    spec = read_pd(DATA / "unknown.pd")
+    with pytest.raises(PatchError) as info:
+        check(spec, REG)
+    found = [
+        (p.where.line, p.where.box, re.search(r"unknown node type '([^']+)'", p.message)[1])
+        for p in info.value.problems
+    ]
+    assert found == [(3, 1, "osc~"), (4, 2, "bng"), (5, 3, "floatatom"), (7, 5, "tgl"), (12, 6, "graph")]
+    assert "unknown.pd:4 (box 2)" in str(info.value)
+    # the comment (box 4) and the array (box 6) count: the print is box 7
+    assert spec.node("print_7").where.box == 7
+    assert [str(w) for w in spec.wires] == [
+        "loadbang_0.0 -> bng_2.0",
+        "bng_2.0 -> print_7.0",
+        "floatatom_3.0 -> print_7.0",
+        "tgl_5.0 -> print_7.0",
+    ]
+
+
+def test_comments_count_in_box_indices_and_name_the_next_box():
+    spec = read_pd(DATA / "comments.pd")
+    assert [(n.name, n.where.box) for n in spec.nodes] == [("loadbang_0", 0), ("greet", 3), ("print_5", 5)]
+    assert [str(w) for w in spec.wires] == ["loadbang_0.0 -> greet.0", "greet.0 -> print_5.0"]
+    assert run(spec) == pd_printed("comments")
+
+
+def test_escapes_in_a_pd_saved_file():
+    spec = read_pd(DATA / "escapes.pd")
+    assert spec.node("msg_0").args == [1, ",", 2, ";", "foo", "$1", "bar baz", "+5", -3, 1e10, 0.5, "$1-x"]
+    tqt = spec.node("tqt_1")
+    assert tqt.args == [] and tqt.params == {"k": 0.123456789012, "mode": "robust", "rho": 0.5}
+    assert spec.node("print_2").args == ["two words"]
+    # a Pd print whose prefix looks like key=value is read as a named parameter, and reported as such
+    assert spec.node("print_3").params == {"a": "b"}
+    with pytest.raises(PatchError) as info:
+        check(spec, REG)
+    [problem] = info.value.problems
+    assert problem.where.box == 3 and "unknown parameter 'a'" in problem.message
+
+
+def test_subpatch_inlets_are_ordered_by_x_and_ports_wire_through():
+    spec = read_pd(DATA / "subpatch.pd")
+    assert [n.name for n in spec.nodes] == ["loadbang_0", "t_1", "msg_2", "msg_3", "inner/pack_2", "print_6"]
+    assert spec.node("inner/pack_2").where.box == 2  # its index inside the subpatch
+    # box 2 of 'inner' is its left inlet (x=20) although created second; 'through' is inlet -> outlet
+    assert [str(w) for w in spec.wires] == [
+        "inner/pack_2.0 -> print_6.0",
+        "loadbang_0.0 -> t_1.0",
+        "t_1.0 -> msg_2.0",
+        "t_1.1 -> msg_3.0",
+        "msg_2.0 -> inner/pack_2.0",
+        "msg_3.0 -> inner/pack_2.1",
+    ]
+    assert run(spec) == pd_printed("subpatch") == ["sub: 7 5"]
+
+
+def test_records_spanning_lines_read_as_pd_reads_them():
+    wrapped, resaved = read_pd(DATA / "wrapped.pd"), read_pd(DATA / "wrapped.resaved.pd")
+    assert [(n.name, n.type, n.args) for n in wrapped.nodes] == [
+        (n.name, n.type, n.args) for n in resaved.nodes
+    ]
+    assert [str(w) for w in wrapped.wires] == [str(w) for w in resaved.wires]
+    assert wrapped.node("msg_1").where.line == 4 and wrapped.wires[0].where.line == 17
+    assert wrapped.node("msg_1").args[-6:] == [",", "second", "message", ";", "bus", 3]
+    assert wrapped.node("graph_2").where.box == 2  # the array: '#A' data over two lines, skipped
+    wrapped.nodes = [n for n in wrapped.nodes if n.type != "graph"]
+    assert run(wrapped) == pd_printed("wrapped")
+
+
+def test_fan_out_follows_connect_order_and_one_outlet_into_two_inlets_warns():
+    spec = read_pd(DATA / "fanout.pd")
+    assert [str(w) for w in spec.wires][1:5] == [
+        "msg_1.0 -> print_3.0",
+        "msg_1.0 -> print_2.0",
+        "msg_1.0 -> pack_4.1",
+        "msg_1.0 -> pack_4.0",
+    ]
+    checked = check(spec, REG)
+    [warning] = checked.warnings
+    assert "feeds 2 inlets of 'pack_4'" in warning.message and warning.where.line == 12
+    assert run(spec) == pd_printed("fanout") == ["first: 5", "second: 5", "packed: 5 5"]
+
+
+def test_an_exported_patch_saved_by_pd_reads_back_the_same():
+    original = read_patch(DATA / "exported.pat")
+    resaved = read_pd(DATA / "exported.pd")  # write_pd's output, opened and saved by Pd 0.53
+    assert graph(resaved) == graph(original)
+    assert resaved.node("fu").params["k"] == 0.123456789012
+    assert resaved.node("sp").params == {"interval": 33.333333333333336}
+    assert resaved.node("sh").args == ["two words; x, y", 1]
+
+
+# --------------------------------------------------------------------------- the reader on its own
+def test_tokens_numbers_symbols_and_trailing_width_messages():
+    spec = parse_pd(
+        HEAD + "#X msg 1 2 +5 -3 .5 5. 1e+10 inf 0x10 \\5 \\$1 $2 a\\ b\\\\\\,c, f 20;\n"
+        "#X obj 1 2 print x, f 12;\n#X f 30;\n#X coords 0 1 2 3;\n#X obj 1 2;\n#X obj 1 2 declare -path x;\n"
+        "#X obj 1 2 t b b;\n#X scalar tmpl 10 20 \\; 1 2 \\;;\n#X obj 1 2 cyclone/coll;\n#C restore;\n"
+        "#X obj 1 2 print y;\n#X connect 0 0 1 0;\n#X connect 4 1 0 0;\n#X connect 6 0 7 0;\n"
+    )
+    assert spec.node("msg_0").args == ["+5", -3, 0.5, 5.0, 1e10, "inf", "0x10", "5", "$1", "$2", "a b,c"]
+    assert spec.node("print_1").args == ["x"]
+    assert [n.name for n in spec.nodes] == [
+        "msg_0",
+        "print_1",
+        "t_4",
+        "scalar_5",
+        "cyclone_coll_6",
+        "print_7",
+    ]
+    assert [str(w) for w in spec.wires] == [
+        "msg_0.0 -> print_1.0",
+        "t_4.1 -> msg_0.0",
+        "cyclone_coll_6.0 -> print_7.0",
+    ]
+
+
+def test_names_are_sanitised_and_unique():
+    spec = parse_pd(
+        HEAD + "#X text 0 0 @name dup;\n#X obj 0 0 osc~;\n#X text 0 0 @name dup;\n#X obj 0 0 +;\n"
+        "#X obj 0 0 dup;\n#X text 0 0 @name 9-lives;\n#X msg 0 0;\n"
+        "#N canvas 0 0 450 300 my-sub 0;\n#X obj 0 0 metro 5;\n#X restore 0 0 pd my-sub;\n"
+        "#N canvas 0 0 450 300 my-sub 0;\n#X obj 0 0 metro 5;\n#X restore 0 0 pd my-sub;\n"
+    )
+    assert [n.name for n in spec.nodes] == [
+        "dup",
+        "dup_2",
+        "dup_4",
+        "_9_lives",
+        "my_sub/metro_0",
+        "my_sub_2/metro_0",
+    ]
+
+
+def test_malformed_records_name_their_line_all_at_once():
+    problems = problems_of(
+        HEAD + "#X obj a b metro;\n#X connect 0 0 1;\n#X obj 0 0 print;\n#X connect 0 0 7 0;\n"
+        "#X text 0 0 @name a b;\nwibble;\n#X restore 0 0 pd x;\n#X text 0 0 @name lost;\n"
+    )
+    assert [line for line, _ in problems] == [2, 3, 6, 7, 8, 9, 5]
+    assert "numeric position" in problems[0][1] and "4 whole numbers" in problems[1][1]
+    assert "expected '@name NODENAME'" in problems[2][1] and "#N, #X, #A" in problems[3][1]
+    assert "without a subpatch" in problems[4][1] and "followed by no box" in problems[5][1]
+    assert "box 7 does not exist" in problems[6][1]
+    assert "not ended by ';'" in problems_of(HEAD + "#X obj 0 0 metro\n 100\n")[0][1]
+    assert problems_of(HEAD + "#N canvas 0 0 1 1 s 0;\n#X obj 0 0 t;\n") == [
+        (2, "subpatch never closed by '#X restore'")
+    ]
+    with pytest.raises(PatchError, match="no '#N canvas'"):
+        parse_pd("", "empty.pd")
+
+
+def test_wires_to_missing_subpatch_ports_and_comments_are_errors():
+    problems = problems_of(
+        HEAD + "#N canvas 0 0 1 1 s 0;\n#X obj 0 0 inlet;\n#X restore 0 0 pd s;\n#X obj 0 0 t;\n"
+        "#X text 0 0 hello;\n#X connect 1 0 0 1;\n#X connect 1 0 2 0;\n#X connect 0 0 1 0;\n"
+    )
+    assert [line for line, _ in problems] == [7, 8, 9]
+    assert "has no inlet 1" in problems[0][1] and "comment" in problems[1][1]
+    assert "has no outlet 0" in problems[2][1]
+
+
+# --------------------------------------------------------------------------- writing
+@pytest.mark.parametrize("name", [p.name for p in sorted(PATCHES.glob("*.pat"))] + ["hand", "exported"])
+def test_round_trip_native_to_pd_to_native_keeps_the_graph(name, tmp_path):
+    if name == "hand":
+        spec = parse_patch(HAND, str(tmp_path / "hand.pat"))
+    elif name == "exported":
+        spec = read_patch(DATA / "exported.pat")
+    else:
+        spec = read_patch(PATCHES / name)
+    text = write_pd(spec, REG)
+    back = parse_pd(text, str(tmp_path / "back.pd"))
+    assert graph(back) == graph(spec)
+    assert check(back, REG).wires == check(spec, REG).wires  # written in the same order
+    assert [n.name for n in back.nodes] == [n.name for n in expand(spec).nodes]
+
+
+def test_writing_uses_positional_atoms_for_pd_types_and_named_ones_for_pointat_types(caplog):
+    with caplog.at_level(logging.WARNING, logger="pointat.pdfile"):
+        text = write_pd(parse_patch(HAND + "node slow metro 33.333333333333336\n", "h.pat"), REG)
+    boxes = dict(re.findall(r"#X text \d+ \d+ @name (\S+);\n#X \w+ \d+ \d+ ([^\n]*);", text))
+    assert boxes["tr"] == "trigger b f b" and boxes["pk"] == "pack 0 0 s" and boxes["rt"] == "route 1 3 a"
+    assert boxes["m"] == r"1 2 \, 3 \$1 \; bus 0.5 \; other two words"
+    assert boxes["sh"] == r"print two\ words\;\ x\,\ y 1"
+    assert boxes["back"] == "delay 10.5" and boxes["go"] == "loadbang" and boxes["bus"] == "receive bus"
+    assert boxes["fu"] == "tqt mode=paper k=0.123456789012 rho=0.25 dip=-61.5"  # the defaults left out
+    assert boxes["sp"] == "speedlim interval=33.333333333333336"
+    assert boxes["rec"] == r'record file=out.csv columns=[qw\ qx\ "a\ b"]'
+    assert [r.message for r in caplog.records] == [
+        "node 'slow' (metro): Pd keeps 6 significant digits of 33.333333333333336: it becomes 33.3333 if Pd "
+        "saves the file"
+    ]
+    assert text.startswith("#N canvas 0 50 ")
+    assert text.splitlines()[1:3] == [
+        f"#X declare -path {STUB_FOLDER};",
+        f"#X obj 20 10 declare -path {STUB_FOLDER};",
+    ]
+
+
+def test_a_node_with_more_ports_than_its_stub_is_a_warning(caplog):
+    with caplog.at_level(logging.WARNING, logger="pointat.pdfile"):
+        write_pd(parse_patch("node base mote ids=[1, 2]\nnode show print\nbase.m2 -> show\n", "m.pat"), REG)
+    [record] = caplog.records
+    assert (
+        "node 'base' (mote) has 1 inlets and 3 outlets, its Pd stub (default parameters) 1 and 2"
+        in record.message
+    )
+
+
+def test_symbols_that_read_as_numbers_or_key_value_stay_symbols():
+    spec = parse_patch(
+        'node a print prefix="x=1"\nnode b route "5" 5 "k=v"\nnode c msg "7" "a=b"\nnode d record file="my file.csv"\n',
+        "s.pat",
+    )
+    text = write_pd(spec, REG)
+    assert r"print x\=1;" in text and r"route \5 5 k\=v;" in text and r" \7 a\=b;" in text
+    back = parse_pd(text, "s.pd")
+    assert [(n.args, n.params) for n in back.nodes] == [
+        (["x=1"], {}),
+        (["5", 5, "k=v"], {}),
+        (["7", "a=b"], {}),
+        ([], {"file": "my file.csv"}),
+    ]
+
+
+def test_layout_columns_follow_depth_and_rows_stack():
+    spec = parse_patch(
+        "node a loadbang\nnode b metro 10\nnode c print\nnode d print\nnode e delay 5\n"
+        "a -> b -> c\nb -> d\nb -> e -> b\n",
+        "l.pat",
+    )
+    text = write_pd(spec, REG)
+    place = {name: (int(x), int(y)) for x, y, name in re.findall(r"#X text (\d+) (\d+) @name (\w+);", text)}
+    box = {
+        name: tuple(map(int, xy))
+        for xy, name in zip(re.findall(r"#X obj (\d+) (\d+) (?!declare)", text), "abcde", strict=True)
+    }
+    assert place["a"][0] < place["b"][0] < place["c"][0]  # columns by depth; the loop through e is cut
+    assert place["c"][0] == place["d"][0] == place["e"][0]
+    assert sorted(place[k][1] for k in "cde") == [40, 90, 140]  # rows 50 px apart in a column
+    assert all(box[k] == (place[k][0], place[k][1] + 20) for k in "abcde")  # the name just above its box
+    assert place["b"][0] - place["a"][0] >= 160
+    assert [ln for ln in text.splitlines() if ln.startswith("#X connect")] == [
+        "#X connect 2 0 4 0;",
+        "#X connect 4 0 6 0;",
+        "#X connect 4 0 8 0;",
+        "#X connect 4 0 10 0;",
+        "#X connect 10 0 4 0;",
+    ]
+
+
+def test_abstraction_instances_are_expanded_before_writing(tmp_path):
+    (tmp_path / "blink.pat").write_text(
+        "args every=50\ninlet go -> m.0\nnode m metro $every\nnode p print\nm -> p\n"
+    )
+    main = tmp_path / "main.pat"
+    main.write_text("node go loadbang\nnode one blink.pat every=25\ngo -> one.go\n")
+    back = parse_pd(write_pd(read_patch(main), REG), str(tmp_path / "main.pd"))
+    assert [(n.name, n.args) for n in back.nodes] == [("go", []), ("one/m", [25]), ("one/p", [])]
+    assert [str(w) for w in back.wires] == ["one/m.0 -> one/p.0", "go.0 -> one/m.0"]
+
+
+# --------------------------------------------------------------------------- stubs
+def test_stubs_have_the_declared_inlets_and_outlets_left_to_right(tmp_path):
+    paths = write_stubs(tmp_path / STUB_FOLDER, REG)
+    names = {p.stem for p in paths}
+    assert names == {c.type_name for c in REG if c.type_name not in VANILLA}
+    assert "speedlim" in names and not names & VANILLA
+    for path in paths:
+        cls = REG.get(path.stem)
+        values = {p.name: p.default for p in cls.params}
+        try:
+            ins, outs = cls.layout(values)
+        except Exception:
+            ins, outs = cls.inlets, cls.outlets
+        text = path.read_text()
+        inlets = [int(x) for x in re.findall(r"#X obj (\d+) \d+ inlet;", text)]
+        outlets = [int(x) for x in re.findall(r"#X obj (\d+) \d+ outlet;", text)]
+        assert (len(inlets), len(outlets)) == (len(ins), len(outs)), path.name
+        assert inlets == sorted(inlets) and outlets == sorted(outlets)
+        doc = (cls.__doc__ or "").strip().splitlines()
+        if doc:
+            assert f"{path.stem} (pointat stub)" in text
+    [one] = write_stubs(tmp_path / "some", REG, ["tqt"])
+    assert one.name == "tqt.pd" and len(re.findall(r" inlet;", one.read_text())) == len(REG.get("tqt").inlets)
+    with pytest.raises(PatchError, match="wibble"):
+        write_stubs(tmp_path / "none", REG, ["wibble"])
+
+
+# --------------------------------------------------------------------------- with a real Pd, when present
+def test_pd_opens_exported_patches_with_their_stubs_and_saves_the_same_graph(tmp_path, require_tool):
+    require_tool(shutil.which("pd") is not None, "Pure Data (pd) is not installed")
+    specs = {p.stem: read_patch(p) for p in sorted(PATCHES.glob("*.pat"))}
+    specs["hand"] = parse_patch(HAND, str(tmp_path / "hand.pat"))
+    write_stubs(tmp_path / STUB_FOLDER, REG)
+    args, sends = [], []
+    for name, spec in specs.items():
+        (tmp_path / f"{name}.pd").write_text(write_pd(spec, REG))
+        args += ["-open", str(tmp_path / f"{name}.pd")]
+        sends.append(f"pd-{name}.pd menusave")
+    done = subprocess.run(
+        ["pd", "-nogui", "-noaudio", "-noprefs", "-stderr", *args, "-send", "; ".join([*sends, "pd quit"])],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert "couldn't create" not in done.stderr and "connection failed" not in done.stderr, done.stderr
+    assert done.stderr.count("saved to:") == len(specs), done.stderr
+    for name, spec in specs.items():
+        assert graph(read_pd(tmp_path / f"{name}.pd")) == graph(spec), name
