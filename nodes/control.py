@@ -125,6 +125,14 @@ class Delay(Node):
 _TRIGGER_TYPES = {"b": "bang", "f": "float", "s": "symbol", "l": "list", "a": "any", "v": "vector"}
 
 
+_LONG_TYPES = {"bang": "b", "float": "f", "symbol": "s", "list": "l", "anything": "a", "vector": "v"}
+
+
+def _short_type(t: object) -> str:
+    """Pd accepts ``t bang float`` as well as ``t b f``."""
+    return _LONG_TYPES.get(str(t), str(t))
+
+
 def _convert(kind: str, msg: Message) -> Message:
     """Convert a message for a trigger / unpack outlet of type ``kind`` (b f s l a v)."""
     if kind == "a":
@@ -175,7 +183,7 @@ node t trigger b f
 
     @classmethod
     def layout(cls, values):
-        types = tuple(str(t) for t in values.get("types", ("a", "a"))) or ("a",)
+        types = tuple(_short_type(t) for t in values.get("types", ("a", "a"))) or ("a",)
         for t in types:
             if t not in _TRIGGER_TYPES:
                 raise ValueError(f"trigger type '{t}' is not one of {' '.join(_TRIGGER_TYPES)}")
@@ -186,7 +194,7 @@ node t trigger b f
         return cls.inlets, outs
 
     def setup(self) -> None:
-        self._types = [str(t) for t in self.p.types] or ["a"]
+        self._types = [_short_type(t) for t in self.p.types] or ["a"]
 
     def receive(self, index: int, msg: Message) -> None:
         self.time = msg.time
@@ -219,7 +227,8 @@ class Pack(Node):
         return ins, cls.outlets
 
     def setup(self) -> None:
-        self._slots: list[Any] = ["" if v == "s" else v for v in (self.p.values or (0.0,))]
+        # as in Pd: 's' is a symbol slot, 'f' a float slot starting at 0
+        self._slots: list[Any] = [{"s": "", "f": 0.0}.get(v, v) for v in (self.p.values or (0.0,))]
 
     def receive(self, index: int, msg: Message) -> None:
         self.time = msg.time

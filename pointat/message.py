@@ -65,6 +65,8 @@ class Message(NamedTuple):
             return head + " ".join(_atom(x) for x in v)
         if self.is_method:
             return " ".join([self.kind, *(_atom(x) for x in v)])
+        if self.kind == "symbol":  # as Pd prints it
+            return f"symbol {v}"
         return _atom(v)
 
 

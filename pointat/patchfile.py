@@ -36,6 +36,8 @@ from .spec import NodeDecl, PatchSpec, PortDecl, Wire
 __all__ = ["format_value", "parse_patch", "parse_value", "read_patch", "write_patch"]
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+#: Node names may have path parts: ``left/fuse`` (a node inside an abstraction or a Pd subpatch).
+_NODE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*\Z")
 _INT = re.compile(r"[+-]?\d+\Z")
 _FLOAT = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+)([eE][+-]?\d+)?\Z")
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
@@ -164,7 +166,7 @@ def parse_value(token: str) -> Any:
 
 def _endpoint(token: str, default: int) -> tuple[str, str | int]:
     name, dot, port = token.partition(".")
-    if not _NAME.match(name):
+    if not _NODE.match(name):
         raise ValueError(f"bad node name {name!r} in {token!r}")
     if not dot:
         return name, default
