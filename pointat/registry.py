@@ -44,6 +44,7 @@ BUILTIN_MODULES = (
     "nodes.recording",
     "nodes.calibration",
     "nodes.orientation",
+    "nodes.spatial",
     "osc_bridge.nodes",
     "osc_bridge.midi",
 )
