@@ -187,20 +187,22 @@ def cmd_help(args: argparse.Namespace, registry: Registry) -> int:
 
 
 def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
-    from .loader import expand
+    from .loader import expand, rebase_paths
     from .patchfile import write_patch
 
     spec = read_spec(args.source)
     target = Path(args.target)
+    check(spec, registry)  # never convert a broken patch
     if target.suffix == ".pd":
         from .pdfile import write_pd, write_stubs
 
-        check(spec, registry)  # never export a broken patch
-        target.write_text(write_pd(expand(spec), registry))
+        spec = expand(spec)
+        rebase_paths(spec, registry, target.parent)
+        target.write_text(write_pd(spec, registry))
         if not args.no_stubs:
             write_stubs(target.parent / "pointat-stubs", registry)
     else:
-        check(spec, registry)
+        rebase_paths(spec, registry, target.parent)
         target.write_text(write_patch(spec))
     print(f"wrote {target}")
     return 0

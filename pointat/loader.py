@@ -8,6 +8,7 @@ whose order only the file knows.  Every problem names ``file:line`` and what was
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -338,6 +339,21 @@ def _anchor_paths(
         v = values.get(p.name)
         if p.type == "path" and v and p.name not in overridden and not Path(v).is_absolute():
             values[p.name] = str(base / v)
+
+
+def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) -> None:
+    """Rewrite relative ``path`` parameters (given by name) so they still point at the same files from a
+    patch saved in ``target_dir`` (``pointat convert`` to another folder)."""
+    source_dir = Path(spec.path).parent
+    for decl in spec.nodes:
+        cls = registry.get(decl.type)
+        if cls is None:
+            continue
+        for name, value in decl.params.items():
+            p = cls.param(name)
+            if p is not None and p.type == "path" and isinstance(value, str) and value:
+                if not Path(value).is_absolute():
+                    decl.params[name] = os.path.relpath(source_dir / value, target_dir)
 
 
 def _close(name: str, names: Mapping[str, Any]) -> str | None:

@@ -214,7 +214,7 @@ def _statement(spec: PatchSpec, tokens: list[str], where: Where) -> None:
         if len(tokens) < 3:
             raise ValueError("expected 'node NAME TYPE [args...] [param=value...]'")
         name, typ = tokens[1], tokens[2]
-        if not _NAME.match(name):
+        if not _NODE.match(name):
             raise ValueError(
                 f"bad node name {name!r}: use letters, digits and '_', not starting with a digit"
             )

@@ -1,5 +1,6 @@
 """The command line as a user meets it: every shipped patch checks and runs; errors never show a traceback."""
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -96,3 +97,29 @@ def test_graph_writes_dot(tmp_path):
 def test_set_overrides_and_reports_unknown_nodes():
     out = pointat("check", "patches/glove_tqt.pat", "--set", "fuse.k=0.5", "--set", "nope.k=1")
     assert out.returncode == 2 and "--set nope.k: no node named 'nope'" in out.stderr
+
+
+def test_convert_round_trip_to_pd_and_back_elsewhere_keeps_the_graph(tmp_path):
+    from pointat.loader import check, read_spec
+
+    pd_file, back = tmp_path / "pd" / "glove.pd", tmp_path / "native" / "glove.pat"
+    pd_file.parent.mkdir()
+    back.parent.mkdir()
+    assert pointat("convert", "patches/evaluate_tqt.pat", pd_file).returncode == 0
+    assert (pd_file.parent / "pointat-stubs" / "tqt.pd").exists()
+    assert pointat("convert", pd_file, back).returncode == 0
+    a = check(read_spec(ROOT / "patches" / "evaluate_tqt.pat"), default_registry.load_builtins())
+    b = check(read_spec(back), default_registry)
+
+    def graph(checked):  # path parameters compared as the files they name
+        return {
+            n: (r.cls, {k: os.path.normpath(v) if k == "file" else v for k, v in r.values.items()})
+            for n, r in checked.nodes.items()
+        }
+
+    assert graph(a) == graph(b)
+    assert sorted(a.wires) == sorted(b.wires)
+    # a converted Pd patch with subpatches (nodes named sub/x) is a valid native patch
+    out = tmp_path / "sub.pat"
+    assert pointat("convert", ROOT / "tests" / "data" / "pd" / "subpatch.pd", out).returncode == 0
+    assert pointat("check", out).returncode == 0
