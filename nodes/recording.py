@@ -41,6 +41,11 @@ _GROUPS = {
 }
 
 
+FORMAT = Param(
+    "format", "symbol", "auto", "auto (by extension), csv or ndjson", choices=("auto", "csv", "ndjson")
+)
+
+
 def _format(path: str, fmt: str) -> str:
     if fmt != "auto":
         return fmt
@@ -77,13 +82,7 @@ class Record(Node):
     inlets = (Inlet("in", ("any",), "the stream to record"),)
     params = (
         Param("file", "path", doc="the file to write (.csv, .ndjson)"),
-        Param(
-            "format",
-            "symbol",
-            "auto",
-            "auto (by extension), csv or ndjson",
-            choices=("auto", "csv", "ndjson"),
-        ),
+        FORMAT,
         Param("columns", "list", (), "CSV column names after t"),
         Param("append", "bool", False, "append instead of replacing the file"),
     )
@@ -166,13 +165,7 @@ class Replay(Node):
         Param("file", "path", doc="the recording (.csv, .csv.gz, .ndjson)"),
         Param("speed", "float", 1.0, "1 real time, 2 twice as fast, 0 as fast as possible"),
         Param("loop", "bool", False, "start again at the end"),
-        Param(
-            "format",
-            "symbol",
-            "auto",
-            "auto (by extension), csv or ndjson",
-            choices=("auto", "csv", "ndjson"),
-        ),
+        FORMAT,
     )
     example = """
 node source replay file=trial.csv.gz speed=0
