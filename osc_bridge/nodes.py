@@ -1,293 +1,632 @@
-"""``osc_out`` and ``osc_in``: pointat's doors to spatial-sound systems, DAWs and OSC sensors."""
+r"""``osc_out`` and ``osc_in``: pointat's doors to spatial-sound systems, DAWs and OSC sensors.
+
+Both speak OSC 1.0 over UDP.  ``osc_out`` encodes every number as float32 (``f``) and every index as
+int32 (``i``): Pd's ``[oscparse]`` rejects 64-bit doubles.  Its sockets are non-blocking, so a full
+buffer or an absent receiver costs a counted, dropped datagram and never a stalled scheduler.
+``osc_in`` parses packets itself (python-osc's :class:`~pythonosc.osc_packet.OscPacket`), so a bundle's
+time tag is read and never waited for.
+
+>>> encode_message("/adm/obj/1/aed", [30.0, 0.0, 1.0])[:24]
+b'/adm/obj/1/aed\x00\x00,fff\x00\x00\x00\x00'
+>>> encode_bundle([b"/a\x00\x00,\x00\x00\x00"], None)[:16]
+b'#bundle\x00\x00\x00\x00\x00\x00\x00\x00\x01'
+"""
 
 from __future__ import annotations
 
+import errno
+import ipaddress
 import logging
 import math
 import socket
+import struct
 import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
-from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder
 from pythonosc.osc_message_builder import OscMessageBuilder
-from pythonosc.osc_packet import OscPacket, ParseError
+from pythonosc.osc_packet import OscPacket
 
 from pointat.message import Message, as_float, make, method, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
+from pointat.runtime import Timer
 
-from .profiles import FIELDS, PROFILES, Source
+from .profiles import FIELDS, PROFILES, SENSORS, Rule, Source, check_fields, parse_rule
+
+__all__ = ["OscIn", "OscOut", "check_bundle", "destinations", "encode_bundle", "encode_message", "ntp_time"]
 
 log = logging.getLogger("pointat.osc")
 
+#: Seconds from the NTP epoch (1900) to the Unix epoch (1970).
+NTP_UNIX_OFFSET = 2208988800
+#: OSC's special time tag "immediately".
+IMMEDIATELY = b"\x00\x00\x00\x00\x00\x00\x00\x01"
 
-def _osc_message(address: str, args: list[Any]) -> bytes:
+
+# --------------------------------------------------------------------------- encoding
+def encode_message(address: str, args: Sequence[Any]) -> bytes:
+    """One OSC message: ints as ``i`` (int32), floats as ``f`` (float32), anything else as ``s``."""
     b = OscMessageBuilder(address)
     for a in args:
         if isinstance(a, bool):
-            b.add_arg(a)
+            b.add_arg(int(a), "i")
         elif isinstance(a, int):
             b.add_arg(a, "i")
         elif isinstance(a, float):
-            b.add_arg(a, "f")  # float32: Pd's oscparse rejects doubles
+            b.add_arg(a, "f")
         else:
             b.add_arg(str(a), "s")
     return b.build().dgram
 
 
-def _destinations(host: str, port: int, extra: tuple) -> list[tuple[str, int]]:
-    out = [(host, port)]
+def ntp_time(unix_seconds: float) -> bytes:
+    r"""A Unix time (seconds since 1970) as an OSC/NTP time tag: 32-bit seconds since 1900, 32-bit fraction.
+
+    >>> ntp_time(0.5).hex()
+    '83aa7e8080000000'
+    """
+    seconds = math.floor(unix_seconds)
+    fraction = int((unix_seconds - seconds) * 2**32)
+    return struct.pack(">II", (seconds + NTP_UNIX_OFFSET) & 0xFFFFFFFF, min(fraction, 2**32 - 1))
+
+
+def encode_bundle(datagrams: Sequence[bytes], when: float | None) -> bytes:
+    """An OSC bundle of encoded messages, time-tagged ``when`` (Unix seconds) or "immediately" (``None``)."""
+    parts = [b"#bundle\x00", IMMEDIATELY if when is None else ntp_time(when)]
+    for d in datagrams:
+        parts += [struct.pack(">i", len(d)), d]
+    return b"".join(parts)
+
+
+def check_bundle(data: bytes) -> None:
+    r"""Raise ``ValueError`` when a bundle's element sizes do not fit the packet (python-osc reads on).
+
+    >>> check_bundle(encode_bundle([b"/a\x00\x00,\x00\x00\x00"], None))
+    >>> check_bundle(b"#bundle\x00" + IMMEDIATELY + struct.pack(">i", 64) + b"/a\x00\x00")
+    Traceback (most recent call last):
+    ...
+    ValueError: bundle element of 64 bytes at byte 16 does not fit in 24
+    """
+    if not data.startswith(b"#bundle\x00"):
+        return
+    i = 16
+    while i < len(data):
+        size = struct.unpack(">i", data[i : i + 4])[0] if i + 4 <= len(data) else -1
+        if size <= 0 or size % 4 or i + 4 + size > len(data):
+            raise ValueError(f"bundle element of {size} bytes at byte {i} does not fit in {len(data)}")
+        check_bundle(data[i + 4 : i + 4 + size])
+        i += 4 + size
+
+
+# --------------------------------------------------------------------------- helpers
+_LOOPBACK_NAMES = ("localhost",)
+
+
+def _is_loopback(host: str) -> bool:
+    if host in _LOOPBACK_NAMES:
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _is_ip(host: str) -> bool:
+    """True for an IPv4 address literal (and localhost): no name lookup needed."""
+    if host in _LOOPBACK_NAMES:
+        return True
+    try:
+        ipaddress.IPv4Address(host)
+    except ValueError:
+        return False
+    return True
+
+
+def _port(value: Any, what: str) -> int:
+    try:
+        port = int(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}: port {value!r} is not a number") from None
+    if not 1 <= port <= 65535:
+        raise ValueError(f"{what}: port {port} is outside 1..65535")
+    return port
+
+
+def destinations(host: str, port: int, extra: Sequence[Any]) -> list[tuple[str, int]]:
+    """The (host, port) pairs to send to: ``host:port`` first, then each ``to`` item (``host:port`` or a
+    bare port on ``host``).
+
+    >>> destinations("127.0.0.1", 4001, ["10.0.0.2:9000", 9001])
+    [('127.0.0.1', 4001), ('10.0.0.2', 9000), ('127.0.0.1', 9001)]
+    """
+    if not host:
+        raise ValueError("host is empty")
+    out = [(host, _port(port, "host"))]
     for item in extra:
-        h, _, p = str(item).rpartition(":")
-        if not h or not p.isdigit():
-            raise ValueError(f"destination {item!r}: expected host:port")
-        out.append((h, int(p)))
+        if isinstance(item, int) and not isinstance(item, bool):
+            out.append((host, _port(item, f"to {item!r}")))
+            continue
+        h, colon, p = str(item).rpartition(":")
+        if not colon or not h:
+            raise ValueError(f"to {item!r}: expected host:port or a port number")
+        out.append((h, _port(p, f"to {item!r}")))
     return out
 
 
+@dataclass
+class _Destination:
+    """One receiver: its socket (connected once the address resolves) and its counters."""
+
+    host: str
+    port: int
+    sock: socket.socket | None = None
+    connected: bool = False
+    refused: int = 0
+    failed: int = 0
+    warned: bool = False
+
+    @property
+    def label(self) -> str:
+        return f"{self.host}:{self.port}"
+
+
+# --------------------------------------------------------------------------- osc_out
 @register("osc_out")
 class OscOut(Node):
     """Send a source's direction over OSC (UDP) in the convention of the chosen receiver ``profile``.
 
-    Profiles: pointat, vbap (Pd/Max), adm (ADM-OSC), iem_stereo, iem_multi, spat, icst, reaper, generic
-    (see ``osc_bridge.profiles``).  The azimuth inlet is hot; elevation, distance and spread are stored.
-    Arguments are float32.  ``bundle=true`` sends each update as one bundle, time-tagged now + ``delay``
-    ms for receivers that schedule.  ``rate`` limits updates per second and ``deadband`` drops updates that
-    moved less than that many degrees.  Sending never blocks and never fails the patch: an absent
-    receiver is counted and logged once.
+    Profiles (``osc_bridge.profiles``): ``pointat`` (/pointat/N/aed), ``vbap`` (Pd/Max: /vbap/N az el
+    spread), ``adm`` (ADM-OSC /adm/obj/N/aed, port 4001, objects from 1), ``iem_stereo`` and
+    ``iem_multi`` (IEM encoders; MultiEncoder inputs from 0), ``spat`` (SPAT Revolution, + right,
+    metres), ``icst`` (AmbiEncoder xyz), ``reaper`` (track pan 0..1), ``generic`` (``address`` and
+    ``fields``).  Switching receivers is one parameter; ``port=0`` takes the profile's usual port.
+
+    The azimuth inlet is hot (a bang resends the current direction); elevation, distance and spread are
+    stored.  Numbers go out as float32, indices as int32.  One update is one message per address, or one
+    bundle (``bundle=true``) time-tagged "immediately", or now + ``delay`` ms for receivers that
+    schedule.  ``rate`` caps updates per second (the latest held one follows, so the receiver always
+    ends where the hand stopped); ``change=true`` or a ``deadband`` skips updates that moved no more
+    than ``deadband`` degrees.  ``to`` adds destinations.  Sending never blocks and never stops the
+    patch: an absent receiver (ECONNREFUSED on loopback) is logged (once, then every 1000th) and
+    counted (``refused``); datagrams the system would not take are counted in ``failed``.
     """
 
     inlets = (
-        Inlet("azimuth", ("float", "int", "list"), "degrees, + left (or a list: azimuth elevation distance)"),
+        Inlet("azimuth", ("float", "int", "list", "bang"), "degrees, + left (or a list: az el dist spread)"),
         Inlet("elevation", ("float", "int"), "degrees, + up"),
         Inlet("distance", ("float", "int"), "0 far .. 90 near (the roll gesture)"),
         Inlet("spread", ("float", "int"), "source spread 0..100 (vbap)"),
     )
     params = (
         Param("profile", "symbol", "pointat", "the receiver", choices=tuple(PROFILES)),
-        Param("host", "symbol", "127.0.0.1", "receiver address"),
-        Param("port", "int", 0, "receiver UDP port (0: the profile's default)"),
-        Param("to", "list", (), "more destinations, host:port each"),
-        Param("source", "int", 0, "source / object number (0: the profile's first)", live=True),
-        Param("address", "symbol", "/pointat/azimuth", "generic profile: the address"),
-        Param("fields", "list", ("az", "el"), f"generic profile: the arguments, from: {' '.join(FIELDS)}"),
+        Param("host", "symbol", "127.0.0.1", "receiver address (name or IP)"),
+        Param("port", "int", 0, "receiver UDP port (0: the profile's usual port)"),
+        Param("to", "list", (), "more destinations: host:port, or a port on the same host"),
+        Param(
+            "source", "int", 0, "source / object / track / input number (0: the profile's first)", live=True
+        ),
+        Param("address", "symbol", "/pointat/{n}/direction", "generic profile: the address ({n}: source)"),
+        Param(
+            "fields", "list", ("az", "el"), f"generic profile: the arguments: {' '.join(FIELDS)} or numbers"
+        ),
+        Param(
+            "radius",
+            "float",
+            1.0,
+            "distance at dist01 = 1, for receivers in metres (spat)",
+            unit="m",
+            live=True,
+        ),
         Param("bundle", "bool", False, "send each update as one bundle"),
-        Param("delay", "float", 0.0, "bundle time tag = now + delay", unit="ms", live=True),
-        Param("rate", "float", 0.0, "at most this many updates per second (0: all)", unit="Hz", live=True),
-        Param("deadband", "float", 0.0, "skip updates that moved less than this", unit="deg", live=True),
+        Param("delay", "float", 0.0, "bundle time tag = now + delay (0: immediately)", unit="ms", live=True),
+        Param(
+            "rate", "float", 0.0, "at most this many updates per second (0: every one)", unit="Hz", live=True
+        ),
+        Param("change", "bool", False, "send only updates that moved more than the deadband", live=True),
+        Param("deadband", "float", 0.0, "with change (or > 0): skip smaller moves", unit="deg", live=True),
     )
     example = """
-node dir azi_ele
-node out osc_out profile=adm port=4001 source=1
+node dir  azi_ele
+node out  osc_out profile=adm rate=50
 dir.elevation -> out.elevation
 dir.azimuth -> out.azimuth
 """
 
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        """Check the parameters that types alone do not (so that ``pointat check`` finds mistakes)."""
+        profile = PROFILES[values["profile"]]
+        if profile.name == "generic":
+            if not str(values["address"]).startswith("/"):
+                raise ValueError(f"address {values['address']!r} must start with '/'")
+            if not values["fields"]:
+                raise ValueError("fields is empty: name at least one argument")
+            check_fields(values["fields"])
+        destinations(values["host"], values["port"] or profile.port, values["to"])
+        if values["source"] < 0:
+            raise ValueError(f"source {values['source']} is negative")
+        for name in ("delay", "rate", "deadband", "radius"):
+            if not math.isfinite(values[name]) or values[name] < 0:
+                raise ValueError(f"{name} must be a finite number >= 0, got {values[name]}")
+        if values["delay"] > 0 and not values["bundle"]:
+            raise ValueError("delay only applies to bundles: add bundle=true")
+
     def setup(self) -> None:
         self.profile = PROFILES[self.p.profile]
-        for f in self.p.fields:
-            if f not in FIELDS:
-                raise ValueError(f"unknown field '{f}' (fields: {' '.join(FIELDS)})")
-        self.targets = _destinations(self.p.host, self.p.port or self.profile.port, self.p.to)
-        self._sock: socket.socket | None = None
-        self._el = self._dist = self._spread = 0.0
-        self._last: tuple[float, float, float] | None = None
-        self._last_sent = -math.inf
+        self.messages = self.profile.messages or ((self.p.address, check_fields(self.p.fields)),)
+        self.dests = [
+            _Destination(h, p)
+            for h, p in destinations(self.p.host, self.p.port or self.profile.port, self.p.to)
+        ]
+        self.state = [0.0, 0.0, 0.0, 0.0]  # azimuth, elevation, distance, spread
+        self._last: tuple[float, ...] | None = None
+        self._last_time = -math.inf
+        self._held: tuple[float, ...] | None = None
+        self._timer: Timer | None = None
+        self.updates = 0
         self.sent = 0
         self.failed = 0
+        self.refused = 0
 
     def start(self) -> None:
-        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self._sock.setblocking(False)
+        unresolved = []
+        for d in self.dests:
+            d.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            d.sock.setblocking(False)
+            d.sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+            if not _is_ip(d.host) or not self._connect(d):
+                unresolved.append(d)
+        if unresolved:  # name lookups can block for seconds: never on the scheduler thread
+            self.spawn(lambda: self._retry(unresolved), "resolve")
 
+    def _connect(self, d: _Destination) -> bool:
+        """Resolve and connect (the system then reports ECONNREFUSED when nobody listens on loopback)."""
+        try:
+            info = socket.getaddrinfo(d.host, d.port, socket.AF_INET, socket.SOCK_DGRAM)
+            if d.sock is None:
+                return False
+            d.sock.connect(info[0][4])
+        except OSError as exc:
+            if not d.warned:
+                d.warned = True
+                log.warning("osc_out '%s': cannot reach %s (%s); retrying every 2 s", self.name, d.label, exc)
+            return False
+        d.connected = True
+        if d.warned:
+            log.warning("osc_out '%s': %s reachable now", self.name, d.label)
+        return True
+
+    def _retry(self, pending: list[_Destination]) -> None:
+        stopping = self._runtime().stopping
+        while True:
+            pending = [d for d in pending if d.sock is not None and not self._connect(d)]
+            if not pending or stopping.wait(2.0):
+                return
+
+    # inlets ------------------------------------------------------------------
     def on_elevation(self, msg: Message) -> None:
-        self._el = as_float(msg)
+        self.state[1] = as_float(msg)
 
     def on_distance(self, msg: Message) -> None:
-        self._dist = as_float(msg)
+        self.state[2] = as_float(msg)
 
     def on_spread(self, msg: Message) -> None:
-        self._spread = as_float(msg)
+        self.state[3] = as_float(msg)
 
     def on_azimuth(self, msg: Message) -> None:
-        if msg.kind == "list":
-            values = [float(v) for v in msg.value]
-            az = values[0]
-            if len(values) > 1:
-                self._el = values[1]
-            if len(values) > 2:
-                self._dist = values[2]
+        if msg.kind == "bang":
+            pass  # send the current state again, whatever the pacing says
+        elif msg.kind == "list":
+            values = [float(v) for v in msg.value[:4]]
+            if not values:
+                raise ValueError("empty list")
+            self.state[: len(values)] = values
         else:
-            az = as_float(msg)
-        if not all(math.isfinite(v) for v in (az, self._el, self._dist)):
-            raise ValueError("not sent: NaN or infinite value")
-        now = time.monotonic()
-        if self.p.rate > 0 and now - self._last_sent < 1.0 / self.p.rate:
-            return
-        state = (az, self._el, self._dist)
-        if self._last is not None and self.p.deadband > 0:
-            moved = max(
-                abs((az - self._last[0] + 180.0) % 360.0 - 180.0),
-                abs(self._el - self._last[1]),
-                abs(self._dist - self._last[2]),
-            )
-            if moved < self.p.deadband:
-                return
-        self._last, self._last_sent = state, now
-        n = self.p.source or self.profile.first
-        src = Source(n, az, self._el, self._dist, self._spread)
-        self.send(self.profile.render(src, self.p.address, tuple(self.p.fields)))
+            self.state[0] = as_float(msg)
+        update = tuple(self.state)
+        if not all(math.isfinite(v) for v in update):
+            raise ValueError(f"not sent: not a finite number in {update}")
+        if msg.kind == "bang":
+            self._release(update)
+        else:
+            self.offer(update)
 
-    def send(self, messages: list[tuple[str, list]]) -> None:
-        """Send (address, args) pairs, as messages or one bundle, to every destination."""
+    # update policy -------------------------------------------------------------
+    def offer(self, update: tuple[float, ...]) -> None:
+        """Apply send-on-change, deadband and rate limit to one update, then send it (or hold it)."""
+        if (self.p.change or self.p.deadband > 0) and self._last is not None:
+            if _moved(self._last, update) <= self.p.deadband:
+                self._held = None  # the hand came back: nothing newer to deliver
+                return
+        if self.p.rate > 0:
+            due = self._last_time + 1.0 / self.p.rate
+            if self.now < due:
+                self._held = update
+                if self._timer is None:
+                    self._timer = self.call_at(due, self._flush)
+                return
+        self._release(update)
+
+    def _flush(self) -> None:
+        self._timer = None
+        if self._held is not None:
+            self._release(self._held)
+
+    def _release(self, update: tuple[float, ...]) -> None:
+        self._held = None
+        self._last, self._last_time = update, self.now
+        self.updates += 1
+        az, el, dist, spread = update
+        n = self.p.source or self.profile.first
+        src = Source(n, az, el, dist, spread, self.p.radius)
+        self.send(self.profile.render(src, self.messages))
+
+    # sending -------------------------------------------------------------------
+    def send(self, messages: Sequence[tuple[str, Sequence[Any]]]) -> None:
+        """Send (address, arguments) pairs, as messages or one bundle, to every destination."""
+        datagrams = [encode_message(address, args) for address, args in messages]
         if self.p.bundle:
-            stamp = IMMEDIATELY if self.p.delay <= 0 else time.time() + self.p.delay / 1000.0
-            b = OscBundleBuilder(stamp)
-            for address, args in messages:
-                b.add_content(_osc_build(address, args))
-            datagrams = [b.build().dgram]
-        else:
-            datagrams = [_osc_message(address, args) for address, args in messages]
-        if self._sock is None:
-            raise RuntimeError("osc_out is not running")
-        for target in self.targets:
+            when = time.time() + self.p.delay / 1000.0 if self.p.delay > 0 else None
+            datagrams = [encode_bundle(datagrams, when)]
+        for d in self.dests:
             for dgram in datagrams:
-                try:
-                    self._sock.sendto(dgram, target)
-                    self.sent += 1
-                except OSError as exc:  # refused (no receiver yet), buffer full: never stop the patch
-                    self.failed += 1
-                    if self.failed == 1 or self.failed % 1000 == 0:
-                        log.warning(
-                            "osc_out '%s': cannot send to %s:%d (%s); %d not sent so far",
-                            self.name,
-                            target[0],
-                            target[1],
-                            exc.strerror or exc,
-                            self.failed,
-                        )
+                self._send_one(d, dgram)
+
+    def _send_one(self, d: _Destination, dgram: bytes) -> None:
+        if d.sock is None:
+            raise RuntimeError("osc_out is not running")
+        if not d.connected:  # not resolved (yet): never look a name up on the scheduler thread
+            self.failed += 1
+            d.failed += 1
+            return
+        for _attempt in range(2):
+            try:
+                d.sock.send(dgram)
+                self.sent += 1
+                return
+            except ConnectionRefusedError:
+                # an earlier datagram found nobody listening; the error is now cleared: try this one again
+                self.refused += 1
+                d.refused += 1
+                if d.refused == 1 or d.refused % 1000 == 0:
+                    log.warning(
+                        "osc_out '%s': nobody listening at %s (connection refused, %d times so far); "
+                        "sending on",
+                        self.name,
+                        d.label,
+                        d.refused,
+                    )
+            except OSError as exc:  # buffer full (EAGAIN), no route: drop, count, go on
+                self.failed += 1
+                d.failed += 1
+                if d.failed == 1 or d.failed % 1000 == 0:
+                    log.warning(
+                        "osc_out '%s': cannot send to %s (%s); %d datagrams dropped so far",
+                        self.name,
+                        d.label,
+                        errno.errorcode.get(exc.errno or 0, "") or exc,
+                        d.failed,
+                    )
+                return
+        self.failed += 1
+        d.failed += 1
 
     def close(self) -> None:
-        if self._sock is not None:
-            self._sock.close()
-            self._sock = None
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        for d in self.dests:
+            if d.sock is not None:
+                d.sock.close()
+                d.sock = None
+                d.connected = False
 
 
-def _osc_build(address: str, args: list[Any]):
-    from pythonosc.osc_message import OscMessage
+def _moved(a: Sequence[float], b: Sequence[float]) -> float:
+    """The largest change between two updates, degrees (azimuth the short way round)."""
+    daz = abs((b[0] - a[0] + 180.0) % 360.0 - 180.0)
+    return max(daz, *(abs(y - x) for x, y in zip(a[1:], b[1:], strict=True)))
 
-    return OscMessage(_osc_message(address, args))
 
-
-_LOOPBACK = ("127.0.0.1", "::1", "localhost")
-G = 9.80665
+# --------------------------------------------------------------------------- osc_in
+def _allowed_networks(allow: Sequence[Any]) -> list[ipaddress.IPv4Network | ipaddress.IPv6Network]:
+    nets = []
+    for item in allow:
+        try:
+            nets.append(ipaddress.ip_network(str(item), strict=False))
+        except ValueError:
+            raise ValueError(
+                f"allow: {item!r} is not an IP address or network (such as 192.168.1.20)"
+            ) from None
+    return nets
 
 
 @register("osc_in")
 class OscIn(Node):
-    """Receive OSC: IMU data from phones and OSC sensors, and live control of the patch.
+    """Receive OSC: IMU data from phones and OSC sensors, and live control of the running patch.
 
-    Listens on ``host`` (127.0.0.1 by default; another address only when asked, then only senders in
-    ``allow`` are heard).  Sensor formats (``device``): ``ngimu`` (``/sensors`` gyro deg/s, accel g,
-    mag uT; ``/quaternion`` w x y z), ``zigsim`` (``/ID/quaternion`` x y z w, ``/ID/gyro``,
-    ``/ID/accel`` in g), or ``none``.  Whatever the format, ``/pointat/NODE/PARAM value`` sets a live
-    parameter and ``/pointat/NODE/METHOD args`` sends a method (recalibrate, set...) to that node.  Every
-    other message leaves by ``any`` as a method message named by its address, for ``route``.  Bundle time
-    tags are read, never waited for (a device clock ahead of ours must not stall anything).  Malformed
-    packets are counted and dropped.
+    Listens on 127.0.0.1 by default.  Another ``host`` (0.0.0.0: every interface) only when asked, and
+    then only the senders in ``allow`` (addresses or networks) are heard; without an allow-list that is
+    a load error.
+
+    Sensors (``device``): ``ngimu`` (``/sensors``: gyro deg/s, accel g, mag uT; ``/quaternion`` w x y z),
+    ``zigsim`` (``/.../quaternion`` x y z w, ``/.../gyro`` rad/s, ``/.../gravity`` g), and ``map`` for
+    anything else (``map=["/imu/acc=accel*9.80665", "/imu/gyro=gyro"]``: address, outlet, optional scale;
+    ``*`` in an address matches anything).  Outputs are SI: gyro rad/s, accel m/s² (+g up at rest), mag
+    gauss; one message's outlets fire right to left (mag, accel, then gyro), as ``scaling`` does.
+
+    Live control (``control=true``): ``/pointat/NODE/PARAM value`` sets a live parameter,
+    ``/pointat/NODE/METHOD args`` sends a method (``/pointat/nulls/recalibrate``, ``/pointat/ref/set``),
+    ``/pointat/NODE value...`` sends the values (a bang when none) to the node's left inlet; NODE may be
+    inside an abstraction (``/pointat/left/ref/set``).  Every other message (pointat's own
+    ``/pointat/1/aed`` too) leaves by ``any`` as a method message named by its address, for ``route``.
+
+    Bundle time tags are read, never waited for (a device clock ahead of ours must not stall anything).
+    Malformed packets are counted (``malformed``) and dropped; the patch keeps running.
     """
 
     outlets = (
         Outlet("gyro", "vector", "angular rate, rad/s"),
-        Outlet("accel", "vector", "specific force, m/s²"),
-        Outlet("mag", "vector", "magnetic field, as sent (uT for NGIMU)"),
-        Outlet("quat", "vector", "orientation quaternion (w, x, y, z), as the device sends it"),
+        Outlet("accel", "vector", "specific force, m/s² (+g up at rest)"),
+        Outlet("mag", "vector", "magnetic field, gauss"),
+        Outlet("quat", "vector", "orientation quaternion (w, x, y, z), as the device defines it"),
         Outlet("any", "any", "every other message: selector = address, then the arguments"),
     )
     params = (
-        Param("port", "int", 9001, "UDP port to listen on"),
-        Param("host", "symbol", "127.0.0.1", "address to listen on (0.0.0.0: every interface)"),
-        Param("allow", "list", (), "senders heard when host is not loopback (IP addresses)"),
-        Param("device", "symbol", "none", "sensor format", choices=("none", "ngimu", "zigsim")),
-        Param("control", "bool", True, "accept /pointat/NODE/PARAM control messages"),
+        Param("port", "int", 9001, "UDP port to listen on (0: any free port)"),
+        Param("host", "symbol", "127.0.0.1", "address to listen on (0.0.0.0: every interface, needs allow)"),
+        Param("allow", "list", (), "senders heard (IP addresses or networks); required off loopback"),
+        Param("device", "symbol", "none", "sensor format", choices=tuple(SENSORS)),
+        Param("map", "list", (), "more sensor messages: /address=outlet or /address=outlet*scale"),
+        Param("control", "bool", True, "accept /pointat/NODE/... control messages"),
     )
+    example = """
+node phone osc_in port=9001 device=zigsim host=0.0.0.0 allow=["192.168.1.0/24"]
+node dir   azi_ele
+phone.quat -> dir
+"""
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        """Check host, allow-list and map (so that ``pointat check`` finds mistakes)."""
+        host = str(values["host"])
+        if not _is_loopback(host):
+            try:
+                ipaddress.IPv4Address(host)
+            except ValueError:
+                raise ValueError(f"host {host!r}: expected an IPv4 address such as 0.0.0.0") from None
+            if not values["allow"]:
+                raise ValueError(
+                    f"listening on {host} (not loopback) needs an allow-list of senders: "
+                    'allow=["192.168.1.20"] (addresses or networks)'
+                )
+        _allowed_networks(values["allow"])
+        if not 0 <= values["port"] <= 65535:
+            raise ValueError(f"port {values['port']} is outside 0..65535")
+        for item in values["map"]:
+            parse_rule(item)
 
     def setup(self) -> None:
+        self.rules: tuple[Rule, ...] = SENSORS[self.p.device] + tuple(parse_rule(m) for m in self.p.map)
+        self._outlet = {name: i for i, name in enumerate(o.name for o in self.outlets)}
+        self._allow = _allowed_networks(self.p.allow)
+        self._sock: socket.socket | None = None
+        self.received = 0
         self.malformed = 0
         self.refused = 0
-        self.received = 0
-        self._sock: socket.socket | None = None
-        if self.p.host not in _LOOPBACK and not self.p.allow:
-            raise ValueError(f"listening on {self.p.host} needs allow=[...] senders (an allow-list)")
 
     def start(self) -> None:
-        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self._sock.bind((self.p.host, self.p.port))
-        self._sock.settimeout(0.1)
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            sock.bind(("127.0.0.1" if self.p.host == "localhost" else self.p.host, self.p.port))
+        except OSError:
+            sock.close()
+            raise
+        sock.settimeout(0.1)
+        self._sock = sock
         self.active = True
         self.spawn(self._listen, "listen")
 
     @property
     def address(self) -> tuple[str, int]:
         """Where it listens (the real port when ``port=0``)."""
-        return self._sock.getsockname() if self._sock is not None else (self.p.host, self.p.port)
+        sock = self._sock
+        return sock.getsockname() if sock is not None else (self.p.host, self.p.port)
+
+    def _heard(self, sender: str) -> bool:
+        if not self._allow:
+            return True
+        ip = ipaddress.ip_address(sender)
+        return any(ip in net for net in self._allow)
 
     def _listen(self) -> None:
-        stopping = self._runtime().stopping
-        allow = {str(a) for a in self.p.allow}
-        while not stopping.is_set() and self._sock is not None:
+        rt = self._runtime()
+        while not rt.stopping.is_set():
+            sock = self._sock
+            if sock is None:
+                return
             try:
-                data, sender = self._sock.recvfrom(65536)
+                data, sender = sock.recvfrom(65536)
             except TimeoutError:
                 continue
-            except OSError:
+            except OSError:  # closed under us: the patch is stopping
                 return
-            if self.p.host not in _LOOPBACK and sender[0] not in allow:
+            t = time.monotonic()
+            if not self._heard(sender[0]):
                 self.refused += 1
+                if self.refused == 1:
+                    log.warning("osc_in '%s': ignoring %s (not in allow)", self.name, sender[0])
                 continue
             try:
-                packet = OscPacket(data)
-            except (ParseError, ValueError, IndexError, TypeError) as exc:
+                check_bundle(data)
+                messages = [(m.message.address, list(m.message.params)) for m in OscPacket(data).messages]
+            except Exception as exc:  # python-osc raises several kinds on garbage: count, drop, go on
                 self.malformed += 1
-                if self.malformed <= 3:
+                if self.malformed <= 3 or self.malformed % 1000 == 0:
                     log.warning(
-                        "osc_in '%s': malformed packet from %s dropped (%s)", self.name, sender[0], exc
+                        "osc_in '%s': malformed packet from %s dropped (%s); %d so far",
+                        self.name,
+                        sender[0],
+                        exc,
+                        self.malformed,
                     )
                 continue
-            for timed in packet.messages:
-                self.post(self._handle, timed.message.address, list(timed.message.params), block=False)
+            self.post(self._handle, messages, t, block=False)
 
-    def _handle(self, address: str, args: list[Any]) -> None:
-        self.received += 1
-        self.time = self.now
-        if self.p.control and address.startswith("/pointat/"):
-            parts = address.split("/")
-            if len(parts) == 4:
-                self._runtime().send(parts[2], parts[3], *args)
-                return
-        if self.p.device == "ngimu" and address == "/sensors" and len(args) >= 9:
-            g = [float(v) for v in args[:9]]
-            self.out(2, vector(g[6:9]))
-            self.out(1, vector([a * G for a in g[3:6]]))
-            self.out(0, vector([math.radians(w) for w in g[0:3]]))
-            return
-        if self.p.device == "ngimu" and address == "/quaternion" and len(args) == 4:
-            self.out(3, vector([float(v) for v in args]))
-            return
-        if self.p.device == "zigsim":
-            leaf = address.rsplit("/", 1)[-1]
-            if leaf == "quaternion" and len(args) == 4:
-                x, y, z, w = (float(v) for v in args)
-                self.out(3, vector([w, x, y, z]))
-                return
-            if leaf in ("gyro", "accel") and len(args) == 3:
-                v = [float(a) for a in args]
-                self.out(0, vector(v)) if leaf == "gyro" else self.out(1, vector([a * G for a in v]))
-                return
-        self.out(4, method(address, *args) if address not in ("bang",) else make(None))
+    def _handle(self, messages: list[tuple[str, list[Any]]], t: float) -> None:
+        """Scheduler thread: route one packet's messages."""
+        self.time = self._runtime().clock.from_monotonic(t)
+        for address, args in messages:
+            self.received += 1
+            if self.p.control and address.startswith("/pointat/") and self._control(address, args):
+                continue
+            outputs = []
+            for rule in self.rules:
+                if rule.matches(address):
+                    try:
+                        outputs.append((self._outlet[rule.outlet], rule.extract(args)))
+                    except ValueError as exc:
+                        self.malformed += 1
+                        if self.malformed <= 3:
+                            log.warning("osc_in '%s': %s dropped (%s)", self.name, address, exc)
+            if outputs:
+                for outlet, values in sorted(outputs, key=lambda o: -o[0]):  # right to left
+                    self.out(outlet, vector(values, self.time))
+                continue
+            self.out(4, method(address, *args))
+
+    def _control(self, address: str, args: list[Any]) -> bool:
+        """``/pointat/NODE/SELECTOR args`` or ``/pointat/NODE args``; False when it names no node.
+
+        NODE may be an abstraction's inner node (``left/dir``).  Node names never start with a digit, so
+        pointat's own direction messages (``/pointat/1/aed``) are not control: they go on by ``any``.
+        """
+        rest = address[len("/pointat/") :]
+        if not rest or rest[0].isdigit():
+            return False
+        rt = self._runtime()
+        if rest in rt.nodes:  # values for the left inlet
+            if not args:
+                rt.send(rest, "bang")
+            else:
+                rt.send(rest, make(args[0] if len(args) == 1 else tuple(args)))
+            return True
+        node, _, selector = rest.rpartition("/")
+        if not node or not selector:
+            log.warning(
+                "osc_in '%s': %s: no node '%s'; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD",
+                self.name,
+                address,
+                rest,
+            )
+            return True
+        rt.send(node, selector, *args)
+        return True
 
     def close(self) -> None:
         self.active = False
-        if self._sock is not None:
-            self._sock.close()
-            self._sock = None
+        sock, self._sock = self._sock, None
+        if sock is not None:
+            sock.close()

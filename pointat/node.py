@@ -414,9 +414,13 @@ class Node:
         """Run ``fn(*args)`` on the scheduler thread at logical time ``when`` (a deadline: no drift)."""
         return self._runtime().call_at(when, self, fn, *args)
 
-    def post(self, fn: Callable[..., Any], *args: Any) -> bool:
-        """From any thread: queue ``fn(*args)`` to run on the scheduler thread. False if it was dropped."""
-        return self._runtime().post(self, fn, *args)
+    def post(self, fn: Callable[..., Any], *args: Any, block: bool = True) -> bool:
+        """From any thread: queue ``fn(*args)`` to run on the scheduler thread. False if it was dropped.
+
+        ``block`` waits while the queue is full (a file replay); without it a full queue drops the event
+        and counts it (a live network source must never stall its reader).
+        """
+        return self._runtime().post(self, fn, *args, block=block)
 
     def spawn(self, target: Callable[[], Any], what: str = "") -> threading.Thread:
         """Start a thread for blocking I/O; the runtime joins it at shutdown."""

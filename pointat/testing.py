@@ -39,6 +39,7 @@ class Collect(Node):
 
     @property
     def values(self) -> list[Any]:
+        """The values of the messages so far (a new list: append to ``messages``, not to this)."""
         return [m.value for m in self.messages]
 
 

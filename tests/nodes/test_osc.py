@@ -1,0 +1,659 @@
+"""osc_out and osc_in over real UDP sockets on 127.0.0.1: profiles, bundles, pacing, absent receivers,
+sensor formats, live control, time tags and malformed packets.
+
+Packets are read back with a small OSC decoder written here from the OSC 1.0 specification, not with the
+library that encodes them; packets sent to osc_in are built with python-osc.
+"""
+
+import math
+import socket
+import struct
+import time
+
+import pytest
+from pythonosc.osc_bundle_builder import IMMEDIATELY as PY_IMMEDIATELY
+from pythonosc.osc_bundle_builder import OscBundleBuilder
+from pythonosc.osc_message_builder import OscMessageBuilder
+
+from osc_bridge.profiles import PROFILES
+from pointat.errors import PatchError
+from pointat.loader import load
+from pointat.message import make
+from pointat.testing import patch
+
+IMMEDIATELY = b"\x00" * 7 + b"\x01"
+NTP_UNIX = 2208988800
+F32 = 1e-6  # relative tolerance of float32
+
+
+# --------------------------------------------------------------------------- an independent OSC reader
+def _string(data: bytes, i: int) -> tuple[str, int]:
+    end = data.index(b"\x00", i)
+    return data[i:end].decode("utf-8"), (end + 4) & ~3
+
+
+def decode(data: bytes, stamp: bytes | None = None) -> list[tuple[bytes | None, str, str, list]]:
+    """(time tag, address, type tags, arguments) of every message in a packet, bundles flattened."""
+    if data.startswith(b"#bundle\x00"):
+        stamp, i, out = data[8:16], 16, []
+        while i < len(data):
+            (size,) = struct.unpack(">i", data[i : i + 4])
+            out += decode(data[i + 4 : i + 4 + size], stamp)
+            i += 4 + size
+        assert i == len(data), "bundle element sizes do not add up"
+        return out
+    address, i = _string(data, 0)
+    tags, i = _string(data, i)
+    assert tags.startswith(","), tags
+    args: list = []
+    for t in tags[1:]:
+        if t == "f":
+            args.append(struct.unpack(">f", data[i : i + 4])[0])
+            i += 4
+        elif t == "i":
+            args.append(struct.unpack(">i", data[i : i + 4])[0])
+            i += 4
+        elif t == "s":
+            s, i = _string(data, i)
+            args.append(s)
+        else:
+            raise AssertionError(f"unexpected type tag {t!r} in {tags!r}")
+    assert i == len(data), "trailing bytes after the arguments"
+    return [(stamp, address, tags[1:], args)]
+
+
+def ntp_to_unix(stamp: bytes) -> float:
+    sec, frac = struct.unpack(">II", stamp)
+    return sec - NTP_UNIX + frac / 2**32
+
+
+class Receiver:
+    """A UDP socket on 127.0.0.1 with a free port."""
+
+    def __init__(self, port: int = 0):
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", port))
+        self.port = self.sock.getsockname()[1]
+
+    def packets(self, n: int | None = None, timeout: float = 1.0, quiet: float = 0.05) -> list[bytes]:
+        """``n`` packets (waiting up to ``timeout``), or with ``n=None`` all until ``quiet`` s of silence."""
+        out: list[bytes] = []
+        deadline = time.monotonic() + timeout
+        while n is None or len(out) < n:
+            wait = quiet if n is None else deadline - time.monotonic()
+            if wait <= 0:
+                break
+            self.sock.settimeout(wait)
+            try:
+                out.append(self.sock.recv(65536))
+            except TimeoutError:
+                break
+        return out
+
+    def messages(self, n: int | None = None, timeout: float = 1.0) -> list[tuple]:
+        return [m for p in self.packets(n, timeout) for m in decode(p)]
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+@pytest.fixture
+def receivers():
+    made: list[Receiver] = []
+
+    def make_one(port: int = 0) -> Receiver:
+        made.append(Receiver(port))
+        return made[-1]
+
+    yield make_one
+    for r in made:
+        r.close()
+
+
+@pytest.fixture
+def started():
+    """Start a patch and shut it down after the test."""
+    runtimes = []
+
+    def start(rt):
+        runtimes.append(rt)
+        rt.start()
+        return rt
+
+    yield start
+    for rt in runtimes:
+        rt.shutdown()
+
+
+def push(node, az, el=None, dist=None, spread=None):
+    """Cold inlets first, then the hot azimuth, as a patch would."""
+    for inlet, value in ((3, spread), (2, dist), (1, el)):
+        if value is not None:
+            node.receive(inlet, make(float(value)))
+    node.receive(0, make(float(az)))
+
+
+def out_node(started, port, params=""):
+    rt = started(patch(f"node out osc_out port={port} {params}"))
+    return rt, rt.nodes["out"]
+
+
+def values_match(got, want):
+    return len(got) == len(want) and all(
+        g == w if isinstance(w, (int, str)) else math.isclose(g, w, rel_tol=F32, abs_tol=1e-6)
+        for g, w in zip(got, want, strict=True)
+    )
+
+
+# --------------------------------------------------------------------------- osc_out: profiles
+C10, S10, C30, S30 = (math.cos(math.radians(10)), math.sin(math.radians(10)), math.cos(math.radians(30)), 0.5)
+# one update: azimuth 30 (left), elevation 10, roll distance 45 (half way in), spread 20
+EXPECTED = {
+    "pointat": [("/pointat/1/aed", "fff", [30.0, 10.0, 0.5])],
+    "vbap": [("/vbap/1", "fff", [30.0, 10.0, 20.0])],
+    "adm": [("/adm/obj/1/aed", "fff", [30.0, 10.0, 0.5])],
+    "iem_stereo": [("/StereoEncoder/azimuth", "f", [30.0]), ("/StereoEncoder/elevation", "f", [10.0])],
+    "iem_multi": [("/MultiEncoder/azimuth0", "f", [30.0]), ("/MultiEncoder/elevation0", "f", [10.0])],
+    "spat": [("/source/1/aed", "fff", [-30.0, 10.0, 0.5])],
+    "icst": [("/icst/ambi/sourceindex/xyz", "ifff", [1, -0.5 * C10 * S30, 0.5 * C10 * C30, 0.5 * S10])],
+    "reaper": [("/track/1/pan", "f", [1.0 / 3.0])],
+    "generic": [("/pointat/1/direction", "ff", [30.0, 10.0])],
+}
+
+
+def test_every_profile_is_covered():
+    assert set(EXPECTED) == set(PROFILES)
+
+
+@pytest.mark.parametrize("profile", sorted(EXPECTED))
+def test_profile_addresses_type_tags_and_values(profile, started, receivers):
+    rx = receivers()
+    _, out = out_node(started, rx.port, f"profile={profile}")
+    push(out, 30.0, el=10.0, dist=45.0, spread=20.0)
+    want = EXPECTED[profile]
+    got = rx.messages(len(want))
+    assert [(a, t) for _, a, t, _ in got] == [(a, t) for a, t, _ in want]
+    for (_, _, _, args), (_, _, expected) in zip(got, want, strict=True):
+        assert values_match(args, expected), (args, expected)
+    assert all(stamp is None for stamp, *_ in got)  # plain messages, not bundles
+    assert rx.packets(quiet=0.05) == []  # exactly one update's messages
+    assert [t for _, _, t, _ in got] == (PROFILES[profile].type_tags() or ["ff"])
+
+
+def test_generic_address_fields_constants_and_source(started, receivers):
+    rx = receivers()
+    _, out = out_node(
+        started, rx.port, "profile=generic address=/my/{n}/dir fields=[az, el, n, 2.5, 7, x] source=4"
+    )
+    push(out, -90.0, el=0.0)
+    [(_, address, tags, args)] = rx.messages(1)
+    assert (address, tags) == ("/my/4/dir", "ffifif")
+    assert values_match(args, [-90.0, 0.0, 4, 2.5, 7, 1.0])  # x: + right
+
+
+@pytest.mark.parametrize(
+    ("az", "spat_az", "pan"),
+    [
+        (30.0, -30.0, 1 / 3),  # left: SPAT negative, pan towards 0
+        (-30.0, 30.0, 2 / 3),
+        (0.0, 0.0, 0.5),
+        (90.0, -90.0, 0.0),  # hard left
+        (-90.0, 90.0, 1.0),  # hard right
+        (150.0, -150.0, 1 / 3),  # behind left pans as its mirror image in front
+        (180.0, 180.0, 0.5),
+        (190.0, 170.0, 0.5 + 10 / 180),  # wrapped to -170 first
+    ],
+)
+def test_azimuth_conventions_spat_and_reaper(az, spat_az, pan, started, receivers):
+    rx_spat, rx_reaper = receivers(), receivers()
+    _, spat = out_node(started, rx_spat.port, "profile=spat")
+    push(spat, az)
+    [(_, _, _, (got_az, _, _))] = rx_spat.messages(1)
+    assert math.isclose(got_az, spat_az, abs_tol=1e-5)
+    rt = started(patch(f"node out2 osc_out port={rx_reaper.port} profile=reaper"))
+    push(rt.nodes["out2"], az)
+    [(_, _, _, (got_pan,))] = rx_reaper.messages(1)
+    assert math.isclose(got_pan, pan, abs_tol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("dist", "dist01"), [(0.0, 1.0), (45.0, 0.5), (90.0, 0.0), (120.0, 0.0), (-5.0, 1.0)]
+)
+def test_adm_distance_is_normalised_far_one_near_zero(dist, dist01, started, receivers):
+    rx = receivers()
+    _, out = out_node(started, rx.port, "profile=adm")
+    push(out, 0.0, el=0.0, dist=dist)
+    [(_, _, _, (_, _, got))] = rx.messages(1)
+    assert math.isclose(got, dist01, abs_tol=1e-7)
+
+
+def test_spat_distance_in_metres_and_source_numbers(started, receivers):
+    rx = receivers()
+    rt, out = out_node(started, rx.port, "profile=spat radius=3 source=5")
+    push(out, 0.0, dist=45.0)
+    [(_, address, _, (_, _, metres))] = rx.messages(1)
+    assert address == "/source/5/aed" and math.isclose(metres, 1.5, rel_tol=F32)
+    out.set_param("source", 2)  # live
+    push(out, 0.0)
+    assert rx.messages(1)[0][1] == "/source/2/aed"
+
+
+def test_iem_multi_counts_inputs_from_zero_and_adm_objects_from_one(started, receivers):
+    rx = receivers()
+    rt = started(
+        patch(
+            f"node a osc_out port={rx.port} profile=iem_multi\n"
+            f"node b osc_out port={rx.port} profile=iem_multi source=3\n"
+            f"node c osc_out port={rx.port} profile=adm\n"
+        )
+    )
+    for name in ("a", "b", "c"):
+        push(rt.nodes[name], 10.0)
+    got = [a for _, a, _, _ in rx.messages(5)]
+    assert got == [
+        "/MultiEncoder/azimuth0",
+        "/MultiEncoder/elevation0",
+        "/MultiEncoder/azimuth3",
+        "/MultiEncoder/elevation3",
+        "/adm/obj/1/aed",
+    ]
+
+
+def test_list_input_and_bang_resend(started, receivers):
+    rx = receivers()
+    _, out = out_node(started, rx.port, "profile=adm")
+    out.receive(0, make([20.0, -5.0, 90.0]))
+    out.receive(0, make(None))  # bang: send the current direction again
+    got = [args for *_, args in rx.messages(2)]
+    assert values_match(got[0], [20.0, -5.0, 0.0]) and got[1] == got[0]
+
+
+# --------------------------------------------------------------------------- osc_out: bundles
+def test_bundle_time_tag_immediately(started, receivers):
+    rx = receivers()
+    _, out = out_node(started, rx.port, "profile=iem_stereo bundle=true")
+    push(out, 45.0, el=-10.0)
+    [packet] = rx.packets(1)
+    assert packet.startswith(b"#bundle\x00")
+    got = decode(packet)
+    assert [(s, a, t) for s, a, t, _ in got] == [
+        (IMMEDIATELY, "/StereoEncoder/azimuth", "f"),
+        (IMMEDIATELY, "/StereoEncoder/elevation", "f"),
+    ]
+    assert values_match([got[0][3][0], got[1][3][0]], [45.0, -10.0])
+    assert rx.packets(quiet=0.05) == []  # one packet per update
+
+
+def test_bundle_time_tag_now_plus_delay(started, receivers):
+    rx = receivers()
+    _, out = out_node(started, rx.port, "profile=adm bundle=true delay=250")
+    before = time.time()
+    push(out, 10.0)
+    after = time.time()
+    [(stamp, address, tags, _)] = rx.messages(1)
+    assert (address, tags) == ("/adm/obj/1/aed", "fff")
+    assert before + 0.25 - 1e-3 <= ntp_to_unix(stamp) <= after + 0.25 + 1e-3
+
+
+def test_delay_without_bundle_is_a_load_error():
+    with pytest.raises(PatchError, match="bundle=true"):
+        patch("node out osc_out delay=20")
+
+
+# --------------------------------------------------------------------------- osc_out: pacing
+def azimuths(rx):
+    return [round(args[0], 4) for *_, args in rx.messages(None)]
+
+
+def test_rate_limit_sends_the_latest_held_update_when_the_interval_ends(started, receivers):
+    rx = receivers()
+    rt, out = out_node(started, rx.port, "profile=adm rate=10")
+    for az in (1.0, 2.0, 3.0):  # t = 0
+        push(out, az)
+    assert azimuths(rx) == [1.0]
+    rt.advance(0.05)
+    assert azimuths(rx) == []
+    rt.advance(0.05)  # t = 0.1: the held one (the latest) goes
+    assert azimuths(rx) == [3.0]
+    push(out, 4.0)  # t = 0.1: held until 0.2
+    rt.advance(0.09)
+    assert azimuths(rx) == []
+    rt.advance(0.01)
+    assert azimuths(rx) == [4.0]
+    rt.advance(0.5)
+    push(out, 5.0)  # long after the last one: at once
+    assert azimuths(rx) == [5.0]
+    assert out.updates == 4
+
+
+def test_deadband_skips_small_moves_the_short_way_round(started, receivers):
+    rx = receivers()
+    _, out = out_node(started, rx.port, "profile=adm deadband=2")
+    for az, el in [(0, 0), (1, 0), (1.5, 0), (2.5, 0), (3, 0), (3, 3), (179, 3), (-179.5, 3), (-175, 3)]:
+        push(out, az, el=el)
+    # 1, 1.5: within 2 of 0; 3: within 2 of 2.5; (3, el 3): elevation moved 3; 179 -> -179.5 is 1.5 deg
+    assert azimuths(rx) == [0.0, 2.5, 3.0, 179.0, -175.0]
+
+
+def test_send_on_change_drops_exact_repeats(started, receivers):
+    rx = receivers()
+    _, out = out_node(started, rx.port, "profile=adm change=true")
+    for az in (5.0, 5.0, 5.0, 6.0, 6.0, 5.0):
+        push(out, az)
+    assert azimuths(rx) == [5.0, 6.0, 5.0]
+
+
+def test_a_held_update_is_dropped_when_the_hand_comes_back(started, receivers):
+    rx = receivers()
+    rt, out = out_node(started, rx.port, "profile=adm rate=10 deadband=1")
+    push(out, 0.0)
+    push(out, 5.0)  # held
+    push(out, 0.5)  # back within the deadband of what the receiver has
+    rt.advance(0.2)
+    assert azimuths(rx) == [0.0]
+
+
+def test_multiple_destinations_each_get_every_update(started, receivers):
+    a, b, c = receivers(), receivers(), receivers()
+    _, out = out_node(started, a.port, f'profile=adm to=[{b.port}, "127.0.0.1:{c.port}"]')
+    push(out, 12.0)
+    push(out, 13.0)
+    for rx in (a, b, c):
+        assert azimuths(rx) == [12.0, 13.0]
+    assert out.sent == 6 and out.failed == 0
+
+
+def test_bad_destinations_are_load_errors():
+    with pytest.raises(PatchError, match="host:port"):
+        patch('node out osc_out to=["nohostport"]')
+    with pytest.raises(PatchError, match="outside 1..65535"):
+        patch("node out osc_out to=[70000]")
+    with pytest.raises(PatchError, match="unknown field"):
+        patch("node out osc_out profile=generic address=/a fields=[azimuth]")
+
+
+def test_a_bad_value_is_dropped_and_the_next_one_goes(started, receivers):
+    rx = receivers()
+    rt = started(patch(f"node num t f\nnode out osc_out port={rx.port} profile=adm\nnum -> out"))
+    rt.nodes["num"].receive(0, make(math.nan))
+    rt.nodes["num"].receive(0, make(7.0))
+    assert azimuths(rx) == [7.0]
+    assert rt.nodes["out"].errors == 1
+
+
+# --------------------------------------------------------------------------- osc_out: absent receiver
+def test_absent_receiver_is_counted_and_the_patch_keeps_going(started, receivers):
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()  # nobody listens there now: loopback answers ECONNREFUSED
+    rt = started(
+        patch(
+            f"""
+node lb   loadbang
+node tick metro 5
+node az   msg 30
+node out  osc_out profile=adm port={port}
+node seen collect
+lb -> tick -> az
+az -> out
+az -> seen
+"""
+        )
+    )
+    out = rt.nodes["out"]
+    assert all(not d.sock.getblocking() for d in out.dests)  # sending can never block the scheduler
+    rt.advance(1.0)
+    assert len(rt.nodes["seen"].messages) == 201  # every tick went through the whole patch
+    assert out.updates == 201 and out.errors == 0
+    assert out.refused >= 1  # the system said nobody listens, and it was counted
+    rx = receivers(port)  # the receiver turns up: the next updates reach it
+    rt.advance(0.05)
+    assert azimuths(rx) == [30.0] * 10
+
+
+# --------------------------------------------------------------------------- osc_in
+def osc(address, *args, types=None):
+    b = OscMessageBuilder(address)
+    for i, a in enumerate(args):
+        b.add_arg(
+            a, types[i] if types else ("i" if isinstance(a, int) else "f" if isinstance(a, float) else "s")
+        )
+    return b.build()
+
+
+def bundle(stamp, *messages):
+    b = OscBundleBuilder(stamp)
+    for m in messages:
+        b.add_content(m)
+    return b.build().dgram
+
+
+def sender():
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    return s
+
+
+def wait_for(rt, predicate, timeout=2.0):
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        rt.drain(timeout=0.02)
+    return True
+
+
+def in_patch(started, params, wires=""):
+    rt = started(patch(f"node imu osc_in port=0 {params}\n{wires}"))
+    return rt, rt.nodes["imu"], rt.nodes["imu"].address
+
+
+def test_ngimu_sensors_and_quaternion_in_si_units_right_to_left(started):
+    rt, imu, addr = in_patch(
+        started,
+        "device=ngimu",
+        "node s collect\nnode q collect\nimu.gyro -> s\nimu.accel -> s\nimu.mag -> s\nimu.quat -> q",
+    )
+    sensors = osc("/sensors", 90.0, -45.0, 0.0, 0.0, 0.0, 1.0, 20.0, 0.0, -40.0, 1013.25)
+    quat = osc("/quaternion", 0.5, 0.5, -0.5, 0.5)
+    with sender() as tx:
+        tx.sendto(bundle(100.0, sensors, quat), addr)  # NGIMU stamps bundles with its own clock
+        assert wait_for(rt, lambda: len(rt.nodes["s"].messages) == 3 and rt.nodes["q"].messages)
+    mag, accel, gyro = (m.value.tolist() for m in rt.nodes["s"].messages)  # right to left
+    assert values_match(gyro, [math.pi / 2, -math.pi / 4, 0.0])
+    assert values_match(accel, [0.0, 0.0, 9.80665])  # +1 g up at rest -> m/s²
+    assert values_match(mag, [0.2, 0.0, -0.4])  # uT -> gauss
+    assert rt.nodes["q"].values[0].tolist() == [0.5, 0.5, -0.5, 0.5]  # w first, as sent
+
+
+def test_zigsim_reorders_the_quaternion_and_feeds_accel_from_gravity(started):
+    rt, imu, addr = in_patch(
+        started,
+        "device=zigsim",
+        "node q collect\nnode a collect\nnode g collect\nnode other collect\n"
+        "imu.quat -> q\nimu.accel -> a\nimu.gyro -> g\nimu.any -> other",
+    )
+    uuid = "/ZIGSIM/3F2504E0-4F89"
+    with sender() as tx:
+        tx.sendto(
+            bundle(
+                PY_IMMEDIATELY,
+                osc(f"{uuid}/quaternion", 0.1, 0.2, 0.3, 0.9),
+                osc(f"{uuid}/gravity", 0.0, 0.0, -1.0),
+                osc(f"{uuid}/gyro", 0.5, 0.0, -0.25),
+                osc(f"{uuid}/accel", 0.3, 0.0, 0.0),
+            ),
+            addr,
+        )
+        assert wait_for(rt, lambda: rt.nodes["other"].messages)
+    assert values_match(rt.nodes["q"].values[0].tolist(), [0.9, 0.1, 0.2, 0.3])  # x y z w -> w x y z
+    assert values_match(rt.nodes["a"].values[0].tolist(), [0.0, 0.0, 9.80665])  # gravity down -> +g up
+    assert values_match(rt.nodes["g"].values[0].tolist(), [0.5, 0.0, -0.25])  # rad/s already
+    [user_accel] = rt.nodes["other"].messages  # user acceleration is not specific force: passed on
+    assert user_accel.kind == f"{uuid}/accel"
+
+
+def test_generic_map_scales_and_wrong_argument_counts_are_dropped(started):
+    rt, imu, addr = in_patch(
+        started,
+        'map=["/imu/acc=accel*2", "/imu/*/q=quat"]',
+        "node a collect\nnode q collect\nimu.accel -> a\nimu.quat -> q",
+    )
+    with sender() as tx:
+        tx.sendto(osc("/imu/acc", 1.0, 2.0).dgram, addr)  # one short: counted, dropped
+        tx.sendto(osc("/imu/acc", 1.0, 2, 3.0).dgram, addr)
+        tx.sendto(osc("/imu/left/q", 1.0, 0.0, 0.0, 0.0).dgram, addr)
+        assert wait_for(rt, lambda: rt.nodes["a"].messages and rt.nodes["q"].messages)
+    assert rt.nodes["a"].values[0].tolist() == [2.0, 4.0, 6.0]
+    assert rt.nodes["q"].values[0].tolist() == [1.0, 0.0, 0.0, 0.0]
+    assert imu.malformed == 1
+
+
+def test_other_messages_leave_by_any_for_route(started):
+    rt, imu, addr = in_patch(started, "", "node r route /cue\nnode c collect\nimu.any -> r\nr.0 -> c")
+    with sender() as tx:
+        tx.sendto(osc("/cue", 3, 2.5, "go").dgram, addr)
+        assert wait_for(rt, lambda: rt.nodes["c"].messages)
+    assert rt.nodes["c"].values == [(3, 2.5, "go")]
+
+
+def test_pointat_to_pointat_directions_are_not_taken_for_control(started):
+    rt, imu, addr = in_patch(started, "", "node c collect\nimu.any -> c")
+    glove = started(patch(f"node out osc_out profile=pointat port={addr[1]}"))  # another pointat
+    push(glove.nodes["out"], 15.0)
+    assert wait_for(rt, lambda: rt.nodes["c"].messages)
+    [msg] = rt.nodes["c"].messages  # /pointat/1/...: node names never start with a digit
+    assert msg.kind == "/pointat/1/aed" and values_match(list(msg.value), [15.0, 0.0, 1.0])
+
+
+def test_control_reaches_a_node_inside_an_abstraction(tmp_path, started):
+    (tmp_path / "hand.pat").write_text("node m metro 100\n")
+    (tmp_path / "show.pat").write_text("node left hand.pat\nnode ctl osc_in port=0\n")
+    rt = started(load(tmp_path / "show.pat", realtime=False))
+    with sender() as tx:
+        tx.sendto(osc("/pointat/left/m/interval", 5.0).dgram, rt.nodes["ctl"].address)
+        assert wait_for(rt, lambda: rt.nodes["left/m"].p.interval == 5.0)
+
+
+def test_a_bundle_stamped_an_hour_ahead_is_delivered_at_once(started):
+    rt, imu, addr = in_patch(started, "", "node c collect\nimu.any -> c")
+    with sender() as tx:
+        t0 = time.monotonic()
+        tx.sendto(bundle(time.time() + 3600.0, osc("/later", 1.0)), addr)
+        assert wait_for(rt, lambda: rt.nodes["c"].messages, timeout=1.0)
+    assert time.monotonic() - t0 < 1.0
+    assert rt.nodes["c"].messages[0].kind == "/later"
+
+
+def test_malformed_packets_are_counted_and_survived(started):
+    rt, imu, addr = in_patch(started, "", "node c collect\nimu.any -> c")
+    garbage = [
+        b"garbage",
+        b"",
+        b"#bundle\x00\x00\x00",  # truncated time tag
+        b"/x\x00\x00,s\x00\x00\xff\xfe\x00\x00",  # not UTF-8
+        b"/x\x00\x00fff\x00",  # type tags without the comma
+        b"#bundle\x00"
+        + IMMEDIATELY
+        + struct.pack(">i", 64)
+        + b"/a\x00\x00",  # element longer than the packet
+    ]
+    with sender() as tx:
+        for g in garbage:
+            tx.sendto(g, addr)
+        tx.sendto(osc("/still/here", 1).dgram, addr)
+        assert wait_for(rt, lambda: rt.nodes["c"].messages)
+    assert imu.malformed == len(garbage)
+    assert [m.kind for m in rt.nodes["c"].messages] == ["/still/here"]
+
+
+def test_listening_off_loopback_needs_an_allow_list():
+    with pytest.raises(PatchError, match="allow-list"):
+        patch("node imu osc_in host=0.0.0.0")
+    with pytest.raises(PatchError, match="not an IP address"):
+        patch('node imu osc_in host=0.0.0.0 allow=["phone"]')
+    with pytest.raises(PatchError, match="IPv4 address"):
+        patch('node imu osc_in host=example.org allow=["10.0.0.2"]')
+    rt = patch('node imu osc_in host=0.0.0.0 allow=["192.168.1.0/24", "10.0.0.2"]')  # built, not started
+    assert rt.nodes["imu"].p.host == "0.0.0.0"
+
+
+def test_allow_list_filters_senders(started):
+    rt, imu, addr = in_patch(started, 'allow=["10.1.2.3"]', "node c collect\nimu.any -> c")
+    rt2, imu2, addr2 = in_patch(started, 'allow=["127.0.0.0/8"]', "node c collect\nimu.any -> c")
+    with sender() as tx:
+        tx.sendto(osc("/a", 1).dgram, addr)
+        tx.sendto(osc("/b", 1).dgram, addr2)
+        assert wait_for(rt2, lambda: rt2.nodes["c"].messages)
+        assert wait_for(rt, lambda: imu.refused == 1)
+    rt.drain(timeout=0.05)
+    assert rt.nodes["c"].messages == []
+    assert rt2.nodes["c"].messages[0].kind == "/b"
+
+
+def test_live_control_of_a_running_patch():
+    rt = patch(
+        """
+node ctl    osc_in port=0
+node lb     loadbang
+node m      metro 100
+node ticks  collect
+node nulls  offset samples=2
+node status collect
+lb -> m -> ticks
+nulls.status -> status
+""",
+        realtime=True,
+    )
+    th = rt.run_in_thread()
+    ticks, status, metro = rt.nodes["ticks"].messages, rt.nodes["status"].messages, rt.nodes["m"]
+
+    def until(predicate, timeout=2.0):
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            assert time.monotonic() < deadline, "timed out"
+            time.sleep(0.005)
+
+    try:
+        until(lambda: rt.nodes["ctl"].address[1] != 0)
+        addr = rt.nodes["ctl"].address
+        with sender() as tx:
+            tx.sendto(osc("/pointat/m/interval", 5.0).dgram, addr)  # a live parameter
+            until(lambda: metro.p.interval == 5.0)
+            n = len(ticks)
+            time.sleep(0.2)
+            assert len(ticks) - n >= 15  # 100 ms -> 5 ms: about 40 ticks in 0.2 s
+
+            for _ in range(3):
+                rt.send("nulls", "list", *[2048.0] * 9)
+            until(lambda: len(status) == 2)
+            assert [s.value[0] for s in status] == ["calibrating", "ready"]
+            tx.sendto(osc("/pointat/nulls/recalibrate").dgram, addr)  # a method
+
+            def feed():  # samples keep coming, as from a glove; the next status follows recalibrate
+                rt.send("nulls", "list", *[2048.0] * 9)
+                return len(status) >= 3
+
+            until(feed)
+            assert status[2].value[0] == "calibrating"
+
+            # mistakes are logged, never fatal
+            tx.sendto(osc("/pointat/nosuch/interval", 1.0).dgram, addr)
+            tx.sendto(osc("/pointat/nulls/samples", 5).dgram, addr)  # not live
+            tx.sendto(b"junk", addr)
+            n = len(ticks)
+            until(lambda: len(ticks) > n + 5)
+
+            tx.sendto(osc("/pointat/m/stop").dgram, addr)
+            time.sleep(0.05)
+            n = len(ticks)
+            time.sleep(0.05)
+            assert len(ticks) == n  # stopped
+            tx.sendto(osc("/pointat/m").dgram, addr)  # a bang to the left inlet: starts again
+            until(lambda: len(ticks) > n)
+        assert rt.nodes["ctl"].malformed == 1
+    finally:
+        rt.stop()
+        th.join(timeout=5.0)
+    assert not th.is_alive()
