@@ -26,13 +26,17 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from .errors import FeedbackError
+from .errors import FeedbackError, PointatError
 from .message import make, method
 from .node import Node
 
-__all__ = ["ManualClock", "RealClock", "Runtime", "Timer"]
+__all__ = ["ManualClock", "RealClock", "Runtime", "StartError", "Timer"]
 
 log = logging.getLogger("pointat.runtime")
+
+
+class StartError(PointatError):
+    """Some nodes could not start; the message names each one and why."""
 
 
 class RealClock:
@@ -202,13 +206,25 @@ class Runtime:
 
     # running -----------------------------------------------------------------------
     def start(self) -> None:
-        """Start every node (ports, threads, timers), then fire the loadbangs."""
+        """Start every node (ports, threads, timers), then fire the loadbangs.
+
+        A node that cannot start (a port that will not open, a file that cannot be read) stops the
+        patch before it runs: :class:`StartError` names every such node, and everything already
+        opened is closed again.  Later failures (a device that vanishes) are the nodes' to survive.
+        """
         if self.running:
             return
         self.clock.reset()
         self.running = True
+        failures = []
         for node in list(self.nodes.values()):
-            self._guard(node, node.start)
+            try:
+                node.start()
+            except Exception as exc:  # a port that cannot open, a file that cannot be read...
+                failures.append(f"node '{node.name}' ({node.type_name}): cannot start: {exc}")
+        if failures:
+            self.shutdown()
+            raise StartError("\n".join(failures))
         for node in list(self.nodes.values()):
             self._guard(node, node.loadbang)
 

@@ -123,3 +123,11 @@ def test_convert_round_trip_to_pd_and_back_elsewhere_keeps_the_graph(tmp_path):
     out = tmp_path / "sub.pat"
     assert pointat("convert", ROOT / "tests" / "data" / "pd" / "subpatch.pd", out).returncode == 0
     assert pointat("check", out).returncode == 0
+
+
+def test_a_node_that_cannot_start_is_an_error_exit_not_a_traceback(tmp_path):
+    bad = tmp_path / "p.pat"
+    bad.write_text("node src replay file=missing.csv\n")
+    out = pointat("run", bad)
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert "node 'src' (replay): cannot start" in out.stderr and "missing.csv" in out.stderr

@@ -327,14 +327,13 @@ def test_missing_python_rtmidi_and_unknown_port_messages(monkeypatch, capture):
     assert "pip install 'pointat[midi]'" in msg and "file=synth.mid" in msg
 
 
-def test_the_start_error_is_logged_with_the_node_name_and_the_patch_goes_on(caplog):
+def test_a_port_that_cannot_open_stops_the_patch_before_it_runs():
+    from pointat.runtime import StartError
+
     rt = patch('node pan midi_out port="pointat-test-no-such-port"')
-    with caplog.at_level(logging.ERROR):
+    with pytest.raises(StartError, match=r"node 'pan' \(midi_out\): cannot start: .*To fix"):
         rt.advance(0.01)
-    assert "node 'pan' (midi_out)" in caplog.text and "To fix" in caplog.text
-    with pytest.raises(RuntimeError, match="no open output"):  # a value fails loudly, not silently
-        rt.nodes["pan"].receive(0, make(0.5))
-    rt.shutdown()
+    assert not rt.running
 
 
 def test_midi_in_without_a_midi_system_is_a_clear_error():

@@ -162,7 +162,15 @@ def test_replay_in_real_time_keeps_the_pace(tmp_path):
     assert [float(m.value[0]) for m in rt.nodes["got"].messages] == [0, 1, 2, 3, 4, 5]
 
 
-def test_replay_of_a_missing_file_is_a_clear_error(tmp_path, caplog):
-    rt = patch(f"node src replay file={tmp_path / 'nope.csv'}\n", realtime=True)
-    rt.run(2)
-    assert "node 'src' (replay)" in caplog.text and "nope.csv" in caplog.text
+def test_a_source_that_cannot_start_stops_the_patch_with_a_clear_error(tmp_path):
+    from pointat.runtime import StartError
+
+    rt = patch(
+        f"node src replay file={tmp_path / 'nope.csv'}\nnode sink record file={tmp_path}/no/dir.csv\n",
+        realtime=True,
+    )
+    with pytest.raises(StartError) as info:
+        rt.run(2)
+    assert "node 'src' (replay): cannot start:" in str(info.value) and "nope.csv" in str(info.value)
+    assert "node 'sink' (record): cannot start:" in str(info.value)
+    assert not rt.running
