@@ -15,6 +15,7 @@ b'#bundle\x00\x00\x00\x00\x00\x00\x00\x00\x01'
 from __future__ import annotations
 
 import errno
+import functools
 import ipaddress
 import logging
 import math
@@ -25,7 +26,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pythonosc.osc_message_builder import OscMessageBuilder
 from pythonosc.osc_packet import OscPacket
 
 from pointat.message import Message, as_float, make, method, vector
@@ -46,19 +46,41 @@ IMMEDIATELY = b"\x00\x00\x00\x00\x00\x00\x00\x01"
 
 
 # --------------------------------------------------------------------------- encoding
+def _osc_string(s: str) -> bytes:
+    """An OSC string: UTF-8, NUL-terminated, padded to a multiple of 4 bytes."""
+    b = s.encode("utf-8")
+    return b + b"\x00" * (4 - len(b) % 4)
+
+
+_padded = functools.lru_cache(maxsize=1024)(_osc_string)  # addresses repeat: pad each once
+
+
 def encode_message(address: str, args: Sequence[Any]) -> bytes:
-    """One OSC message: ints as ``i`` (int32), floats as ``f`` (float32), anything else as ``s``."""
-    b = OscMessageBuilder(address)
+    """One OSC message: ints as ``i`` (int32), floats as ``f`` (float32), anything else as ``s``.
+
+    Written directly with :mod:`struct` (the same bytes as python-osc's builder, about ten times
+    faster); at 1 kHz per source the encoder is in the hot path.
+
+    >>> encode_message("/a", [1.0, 2, "x"]).hex()
+    '2f6100002c666973000000003f8000000000000278000000'
+    """
+    tags = [","]
+    data = []
     for a in args:
-        if isinstance(a, bool):
-            b.add_arg(int(a), "i")
-        elif isinstance(a, int):
-            b.add_arg(a, "i")
-        elif isinstance(a, float):
-            b.add_arg(a, "f")
+        if isinstance(a, float):
+            tags.append("f")
+            data.append(_F32.pack(a))
+        elif isinstance(a, int):  # bool included
+            tags.append("i")
+            data.append(_I32.pack(int(a)))
         else:
-            b.add_arg(str(a), "s")
-    return b.build().dgram
+            tags.append("s")
+            data.append(_osc_string(str(a)))
+    return b"".join([_padded(address), _padded("".join(tags)), *data])
+
+
+_F32 = struct.Struct(">f")
+_I32 = struct.Struct(">i")
 
 
 def ntp_time(unix_seconds: float) -> bytes:

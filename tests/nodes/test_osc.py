@@ -657,3 +657,22 @@ nulls.status -> status
         rt.stop()
         th.join(timeout=5.0)
     assert not th.is_alive()
+
+
+def test_our_encoder_writes_what_python_osc_writes():
+    from pythonosc.osc_message_builder import OscMessageBuilder
+
+    from osc_bridge.nodes import encode_message
+
+    for address, args in [
+        ("/a", []),
+        ("/adm/obj/12/aed", [1.5, -30.25, 0.0]),
+        ("/x", [3, "héllo", 2.5e-8, True]),
+    ]:
+        b = OscMessageBuilder(address)
+        for a in args:
+            b.add_arg(
+                int(a) if isinstance(a, bool) else a,
+                "f" if isinstance(a, float) else "i" if isinstance(a, int) else "s",
+            )
+        assert encode_message(address, args) == b.build().dgram
