@@ -28,6 +28,7 @@ from typing import Any
 
 from pythonosc.osc_packet import OscPacket
 
+from pointat.errors import worth_reporting
 from pointat.message import Message, as_float, make, method, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
@@ -412,7 +413,7 @@ dir.azimuth -> out.azimuth
                 # an earlier datagram found nobody listening; the error is now cleared: try this one again
                 self.refused += 1
                 d.refused += 1
-                if d.refused == 1 or d.refused % 1000 == 0:
+                if worth_reporting(d.refused):
                     log.warning(
                         "osc_out '%s': nobody listening at %s (connection refused, %d times so far); "
                         "sending on",
@@ -423,7 +424,7 @@ dir.azimuth -> out.azimuth
             except OSError as exc:  # buffer full (EAGAIN), no route: drop, count, go on
                 self.failed += 1
                 d.failed += 1
-                if d.failed == 1 or d.failed % 1000 == 0:
+                if worth_reporting(d.failed):
                     log.warning(
                         "osc_out '%s': cannot send to %s (%s); %d datagrams dropped so far",
                         self.name,
@@ -586,7 +587,7 @@ phone.quat -> dir
                 messages = [(m.message.address, list(m.message.params)) for m in OscPacket(data).messages]
             except Exception as exc:  # python-osc raises several kinds on garbage: count, drop, go on
                 self.malformed += 1
-                if self.malformed <= 3 or self.malformed % 1000 == 0:
+                if worth_reporting(self.malformed):
                     log.warning(
                         "osc_in '%s': malformed packet from %s dropped (%s); %d so far",
                         self.name,

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from .errors import FeedbackError
+from .errors import FeedbackError, worth_reporting
 from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
@@ -352,7 +352,7 @@ class Node:
     def fail(self, index: int, msg: Message, exc: BaseException) -> None:
         """A message could not be handled: log it with the node's name and drop it (rate-limited)."""
         self.errors += 1
-        if self.errors <= 5 or self.errors % 1000 == 0:
+        if worth_reporting(self.errors):
             inlet = self.in_specs[index].name if index < len(self.in_specs) else index
             log.error(
                 "node '%s' (%s), inlet '%s': dropped %s: %s%s",
@@ -361,7 +361,7 @@ class Node:
                 inlet,
                 msg.describe()[:80],
                 exc,
-                f" ({self.errors} errors so far)" if self.errors > 5 else "",
+                f" ({self.errors} errors so far)" if self.errors > 3 else "",
             )
 
     # sending ----------------------------------------------------------------
