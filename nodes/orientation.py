@@ -148,6 +148,12 @@ class AccMagMatrix(Flagged, Node):
     TRIAD: up from the accelerometer, west = up x field, north = west x up.  Unlike the paper's matrix
     it is a proper rotation whatever the magnetic dip.  Zero, NaN or parallel vectors output nothing and
     raise ``bad_accmag`` on ``flags``.
+
+    The matrix is only right while the hand does not accelerate and the field is the Earth's.  Beyond the
+    paper, samples are therefore skipped (``accelerating`` / ``mag_disturbed`` on ``flags``) when |accel|
+    is off g by more than ``accel_tolerance``, or the field's strength or dip is off its reference (learned
+    from the samples accepted so far) by more than ``mag_tolerance`` or ``dip_tolerance``; a fusion node
+    downstream then rides on the gyro.  A tolerance of 0 turns that check off.
     """
 
     inlets = (
@@ -155,17 +161,60 @@ class AccMagMatrix(Flagged, Node):
         Inlet("mag", ("vector", "list"), "magnetic field, sensor frame"),
     )
     outlets = (Outlet("orientation", "vector", "3x3 rotation matrix, sensor -> earth (NWU)"), FLAGS)
+    params = (
+        Param("gravity", "float", 9.80665, "the accelerometer's reading at rest", unit="m/s²"),
+        Param("accel_tolerance", "float", 0.1, "skip when | |accel| - g | > this x g (0: never)", live=True),
+        Param(
+            "mag_tolerance",
+            "float",
+            0.1,
+            "skip when |field| is off its reference by this fraction (0: never)",
+            live=True,
+        ),
+        Param(
+            "dip_tolerance",
+            "float",
+            5.0,
+            "skip when the dip is off its reference by more (0: never)",
+            unit="deg",
+            live=True,
+        ),
+    )
+
+    #: How fast the field's reference strength and dip follow accepted samples (per sample).
+    LEARN = 0.001
+
+    def setup(self) -> None:
+        self._norm_ref: float | None = None
+        self._dip_ref = 0.0
 
     def on_accel(self, msg: Message) -> None:
         mag = self.cold.get("mag")
-        C = (
-            sq.accmag_matrix(as_vector(msg, 3).tolist(), as_vector(mag, 3).tolist())
-            if mag is not None
-            else None
-        )
+        if mag is None:
+            self.report("bad_accmag")
+            return
+        a, m = as_vector(msg, 3).tolist(), as_vector(mag, 3).tolist()
+        C = sq.accmag_matrix(a, m)
         if C is None:
             self.report("bad_accmag")
             return
+        na, nm = math.hypot(*a), math.hypot(*m)
+        p = self.p
+        if p.accel_tolerance and abs(na - p.gravity) > p.accel_tolerance * p.gravity:
+            self.report("accelerating")
+            return
+        dip = math.degrees(
+            math.asin(max(-1.0, min(1.0, -(a[0] * m[0] + a[1] * m[1] + a[2] * m[2]) / (na * nm))))
+        )
+        if self._norm_ref is None:
+            self._norm_ref, self._dip_ref = nm, dip
+        elif (p.mag_tolerance and abs(nm - self._norm_ref) > p.mag_tolerance * self._norm_ref) or (
+            p.dip_tolerance and abs(dip - self._dip_ref) > p.dip_tolerance
+        ):
+            self.report("mag_disturbed")
+            return
+        self._norm_ref += self.LEARN * (nm - self._norm_ref)
+        self._dip_ref += self.LEARN * (dip - self._dip_ref)
         self.report("ok")
         self.out(0, vector(np.reshape(C, (3, 3)), msg.time))
 
