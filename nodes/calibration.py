@@ -53,6 +53,8 @@ class Offset(Node):
     ``calibrate``), else the ADC mid-scale ``null``.  Nothing is output while the gyro average runs.
     """
 
+    pure = True
+
     inlets = (ADC,)
     outlets = (Outlet("adc", "vector", "nine counts relative to their nulls"), STATUS)
     params = (
@@ -99,6 +101,8 @@ class Scaling(Node):
     the soft-iron matrix from a ``calibration`` file.  Outputs right to left: mag, accel, then gyro, so a
     filter whose hot inlet is the gyro sees a complete sample.
     """
+
+    pure = True
 
     inlets = (Inlet("adc", ("vector", "list"), "nine counts relative to their nulls (from offset)"),)
     outlets = (

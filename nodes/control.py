@@ -32,6 +32,8 @@ class Metro(Node):
     are deadlines on the scheduler clock (tick n at start + n x interval), so a metro never drifts.
     """
 
+    pure = True
+
     inlets = (
         Inlet("on", ("bang", "float", "int"), "bang or non-zero: start; 0 or 'stop': stop"),
         Inlet("interval", ("float", "int"), "set the interval (ms)", param="interval"),
@@ -91,6 +93,8 @@ tick -> show
 @register("delay", "del")
 class Delay(Node):
     """Output a bang ``time`` milliseconds after a bang; a new bang restarts the wait, ``stop`` cancels it."""
+
+    pure = True
 
     inlets = (
         Inlet("in", ("bang", "float", "int"), "bang: start; a number: set the time and start"),
@@ -175,6 +179,8 @@ class Trigger(Node):
     ``trigger b f`` sends the number out of the right outlet first, then a bang out of the left one.  Types: b bang, f float, s symbol, l list, a anything (as is), v vector.
     """
 
+    pure = True
+
     inlets = (Inlet("in", ("any",), "any message"),)
     params = (Param("types", "list", ("a", "a"), "one type per outlet: b f s l a v", variadic=True),)
     example = """
@@ -209,6 +215,8 @@ class Pack(Node):
     Creation arguments are the initial values (and so the number of inlets); ``s`` makes a symbol slot.
     A bang at the left inlet outputs the list as it is.
     """
+
+    pure = True
 
     params = (
         Param(
@@ -252,6 +260,8 @@ class Pack(Node):
 class Unpack(Node):
     """Split a list (or a vector: a quaternion, a 3-vector) into its elements, right to left."""
 
+    pure = True
+
     inlets = (Inlet("in", ("list", "vector"), "a list or a vector"),)
     params = (
         Param("types", "list", ("f", "f"), "one per outlet: f (number) s (symbol) a (as is)", variadic=True),
@@ -283,6 +293,8 @@ class Route(Node):
     Matches the selector of a method message (``recalibrate``) or the first element of a list (a symbol
     or a number).  What matches nothing leaves by the rightmost outlet, unchanged.
     """
+
+    pure = True
 
     inlets = (Inlet("in", ("any",), "the message to route"),)
     params = (Param("selectors", "list", (), "what each outlet matches", variadic=True),)
@@ -389,6 +401,8 @@ class Change(Node):
     ``set x`` sets the remembered value without output.
     """
 
+    pure = True
+
     inlets = (Inlet("in", ("float", "int", "symbol", "list", "vector"), "a value"),)
     outlets = (Outlet("out", "any", "the value, when it changed"),)
 
@@ -417,6 +431,8 @@ class Change(Node):
 @register("speedlim")
 class Speedlim(Node):
     """Let at most one message through every ``interval`` ms; the latest held one follows when it ends."""
+
+    pure = True
 
     inlets = (
         Inlet("in", ("any",), "any message"),

@@ -96,6 +96,8 @@ class Map(Node):
     through an empty one, which is refused).
     """
 
+    pure = True
+
     inlets = (Inlet("in", NUMBERS, "a number, list or vector to map"),)
     outlets = (Outlet("out", "any", "the mapped value, the same kind as the input"),)
     params = (
@@ -187,6 +189,8 @@ class Smooth(Node):
     takes the short way across ±180 (179 then -179 is a 2 degree move, not 358) and outputs in
     [-180, 180).  Numbers, lists and vectors are smoothed element by element.
     """
+
+    pure = True
 
     inlets = (Inlet("in", NUMBERS, "a number, list or vector (a quaternion w x y z for slerp)"),)
     outlets = (Outlet("out", "any", "the smoothed value, the same kind as the input"),)
@@ -300,6 +304,8 @@ class Threshold(Node):
     which is refused); ``state 0|1`` sets the state without output; ``reset`` sets it low.
     """
 
+    pure = True
+
     inlets = (Inlet("in", ("float", "int", "list"), "the value to watch"),)
     outlets = (
         Outlet("rise", "bang", "when the input reaches high"),
@@ -362,6 +368,8 @@ class DeadbandNode(Node):
     degrees: 179.5 to -179.8 is a move of 0.7, not 359.3.  The value passes unchanged (same kind,
     same time stamp).
     """
+
+    pure = True
 
     inlets = (Inlet("in", NUMBERS, "a number, list or vector"),)
     outlets = (Outlet("out", "any", "the value, when it moved more than width"),)

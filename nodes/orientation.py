@@ -42,7 +42,7 @@ def _as_quat(msg: Message) -> sq.Quat:
 
 
 def _matrix(q: sq.Quat, time: float) -> Message:
-    return vector(np.reshape(sq.quat_matrix(q), (3, 3)), time)
+    return vector(sq.quat_matrix(q), time, (3, 3))
 
 
 def _finite3(msg: Message | None) -> np.ndarray | None:
@@ -96,6 +96,8 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
     stays a rotation over hours.  ``reset`` (or a matrix / quaternion at the right inlet) restarts it.
     """
 
+    pure = True
+
     inlets = (
         Inlet("gyro", ("vector", "list"), "angular rate, rad/s, sensor frame"),
         Inlet("orientation", ORIENTATION, "set the orientation (matrix or quaternion)"),
@@ -131,7 +133,7 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
         else:
             self.integrator.update(w, dt)
             self.report("ok")
-        self.out(0, vector(self.integrator.R, msg.time))
+        self.out(0, vector(self.integrator.flat, msg.time, (3, 3)))
 
     def on_orientation(self, msg: Message) -> None:
         self.integrator.reset(np.reshape(sq.quat_matrix(_as_quat(msg)), (3, 3)))
@@ -155,6 +157,8 @@ class AccMagMatrix(Flagged, Node):
     from the samples accepted so far) by more than ``mag_tolerance`` or ``dip_tolerance``; a fusion node
     downstream then rides on the gyro.  A tolerance of 0 turns that check off.
     """
+
+    pure = True
 
     inlets = (
         Inlet("accel", ("vector", "list"), "specific force (+g up at rest), sensor frame"),
@@ -216,7 +220,7 @@ class AccMagMatrix(Flagged, Node):
         self._norm_ref += self.LEARN * (nm - self._norm_ref)
         self._dip_ref += self.LEARN * (dip - self._dip_ref)
         self.report("ok")
-        self.out(0, vector(np.reshape(C, (3, 3)), msg.time))
+        self.out(0, vector(C, msg.time, (3, 3)))
 
 
 @register("complementary")
@@ -228,6 +232,8 @@ class Complementary(SampleClock, Flagged, Node):
     a first-order complementary pair crossing at ``crossover`` Hz (Torre §3: "short-term precision of the
     gyroscopes with the long-term precision of accelerometers and magnetometers").
     """
+
+    pure = True
 
     inlets = (
         Inlet("gyro_orientation", ORIENTATION, "orientation from gyro_integrator (matrix or quaternion)"),
@@ -291,6 +297,8 @@ class TQT(SampleClock, Flagged, Node):
     Send the gyro last (the left inlet is hot): mote and scaling nodes output right to left, so wiring
     gyro, accel and mag outlets to the same-named inlets does this.
     """
+
+    pure = True
 
     inlets = (
         Inlet("gyro", ("vector", "list"), "angular rate, rad/s, sensor frame"),
@@ -378,6 +386,8 @@ class Reference(Node):
     ``clear`` forgets it.
     """
 
+    pure = True
+
     inlets = (
         Inlet("quat", ORIENTATION, "orientation (quaternion or matrix)"),
         Inlet("capture", ("bang",), "capture the next orientation as the reference", hot=False),
@@ -425,6 +435,8 @@ class Reference(Node):
 class Matrix2Quat(Node):
     """Rotation matrix -> quaternion (w, x, y, z), w >= 0; robust for every rotation (Shepperd)."""
 
+    pure = True
+
     inlets = (Inlet("matrix", ("vector", "list"), "3x3 rotation matrix (9 numbers, row major)"),)
     outlets = (Outlet("quat", "vector", "quaternion (w, x, y, z)"),)
 
@@ -437,6 +449,8 @@ class Matrix2Quat(Node):
 class Quat2Matrix(Node):
     """Quaternion (w, x, y, z) -> 3x3 rotation matrix."""
 
+    pure = True
+
     inlets = (Inlet("quat", ("vector", "list"), "quaternion (w, x, y, z)"),)
     outlets = (Outlet("matrix", "vector", "3x3 rotation matrix"),)
 
@@ -447,6 +461,8 @@ class Quat2Matrix(Node):
 @register("quat2axis")
 class Quat2Axis(Node):
     """Quaternion -> angle, x, y, z (Torre's "angle, x, y, z format"): rotation angle and unit axis."""
+
+    pure = True
 
     inlets = (Inlet("quat", ORIENTATION, "quaternion or matrix"),)
     outlets = (Outlet("axis", "vector", "(angle, x, y, z), angle in degrees unless degrees=false"),)
@@ -464,6 +480,8 @@ class Quat2Euler(Node):
     Yaw about earth z (up, positive left), pitch about the new y, roll about the hand's own x axis.
     At pitch +-90 deg all heading goes into yaw and roll is 0.
     """
+
+    pure = True
 
     inlets = (Inlet("quat", ORIENTATION, "quaternion or matrix"),)
     outlets = (
@@ -483,6 +501,8 @@ class AziEle(Node):
     ADM-OSC convention: 0 = front (earth x: north, or the reference pose), positive = left, -180..180;
     elevation positive up.  Pointing straight up or down the azimuth is undefined: the last one is held.
     """
+
+    pure = True
 
     inlets = (Inlet("quat", ORIENTATION, "orientation, quaternion or matrix"),)
     outlets = (Outlet("azimuth", "float", "degrees, + left"), Outlet("elevation", "float", "degrees, + up"))
@@ -506,6 +526,8 @@ class RollDistanceNode(Node):
     Hysteresis: distance mode starts at |roll| >= ``enter`` and ends below ``leave``.  In distance mode
     the azimuth output holds, and sweeping the rolled hand left brings the source closer.
     """
+
+    pure = True
 
     inlets = (Inlet("quat", ORIENTATION, "orientation, quaternion or matrix"),)
     outlets = (
@@ -552,6 +574,8 @@ class Reframe(Node):
 
     Also ``positive=true`` makes w >= 0 (one sign for each rotation).
     """
+
+    pure = True
 
     inlets = (Inlet("quat", ORIENTATION, "quaternion or matrix, sensor -> earth"),)
     outlets = (Outlet("quat", "vector", "quaternion in the target frame"),)

@@ -441,6 +441,7 @@ def build(checked: Checked, *, realtime: bool = True) -> Runtime:
         rt.add(node)
     for src, o, dst, i in checked.wires:
         rt.connect(src, o, dst, i)
+    rt.prune()
     return rt
 
 

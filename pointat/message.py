@@ -81,9 +81,14 @@ def bang(time: float = 0.0) -> Message:
     return Message("bang", None, time)
 
 
-def vector(values: Any, time: float = 0.0) -> Message:
-    """A vector message; the array is copied and made read-only so that nobody downstream can change it."""
+def vector(values: Any, time: float = 0.0, shape: tuple[int, ...] | None = None) -> Message:
+    """A vector message; the array is copied and made read-only so that nobody downstream can change it.
+
+    ``shape`` reshapes the copy (9 floats into a 3x3 matrix) without a second copy.
+    """
     a = np.array(values, dtype=float)
+    if shape is not None:
+        a = a.reshape(shape)
     a.setflags(write=False)
     return Message("vector", a, time)
 

@@ -181,6 +181,10 @@ class Node:
     #: True for nodes whose output never happens inside the call that fed them (delay, metro):
     #: a loop through such a node is not a synchronous feedback loop.
     defers: ClassVar[bool] = False
+    #: True for nodes whose only effect is their output (conversions, filters, control logic): when no
+    #: path from such a node reaches a node with effects (an output, a file, a print), the runtime does
+    #: not feed it at all (:meth:`pointat.runtime.Runtime.prune`).
+    pure: ClassVar[bool] = False
     #: Where the class came from (module, entry point or plugin file), for error messages.
     origin: ClassVar[str] = ""
 
@@ -373,26 +377,26 @@ class Node:
         msg = value if type(value) is Message else make(value, self.time if time is None else time)
         rt = self.rt
         if rt is not None:
-            rt.depth += 1
-            if rt.depth > MAX_DEPTH:
+            depth = rt.depth + 1
+            if depth > MAX_DEPTH:
                 rt.depth = 0
                 raise FeedbackError(
                     f"feedback loop: more than {MAX_DEPTH} nested messages, last from node '{self.name}' "
                     f"outlet {outlet}; put a delay in the loop"
                 )
-        try:
-            for node, inlet in targets:
-                try:
-                    node.receive(inlet, msg)
-                except FeedbackError:
-                    raise
-                except RecursionError as exc:
-                    raise FeedbackError(f"feedback loop: recursion too deep at node '{node.name}'") from exc
-                except Exception as exc:  # a bad message never stops the patch
-                    node.fail(inlet, msg, exc)
-        finally:
-            if rt is not None and rt.depth > 0:
-                rt.depth -= 1
+            rt.depth = depth
+        for node, inlet in targets:
+            try:
+                node.receive(inlet, msg)
+            except FeedbackError:  # the depth was reset where it was raised
+                raise
+            except RecursionError as exc:
+                rt.depth = 0
+                raise FeedbackError(f"feedback loop: recursion too deep at node '{node.name}'") from exc
+            except Exception as exc:  # a bad message never stops the patch
+                node.fail(inlet, msg, exc)
+        if rt is not None:
+            rt.depth -= 1
 
     def emit(self, *values: Any) -> None:
         """Output one value per outlet, right to left (Pd order); :data:`SKIP` leaves an outlet silent."""

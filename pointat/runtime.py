@@ -129,6 +129,32 @@ class Runtime:
             raise ValueError(f"node '{d.name}' has no inlet {inlet}")
         s._targets[outlet].append((d, inlet))
 
+    def prune(self) -> list[str]:
+        """Stop feeding pure nodes whose outputs reach no node with effects; returns their names.
+
+        A conversion left unconnected in an abstraction (``quat2axis`` in the Pointing-at chain when only
+        azimuth and elevation are used) then costs nothing.  They stay in :attr:`nodes`, so live control
+        still finds them.
+        """
+        useful = {n for n in self.nodes.values() if not type(n).pure}
+        feeders: dict[Node, list[Node]] = {}
+        for node in self.nodes.values():
+            for targets in node._targets:
+                for dst, _inlet in targets:
+                    feeders.setdefault(dst, []).append(node)
+        stack = list(useful)
+        while stack:
+            for src in feeders.get(stack.pop(), ()):
+                if src not in useful:
+                    useful.add(src)
+                    stack.append(src)
+        for node in self.nodes.values():
+            node._targets = [[(d, i) for d, i in targets if d in useful] for targets in node._targets]
+        idle = [n.name for n in self.nodes.values() if n not in useful]
+        if idle:
+            log.info("not fed, their outputs reach no output: %s", ", ".join(idle))
+        return idle
+
     # scheduling --------------------------------------------------------------------
     def call_at(
         self, when: float, node: Node | None, fn: Callable, *args: Any, daemon: bool = False

@@ -285,6 +285,11 @@ class GyroIntegrator:
         return np.array(self._R).reshape(3, 3)
 
     @property
+    def flat(self) -> tuple[float, ...]:
+        """Current sensor -> earth matrix as nine floats, row major (no array is built)."""
+        return self._R
+
+    @property
     def quaternion(self) -> np.ndarray:
         """Current orientation as a unit quaternion ``(w, x, y, z)`` with ``w >= 0``, shape (4,)."""
         return matrix_to_quat(self.R)

@@ -6,7 +6,7 @@ import sys
 import threading
 import time
 
-from pointat.message import make
+from pointat.message import make, vector
 from pointat.node import Node, Outlet, Param
 from pointat.runtime import Runtime
 from pointat.testing import Collect, patch
@@ -178,3 +178,20 @@ def test_for_seconds_bounds_a_run(tmp_path):
     assert out.returncode == 0
     assert out.stdout.count("print: bang") == 6
     assert time.monotonic() - t0 < 10
+
+
+def test_pure_nodes_whose_outputs_reach_nothing_are_not_fed():
+    rt = patch("""
+node t trigger a a
+node conv quat2axis
+node dir azi_ele
+node out collect
+t.1 -> conv
+t.0 -> dir
+dir.azimuth -> out
+""")
+    assert "conv" in rt.nodes  # still there for live control
+    assert [d.name for d, _ in rt.nodes["t"]._targets[1]] == []  # quat2axis leads nowhere: not fed
+    assert [d.name for d, _ in rt.nodes["t"]._targets[0]] == ["dir"]
+    rt.nodes["t"].receive(0, vector([1.0, 0.0, 0.0, 0.0]))
+    assert rt.nodes["out"].values == [0.0]
