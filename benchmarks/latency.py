@@ -1,0 +1,762 @@
+r"""End-to-end latency and jitter: a sample goes in, its OSC datagram comes out on 127.0.0.1.
+
+Every measurement runs the system under test in its own process and drives it from this one, in a single
+thread that paces the input on a deadline schedule and reads the output socket in between:
+
+* **pointat, mote path** -- ``pointat run benchmarks/patches/mote_CHAIN_N.pat``: real 21-byte mote frames
+  (:func:`pointat.devices.mote_frame.encode_frame`) written into a pseudo-terminal whose slave is the
+  ``mote`` node's ``device``; the patch's ``osc_out`` sends one datagram per update to our UDP socket.
+  All N motes of one tick go out in one write, as a base station delivers them.
+* **pointat, UDP path** -- ``pointat run benchmarks/patches/oscin_CHAIN.pat``: the same sensor sample as
+  one OSC datagram into ``osc_in``, through the fusion half of the chain, out of ``osc_out``.
+* **transport floors** -- a bare python-osc relay (:mod:`benchmarks.relay`: parse, re-encode, forward) and
+  Pure Data relaying OSC (``benchmarks/patches/relay.pd``: ``[netreceive -u -b]`` -> ``[oscparse]`` ->
+  ``[oscformat]`` -> ``[netsend -u -b]``), run as ``pd -nogui -noaudio -noprefs`` with and without
+  ``-sleepgrain 0.1``.  UDP in, UDP out, no pseudo-terminal.
+
+Latency = the kernel's receive time stamp of the output datagram (``SO_TIMESTAMPNS``, ``CLOCK_REALTIME``)
+minus ``time.time_ns()`` taken just before the input was written, so the harness's own wake-up delay on
+the receiving side is not counted.  Each input names its sample: the floors carry the tick number as an
+int argument; for pointat the tick number modulo 1000 rides in the data (a tag in the gyro x count, or a
+``/tag`` message in the same bundle) and comes back in ``osc_out``'s spread field; an output is matched to
+the latest input with its tag sent before it arrived.  Only inputs sent in the measurement window count;
+before it, the run waits for the first output (process start-up, the ``offset`` node's 150 samples of
+gyro averaging) and warms up for a while.  Inputs that never come out within the drain time count as
+lost; a pseudo-terminal that would not take a tick's bytes (the patch fell behind and its buffers are
+full) counts it as refused.
+"""
+
+from __future__ import annotations
+
+import bisect
+import contextlib
+import logging
+import os
+import select
+import shutil
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import tty
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+from pointat.devices.glove_sim import GloveSimulator
+from pointat.devices.mote_frame import Frame, encode_frame
+from pointat.node import Node
+from pointat.runtime import Runtime
+
+log = logging.getLogger("benchmarks.latency")
+
+REPO = Path(__file__).resolve().parents[1]
+PATCHES = Path(__file__).resolve().parent / "patches"
+
+_SO_TIMESTAMPNS = getattr(socket, "SO_TIMESTAMPNS", 35)  # Linux value; Python does not export it
+_TAG_PERIOD = 1000  # pointat paths: the tag is the tick number modulo this
+_TAG_BASE = 1548  # gyro x count of tag 0 (2048 - 500: +-50 deg/s about the null)
+
+
+# ------------------------------------------------------------------------------------------ results
+@dataclass
+class LatencyResult:
+    """One latency run: what was measured, how, and the per-sample latencies in microseconds."""
+
+    label: str
+    family: str  # "pointat-mote", "pointat-udp", "floor"
+    chain: str  # "torre", "tqt", "python-osc", "pd", "pd-sg0.1"
+    rate: float
+    motes: int
+    command: str
+    latencies_us: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    expected: int = 0
+    refused: int = 0
+    duplicates: int = 0
+    cpu_fraction: float | None = None
+    rss_peak_kb: int | None = None
+    error: str = ""
+
+    @property
+    def received(self) -> int:
+        return int(self.latencies_us.size)
+
+    def pct(self, q: float) -> float:
+        return float(np.percentile(self.latencies_us, q)) if self.received else float("nan")
+
+    @property
+    def p50(self) -> float:
+        return self.pct(50)
+
+    @property
+    def p99(self) -> float:
+        return self.pct(99)
+
+    @property
+    def max(self) -> float:
+        return float(self.latencies_us.max()) if self.received else float("nan")
+
+    @property
+    def jitter(self) -> float:
+        return self.p99 - self.p50
+
+    @property
+    def lost(self) -> int:
+        return max(0, self.expected - self.received)
+
+
+# ------------------------------------------------------------------------------------------ OSC bits
+def _pad(b: bytes) -> bytes:
+    return b + b"\0" * (4 - len(b) % 4)
+
+
+def osc_message(address: str, tags: str, *args: float | int) -> bytes:
+    """Encode one OSC message (types ``i`` and ``f`` only), fast enough for a 16 kHz sender.
+
+    >>> osc_message("/a", "if", 1, 0.5).hex(" ")
+    '2f 61 00 00 2c 69 66 00 00 00 00 01 3f 00 00 00'
+    """
+    return _pad(address.encode()) + _pad(("," + tags).encode()) + struct.pack(">" + tags, *args)
+
+
+def osc_bundle(*messages: bytes) -> bytes:
+    """An OSC bundle, time tag "immediately"."""
+    parts = [b"#bundle\0", b"\0\0\0\0\0\0\0\x01"]
+    for m in messages:
+        parts += [struct.pack(">i", len(m)), m]
+    return b"".join(parts)
+
+
+def parse_osc(data: bytes) -> tuple[str, list[float | int | str]]:
+    """Decode one OSC message with ``i``, ``f`` and ``s`` arguments.
+
+    >>> parse_osc(osc_message("/bench/3", "iff", 3, 1.5, -2.0))
+    ('/bench/3', [3, 1.5, -2.0])
+    """
+    end = data.index(b"\0")
+    address = data[:end].decode()
+    pos = (end + 4) & ~3
+    tend = data.index(b"\0", pos)
+    tags = data[pos + 1 : tend].decode()
+    pos = (tend + 4) & ~3
+    args: list[float | int | str] = []
+    for t in tags:
+        if t == "i":
+            args.append(struct.unpack_from(">i", data, pos)[0])
+            pos += 4
+        elif t == "f":
+            args.append(struct.unpack_from(">f", data, pos)[0])
+            pos += 4
+        elif t == "s":
+            e = data.index(b"\0", pos)
+            args.append(data[pos:e].decode())
+            pos = (e + 4) & ~3
+        else:
+            raise ValueError(f"OSC type {t!r} not handled")
+    return address, args
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def free_udp_port() -> int:
+    """A UDP port on 127.0.0.1 that was free a moment ago."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def receiver_socket() -> socket.socket:
+    """A non-blocking UDP socket on 127.0.0.1 with kernel receive time stamps and a large buffer."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 << 20)
+    sock.setsockopt(socket.SOL_SOCKET, _SO_TIMESTAMPNS, 1)
+    sock.bind(("127.0.0.1", 0))
+    sock.setblocking(False)
+    return sock
+
+
+_ANC = socket.CMSG_SPACE(16)
+
+
+def _drain(sock: socket.socket, into: list[tuple[int, bytes]]) -> None:
+    while True:
+        try:
+            data, anc, _flags, _addr = sock.recvmsg(4096, _ANC)
+        except (BlockingIOError, InterruptedError):
+            return
+        ts = 0
+        for level, kind, payload in anc:
+            if level == socket.SOL_SOCKET and kind == _SO_TIMESTAMPNS and len(payload) >= 16:
+                sec, nsec = struct.unpack("qq", payload[:16])
+                ts = sec * 1_000_000_000 + nsec
+        into.append((ts or time.time_ns(), data))
+
+
+def proc_cpu_seconds(pid: int) -> float | None:
+    """User + system CPU seconds of a process, all its threads (Linux ``/proc``)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def proc_memory_kb(pid: int) -> dict[str, int]:
+    """``VmRSS`` and ``VmHWM`` (peak resident set) of a process in kB (Linux ``/proc``)."""
+    out: dict[str, int] = {}
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            key, _, value = line.partition(":")
+            if key in ("VmRSS", "VmHWM"):
+                out[key] = int(value.split()[0])
+    except OSError:
+        pass
+    return out
+
+
+@contextlib.contextmanager
+def child_process(cmd: list[str], log_path: Path) -> Iterator[subprocess.Popen]:
+    """Start ``cmd`` in its own process group; always stop it (SIGTERM, then SIGKILL) on the way out."""
+    with open(log_path, "wb") as logf:
+        proc = subprocess.Popen(
+            cmd,
+            cwd=REPO,
+            stdin=subprocess.DEVNULL,
+            stdout=logf,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+        try:
+            yield proc
+        finally:
+            stop_process(proc)
+
+
+def stop_process(proc: subprocess.Popen) -> None:
+    """Terminate a child (and its process group) and reap it; kill it if it does not go within 3 s."""
+    if proc.poll() is None:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(timeout=3.0)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=3.0)
+
+
+def pointat_command(patch: Path, overrides: list[str], seconds: float) -> list[str]:
+    """``pointat run PATCH --set ... --for SECONDS`` through this interpreter."""
+    cmd = [sys.executable, "-m", "pointat.cli", "run", str(patch)]
+    for o in overrides:
+        cmd += ["--set", o]
+    return cmd + ["--for", f"{seconds:.0f}"]
+
+
+def shown(cmd: list[str]) -> str:
+    """A command as a person would type it (repo-relative paths, ``pointat`` for the CLI)."""
+    parts = list(cmd)
+    if parts[:3] == [sys.executable, "-m", "pointat.cli"]:
+        parts = ["pointat", *parts[3:]]
+    elif parts[:2] == [sys.executable, "-m"]:
+        parts = ["python", "-m", *parts[2:]]
+    out = []
+    for p in parts:
+        with contextlib.suppress(ValueError):
+            p = str(Path(p).relative_to(REPO)) if p.startswith(str(REPO)) else p
+        out.append(p if " " not in p else f'"{p}"')
+    return " ".join(out)
+
+
+# ------------------------------------------------------------------------------------------ patches
+def mote_patch_text(chain: str, motes: int) -> str:
+    """The text of ``benchmarks/patches/mote_CHAIN_N.pat``: one base station, N tagged gloves.
+
+    >>> print(mote_patch_text("tqt", 1).splitlines()[-1])
+    base.m1 -> g1.adc
+    """
+    what = {"torre": "the Pointing-at chain (glove_torre.pat)", "tqt": "the tqt chain (glove_tqt.pat)"}[chain]
+    ids = ", ".join(str(i) for i in range(1, motes + 1))
+    lines = [
+        f"# Latency benchmark: {motes} mote{'s' if motes > 1 else ''} on one base station (a pseudo-terminal that the",
+        f"# benchmark writes real mote frames into), each through {what}.",
+        "# Written by benchmarks.latency.mote_patch_text(); the benchmark sets base.device, base.rate and",
+        "# every gN/out.port.",
+        "#",
+        f"# Sample tag: the benchmark puts {_TAG_BASE} + (k mod {_TAG_PERIOD}) into the gyro x count of frame k;",
+        "# tapN/tagN map it to 0..99.9 in osc_out's spread field, so each OSC message names its frame.",
+        "",
+        f"node base mote ids=[{ids}] rate=1000",
+    ]
+    for i in range(1, motes + 1):
+        lines += [
+            f"node tap{i} unpack f",
+            f"node tag{i} map {_TAG_BASE} {_TAG_BASE + _TAG_PERIOD} 0 100",
+            f"node g{i}   glove_{chain}.pat id={i} port=9000 rate=1000",
+        ]
+    lines.append("")
+    for i in range(1, motes + 1):
+        lines += [f"base.m{i} -> tap{i} -> tag{i} -> g{i}.spread", f"base.m{i} -> g{i}.adc"]
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------------------------------ inputs
+class MoteSource:
+    """Real mote frames into a pseudo-terminal; tick ``k`` is one frame per mote with tag ``k mod 1000``."""
+
+    def __init__(self, rate: float, motes: int) -> None:
+        sim = GloveSimulator(rate_hz=rate, seed=3)
+        self._channels = [list(s.frame.channels) for s in sim.samples(_TAG_PERIOD)]
+        self.ids = list(range(1, motes + 1))
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)
+        os.set_blocking(self.master, False)
+        self.device = os.ttyname(self.slave)
+        self._pending = b""
+        self.refused = 0
+
+    def tick(self, k: int) -> int | None:
+        """Write tick ``k``; return ``time.time_ns()`` just before the write, or None if refused."""
+        ch = self._channels[k % _TAG_PERIOD]
+        ch[0] = _TAG_BASE + k % _TAG_PERIOD
+        n_pack = k & 0xFFFF
+        data = b"".join(encode_frame(Frame(i, n_pack, tuple(ch))) for i in self.ids)
+        if self._pending:  # the rest of a partial write first: frames must stay whole
+            try:
+                n = os.write(self.master, self._pending)
+            except BlockingIOError:
+                n = 0
+            self._pending = self._pending[n:]
+            if self._pending:
+                self.refused += 1
+                return None
+        t = time.time_ns()
+        try:
+            n = os.write(self.master, data)
+        except BlockingIOError:
+            self.refused += 1
+            return None
+        self._pending = data[n:]
+        return t
+
+    def close(self) -> None:
+        for fd in (self.master, self.slave):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+
+class UdpSource:
+    """One OSC datagram per tick to 127.0.0.1:``port``: NGIMU ``/sensors`` from a BROAD recording.
+
+    ``style="bundle"`` (pointat): ``[/tag k mod 1000, /sensors g a m]``; ``style="arg"`` (relays):
+    ``/sensors g a m k``, the tick number as a tenth (int) argument.
+    """
+
+    def __init__(self, port: int, style: str, sample: dict[str, np.ndarray]) -> None:
+        n = min(_TAG_PERIOD, len(sample["gyr"]))
+        start = len(sample["gyr"]) // 3  # the middle of a trial: the hand is moving
+        g = np.degrees(sample["gyr"][start : start + n])
+        a = sample["acc"][start : start + n] / 9.80665
+        m = sample["mag"][start : start + n]
+        self._rows = [tuple(float(v) for v in (*g[i], *a[i], *m[i])) for i in range(n)]
+        self._sensors = [osc_message("/sensors", "fffffffff", *r) for r in self._rows]
+        self.style = style
+        self.addr = ("127.0.0.1", port)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.refused = 0
+
+    def tick(self, k: int) -> int | None:
+        i = k % len(self._rows)
+        if self.style == "bundle":
+            data = osc_bundle(osc_message("/tag", "i", k % _TAG_PERIOD), self._sensors[i])
+        else:
+            data = osc_message("/sensors", "fffffffffi", *self._rows[i], k)
+        t = time.time_ns()
+        try:
+            self.sock.sendto(data, self.addr)
+        except OSError:
+            self.refused += 1
+            return None
+        return t
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+# ------------------------------------------------------------------------------------------ driving
+@dataclass
+class Phases:
+    """How long each phase of a run lasts, seconds."""
+
+    measure: float
+    warmup: float = 0.5
+    start_timeout: float = 20.0
+    drain: float = 2.0
+
+
+@dataclass
+class Drive:
+    """What :func:`drive` saw: send times (-1: refused), the measurement window, the outputs, the CPU use."""
+
+    sends: list[int]
+    k_start: int
+    k_end: int
+    rx: list[tuple[int, bytes]]
+    cpu_fraction: float | None
+
+
+def drive(
+    tick: Callable[[int], int | None],
+    rate: float,
+    sock: socket.socket,
+    phases: Phases,
+    proc: subprocess.Popen,
+) -> Drive:
+    """Pace ``tick(k)`` at ``rate`` Hz and collect the output datagrams with their kernel time stamps.
+
+    The CPU use of ``proc`` (all threads, fraction of one core) is measured over the measurement window.
+    """
+    period = 1.0 / rate
+    sends: list[int] = []
+    rx: list[tuple[int, bytes]] = []
+    t0 = time.monotonic()
+    next_t = t0
+    state = "start"
+    k_start = k_end = 0
+    until = quiet = t0 + phases.start_timeout
+    cpu0 = cpu1 = None
+    w0 = w1 = 0.0
+    while True:
+        now = time.monotonic()
+        if state == "start":
+            if rx:
+                state, until = "warm", now + phases.warmup
+            elif now >= until or proc.poll() is not None:
+                status = "exited" if proc.poll() is not None else "running"
+                raise RuntimeError(f"no output within {phases.start_timeout:.0f} s (process {status})")
+        if state == "warm" and now >= until:
+            state, until, k_start = "measure", now + phases.measure, len(sends)
+            cpu0, w0 = proc_cpu_seconds(proc.pid), now
+        if state == "measure" and now >= until:
+            state, k_end = "drain", len(sends)
+            cpu1, w1 = proc_cpu_seconds(proc.pid), now
+            until = now + phases.drain
+            quiet = now
+        if state == "drain":
+            n = len(rx)
+            r, _, _ = select.select([sock], [], [], max(0.0, min(until, quiet + 0.3) - now))
+            if r:
+                _drain(sock, rx)
+            if len(rx) > n:
+                quiet = time.monotonic()
+            elif time.monotonic() >= min(until, quiet + 0.3):
+                break
+            continue
+        if now >= next_t:
+            t = tick(len(sends))
+            sends.append(-1 if t is None else t)
+            next_t += period
+            if now - next_t > 0.05:  # the harness itself was held up: do not send a burst to catch up
+                next_t = now + period
+            continue
+        r, _, _ = select.select([sock], [], [], next_t - now)
+        if r:
+            _drain(sock, rx)
+    cpu = (cpu1 - cpu0) / (w1 - w0) if cpu0 is not None and cpu1 is not None and w1 > w0 else None
+    return Drive(sends, k_start, k_end, rx, cpu)
+
+
+def match(
+    sends: list[int],
+    k_start: int,
+    k_end: int,
+    rx: list[tuple[int, bytes]],
+    key: Callable[[bytes], tuple[int, int]],
+    period: int | None,
+) -> tuple[dict[int, list[float]], int]:
+    """Latencies (us) per source of the ticks in ``[k_start, k_end)``, and the number of duplicate matches.
+
+    ``key(datagram)`` gives ``(source, tag)``.  With ``period=None`` the tag is the tick number.  Else it is
+    the tick number modulo ``period``: a source's datagram belongs to the tick after the one its previous
+    datagram belonged to (skipping refused ticks) when the tag agrees -- pointat loses nothing inside, so
+    outputs come in input order -- and otherwise (the first output, after a loss) to the latest tick with
+    that tag sent before it arrived.
+    """
+    times = np.array(sends, dtype=np.int64)
+    mono = np.maximum.accumulate(np.where(times < 0, 0, times))  # refused ticks: not sent
+    sent = np.flatnonzero(times >= 0)
+    seen: dict[int, set[int]] = {}
+    prev: dict[int, int] = {}
+    out: dict[int, list[float]] = {}
+    dups = 0
+    for ts, data in rx:
+        try:
+            src, tag = key(data)
+        except (ValueError, IndexError, struct.error):
+            continue
+        if period is None:
+            j = tag
+            if not 0 <= j < len(times) or times[j] < 0 or times[j] > ts:
+                continue
+        else:
+            j = -1
+            if src in prev:
+                i = int(np.searchsorted(sent, prev[src], side="right"))
+                if i < sent.size and sent[i] % period == tag and times[sent[i]] <= ts:
+                    j = int(sent[i])
+            if j < 0:
+                last = bisect.bisect_right(mono, ts) - 1
+                j = last - ((last - tag) % period)
+                while j >= 0 and times[j] < 0:
+                    j -= period
+                if j < 0:
+                    continue
+        if j in seen.setdefault(src, set()):
+            dups += 1
+            continue
+        seen[src].add(j)
+        prev[src] = j
+        if k_start <= j < k_end:
+            out.setdefault(src, []).append((ts - times[j]) / 1000.0)
+    return out, dups
+
+
+def _pointat_key(data: bytes) -> tuple[int, int]:
+    _address, args = parse_osc(data)
+    return int(args[0]), int(round(float(args[1]) * 10.0)) % _TAG_PERIOD
+
+
+def _floor_key(data: bytes) -> tuple[int, int]:
+    _address, args = parse_osc(data)
+    return 0, int(round(float(args[-1])))
+
+
+# ------------------------------------------------------------------------------------------ runs
+def _finish(
+    res: LatencyResult,
+    proc: subprocess.Popen,
+    d: Drive,
+    key: Callable[[bytes], tuple[int, int]],
+    period: int | None,
+    n_sources: int,
+) -> None:
+    per_src, res.duplicates = match(d.sends, d.k_start, d.k_end, d.rx, key, period)
+    res.latencies_us = np.array([v for lst in per_src.values() for v in lst], dtype=float)
+    res.cpu_fraction = d.cpu_fraction
+    window = d.sends[d.k_start : d.k_end]
+    sent = sum(1 for t in window if t >= 0)
+    res.refused = len(window) - sent
+    res.expected = sent * n_sources
+    mem = proc_memory_kb(proc.pid)
+    res.rss_peak_kb = mem.get("VmHWM")
+
+
+def run_pointat_mote(
+    chain: str, rate: float, motes: int, phases: Phases, sample: dict[str, np.ndarray], workdir: Path
+) -> LatencyResult:
+    """pointat's mote path: frames into a pty -> ``mote`` -> chain(s) -> ``osc_out`` -> our socket."""
+    patch = PATCHES / f"mote_{chain}_{motes}.pat"
+    sock = receiver_socket()
+    src = MoteSource(rate, motes)
+    port = sock.getsockname()[1]
+    overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
+    overrides += [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
+    total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
+    cmd = pointat_command(patch, overrides, total)
+    res = LatencyResult(
+        f"pointat {chain} (mote, pty)", "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes)
+    )
+    try:
+        with child_process(cmd, workdir / f"mote_{chain}_{motes}_{rate:g}.log") as proc:
+            _finish(res, proc, drive(src.tick, rate, sock, phases, proc), _pointat_key, _TAG_PERIOD, motes)
+    except RuntimeError as exc:
+        res.error = str(exc)
+    finally:
+        src.close()
+        sock.close()
+    return res
+
+
+def _shown_mote(cmd: list[str], motes: int) -> str:
+    text = shown(cmd)
+    if motes > 2:  # g1/out.port ... g16/out.port: abbreviate
+        text, _, tail = text.rpartition(" --for ")
+        parts = text.split(" --set ")
+        keep = [p for p in parts if "/out.port=" not in p]
+        port = next(p for p in parts if "/out.port=" in p).split("=")[1]
+        text = " --set ".join([*keep, f"gN/out.port={port}"]) + f" --for {tail}  # N = 1..{motes}"
+    return (
+        text.replace(text.split("base.device=")[1].split()[0], "/dev/pts/N")
+        if "base.device=" in text
+        else text
+    )
+
+
+def run_pointat_udp(
+    chain: str, rate: float, phases: Phases, sample: dict[str, np.ndarray], workdir: Path
+) -> LatencyResult:
+    """pointat's UDP path: one OSC bundle per sample -> ``osc_in`` -> fusion -> ``osc_out`` -> our socket."""
+    patch = PATCHES / f"oscin_{chain}.pat"
+    sock = receiver_socket()
+    in_port = free_udp_port()
+    src = UdpSource(in_port, "bundle", sample)
+    overrides = [f"src.port={in_port}", f"out.port={sock.getsockname()[1]}"]
+    total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
+    cmd = pointat_command(patch, overrides, total)
+    res = LatencyResult(f"pointat {chain} (osc_in, UDP)", "pointat-udp", chain, rate, 1, shown(cmd))
+    try:
+        with child_process(cmd, workdir / f"oscin_{chain}_{rate:g}.log") as proc:
+            _finish(res, proc, drive(src.tick, rate, sock, phases, proc), _pointat_key, _TAG_PERIOD, 1)
+    except RuntimeError as exc:
+        res.error = str(exc)
+    finally:
+        src.close()
+        sock.close()
+    return res
+
+
+def pd_version() -> str | None:
+    """``Pd-0.53.1`` or None when Pure Data is not installed."""
+    pd = shutil.which("pd")
+    if pd is None:
+        return None
+    try:
+        done = subprocess.run([pd, "-version"], capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    words = (done.stdout + done.stderr).split()
+    return words[0] if words else "pd"
+
+
+def run_floor(
+    kind: str, rate: float, phases: Phases, sample: dict[str, np.ndarray], workdir: Path
+) -> LatencyResult:
+    """A transport floor: ``python-osc`` relay, ``pd`` (default flags) or ``pd-sg0.1`` (-sleepgrain 0.1)."""
+    sock = receiver_socket()
+    in_port = free_udp_port()
+    out_port = sock.getsockname()[1]
+    src = UdpSource(in_port, "arg", sample)
+    total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
+    if kind == "python-osc":
+        cmd = [
+            sys.executable,
+            "-m",
+            "benchmarks.relay",
+            "--in-port",
+            str(in_port),
+            "--out-port",
+            str(out_port),
+        ]
+        cmd += ["--for", f"{total:.0f}"]
+        label = "python-osc relay"
+    else:
+        text = (PATCHES / "relay.pd").read_text()
+        text = text.replace("IN_PORT", str(in_port)).replace("OUT_PORT", str(out_port))
+        text = text.replace("MAX_MS", str(int(total * 1000)))
+        pd_patch = workdir / f"relay_{in_port}.pd"
+        pd_patch.write_text(text)
+        cmd = ["pd", "-nogui", "-noaudio", "-noprefs"]
+        if kind == "pd-sg0.1":
+            cmd += ["-sleepgrain", "0.1"]
+        cmd += ["-open", str(pd_patch)]
+        label = "Pd relay" + (" -sleepgrain 0.1" if kind == "pd-sg0.1" else " (default flags)")
+    shown_cmd = shown(cmd).replace(str(workdir / f"relay_{in_port}.pd"), "benchmarks/patches/relay.pd")
+    res = LatencyResult(label, "floor", kind, rate, 1, shown_cmd)
+    if kind != "python-osc" and shutil.which("pd") is None:
+        res.error = "Pure Data (pd) is not installed"
+        return res
+    try:
+        with child_process(cmd, workdir / f"{kind}_{rate:g}.log") as proc:
+            _finish(res, proc, drive(src.tick, rate, sock, phases, proc), _floor_key, None, 1)
+    except RuntimeError as exc:
+        res.error = str(exc)
+    finally:
+        src.close()
+        sock.close()
+    return res
+
+
+class _Idle(Node):
+    """A node that only keeps a runtime alive (``active``) while :func:`handoff` posts to it."""
+
+    type_name = "idle"
+
+    def start(self) -> None:
+        self.active = True
+
+
+def handoff(rate: float, seconds: float) -> np.ndarray:
+    """The engine's hand-off alone: a thread calls ``Runtime.post`` at ``rate`` Hz; microseconds until
+    the scheduler thread runs the call (the step every source -- ``mote``, ``osc_in``, ``replay`` -- takes).
+    """
+    rt = Runtime(realtime=True)
+    node = rt.add(_Idle("idle"))
+    delays: list[float] = []
+
+    def handle(t_ns: int) -> None:
+        delays.append((time.perf_counter_ns() - t_ns) / 1000.0)
+
+    def feed() -> None:
+        period = 1.0 / rate
+        next_t = time.perf_counter() + 0.2
+        end = next_t + seconds
+        while next_t < end and not rt.stopping.is_set():
+            wait = next_t - time.perf_counter()
+            if wait > 0:
+                time.sleep(wait)
+            rt.post(node, handle, time.perf_counter_ns())
+            next_t += period
+        rt.stop()
+
+    th = threading.Thread(target=feed, name="bench-handoff", daemon=True)
+    th.start()
+    rt.run(seconds + 5.0)
+    th.join(2.0)
+    return np.array(delays[10:], dtype=float)
+
+
+def run_all(
+    rates: tuple[float, ...],
+    phases_for: Callable[[float], Phases],
+    sample: dict[str, np.ndarray],
+    progress: Callable[[str], None],
+) -> list[LatencyResult]:
+    """Every latency configuration, floors next to the pointat runs they are compared with."""
+    results: list[LatencyResult] = []
+    with tempfile.TemporaryDirectory(prefix="pointat-bench-") as tmp:
+        workdir = Path(tmp)
+        for rate in rates:
+            ph = phases_for(rate)
+            plan: list[tuple[str, Callable[[], LatencyResult]]] = [
+                ("python-osc relay", partial(run_floor, "python-osc", rate, ph, sample, workdir)),
+                ("pointat torre osc_in", partial(run_pointat_udp, "torre", rate, ph, sample, workdir)),
+                ("pointat tqt osc_in", partial(run_pointat_udp, "tqt", rate, ph, sample, workdir)),
+                ("Pd relay", partial(run_floor, "pd", rate, ph, sample, workdir)),
+                ("Pd relay -sleepgrain 0.1", partial(run_floor, "pd-sg0.1", rate, ph, sample, workdir)),
+            ]
+            for motes in (1, 16):
+                for chain in ("torre", "tqt"):
+                    plan.append(
+                        (
+                            f"pointat {chain} mote x{motes}",
+                            partial(run_pointat_mote, chain, rate, motes, ph, sample, workdir),
+                        )
+                    )
+            for name, fn in plan:
+                progress(f"latency {rate:g} Hz: {name}")
+                r = fn()
+                if r.error:
+                    progress(f"  FAILED: {r.error}")
+                else:
+                    progress(
+                        f"  p50 {r.p50:.0f} us, p99 {r.p99:.0f} us, max {r.max:.0f} us, "
+                        f"{r.received}/{r.expected} received"
+                    )
+                results.append(r)
+    return results

@@ -1,0 +1,67 @@
+"""A bare python-osc relay, the benchmark's Python transport floor: read OSC over UDP, forward it over UDP.
+
+Each datagram is parsed by python-osc's server and re-encoded by its client (as Pd's ``[oscparse]`` ->
+``[oscformat]`` does), on 127.0.0.1 only.  It stops by itself after ``--for`` seconds.  With
+``--out-port 0`` it only reads and drops what arrives (a sink that lets a sender run at full speed
+without a receiver thread in the sender's own process).
+
+    python -m benchmarks.relay --in-port 9100 --out-port 9101 --for 60
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import socket
+import time
+
+from pythonosc.dispatcher import Dispatcher
+from pythonosc.osc_server import BlockingOSCUDPServer
+from pythonosc.udp_client import SimpleUDPClient
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.relay", description=__doc__.splitlines()[0])
+    ap.add_argument("--in-port", type=int, required=True, help="UDP port to listen on (127.0.0.1)")
+    ap.add_argument("--out-port", type=int, required=True, help="UDP port to forward to (127.0.0.1)")
+    ap.add_argument("--for", dest="seconds", type=float, default=600.0, help="stop after this long")
+    args = ap.parse_args(argv)
+    deadline = time.monotonic() + args.seconds
+    if args.out_port == 0:
+        return _sink(args.in_port, deadline)
+    client = SimpleUDPClient("127.0.0.1", args.out_port)
+    dispatcher = Dispatcher()
+    dispatcher.set_default_handler(lambda address, *values: client.send_message(address, list(values)))
+    server = BlockingOSCUDPServer(("127.0.0.1", args.in_port), dispatcher)
+    server.timeout = 0.2
+    try:
+        while time.monotonic() < deadline:
+            server.handle_request()
+    finally:
+        server.server_close()
+    return 0
+
+
+def _sink(port: int, deadline: float) -> int:
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 << 20)
+    sock.bind(("127.0.0.1", port))
+    sock.settimeout(0.2)
+    stop = []
+    signal.signal(signal.SIGTERM, lambda *_: stop.append(True))
+    count = 0
+    try:
+        while time.monotonic() < deadline and not stop:
+            try:
+                sock.recv(65536)
+                count += 1
+            except (TimeoutError, InterruptedError):
+                continue
+    finally:
+        sock.close()
+        print(f"received {count}", flush=True)  # the benchmark reads this line
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

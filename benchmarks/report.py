@@ -1,0 +1,652 @@
+"""The Markdown report (tables, goals met or missed) and its SVG figures, from the measurements."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .accuracy import PUBLISHED_MEAN, PUBLISHED_ORDER, PUBLISHED_TRIALS, AccuracyResults
+from .latency import LatencyResult
+from .memory import MemoryResult
+from .throughput import CHAINS, ThroughputResults
+
+
+@dataclass
+class Run:
+    """Everything one ``python -m benchmarks`` run measured, and how."""
+
+    command: str
+    quick: bool
+    machine: dict[str, str]
+    data_note: str
+    started: str
+    seconds: float = 0.0
+    latency: list[LatencyResult] = field(default_factory=list)
+    handoff: np.ndarray | None = None
+    throughput: ThroughputResults | None = None
+    accuracy: AccuracyResults | None = None
+    memory: MemoryResult | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def _f(x: float | None, digits: int = 0) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    return f"{x:,.{digits}f}"
+
+
+def _ms(us: float) -> str:
+    return "–" if not math.isfinite(us) else f"{us / 1000:.2f}"
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], align: str = "") -> list[str]:
+    align = align or "l" + "r" * (len(header) - 1)
+    sep = ["---:" if a == "r" else ":---:" if a == "c" else "---" for a in align]
+    out = ["| " + " | ".join(header) + " |", "| " + " | ".join(sep) + " |"]
+    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return out + [""]
+
+
+def _ok(flag: bool | None) -> str:
+    return "–" if flag is None else ("**met**" if flag else "**missed**")
+
+
+# ------------------------------------------------------------------------------------------ latency
+def _find(
+    lat: list[LatencyResult], family: str, chain: str, rate: float, motes: int = 1
+) -> LatencyResult | None:
+    for r in lat:
+        if r.family == family and r.chain == chain and r.rate == rate and r.motes == motes and not r.error:
+            return r
+    return None
+
+
+def _latency_section(run: Run) -> list[str]:
+    lat = run.latency
+    out = ["## 1. End-to-end latency and jitter", ""]
+    out += [
+        "A sample goes in, its OSC datagram comes out at a UDP socket on 127.0.0.1.  Latency = the kernel's "
+        "receive time stamp of the datagram minus the time taken just before the input was written; one "
+        "input per tick, paced on a deadline schedule.  *Mote* rows write real 21-byte mote frames into a "
+        "pseudo-terminal read by the `mote` node (all motes of a tick in one write, as a base station "
+        "delivers them) and run the whole chain to `osc_out`; *osc_in* rows send the same sample as one OSC "
+        "datagram into `osc_in` (UDP in, UDP out, like the floors).  Jitter = p99 − p50.  Ratios are "
+        "pointat's p50 and p99 over the python-osc relay's at the same rate, measured minutes apart in the "
+        "same run: the machine is shared and noisy, so the ratios are the figures to compare across "
+        "machines.  Times in ms.",
+        "",
+    ]
+    rates = sorted({r.rate for r in lat})
+    for rate in rates:
+        floor = _find(lat, "floor", "python-osc", rate)
+        out.append(f"### {rate:g} Hz input")
+        out.append("")
+        rows = []
+        for r in [x for x in lat if x.rate == rate]:
+            if r.error:
+                rows.append([r.label, r.motes, "–", "–", "–", "–", "–", "–", "–", "–", f"failed: {r.error}"])
+                continue
+            ratio50 = r.p50 / floor.p50 if floor and r is not floor else None
+            ratio99 = r.p99 / floor.p99 if floor and r is not floor else None
+            delivered = f"{r.received}/{r.expected}"
+            note = []
+            if r.refused:
+                note.append(f"{r.refused} ticks refused by the pty (patch fell behind)")
+            if r.received < 0.99 * r.expected or r.refused > 0.01 * (
+                r.expected / max(1, r.motes) + r.refused
+            ):
+                note.append("**overloaded**: does not keep up; the latency is its buffers filling")
+            if r.duplicates:
+                note.append(f"{r.duplicates} ambiguous matches")
+            rows.append(
+                [
+                    r.label,
+                    r.motes,
+                    _ms(r.p50),
+                    _ms(r.p99),
+                    _ms(r.max),
+                    _ms(r.jitter),
+                    _f(ratio50, 2) if ratio50 else "1",
+                    _f(ratio99, 2) if ratio99 else "1",
+                    delivered,
+                    _f(100 * r.cpu_fraction) + " %" if r.cpu_fraction is not None else "–",
+                    "; ".join(note),
+                ]
+            )
+        out += _table(
+            [
+                "path",
+                "motes",
+                "p50",
+                "p99",
+                "max",
+                "jitter",
+                "p50 / floor",
+                "p99 / floor",
+                "matched",
+                "CPU",
+                "notes",
+            ],
+            rows,
+            "lrrrrrrrrrl",
+        )
+    out += [
+        "*floor* = the python-osc relay at the same rate.  *matched* = outputs matched to inputs sent in the "
+        "measurement window / inputs sent × motes.  *CPU* = CPU time of the process under test (all its "
+        "threads) over the window, per wall-clock second.",
+        "",
+        "Published on this kind of machine at 1 kHz (brief): Pd default p50 5.2 / p99 7.5 ms; Pd "
+        "-sleepgrain 0.1 p50 0.22 / p99 3.4 ms; python-osc relay p50 0.26-0.45 / p99 1.4-1.6 ms.",
+        "",
+    ]
+    if run.handoff is not None and run.handoff.size:
+        h = run.handoff
+        out += [
+            "**The engine's hand-off alone.**  Every source (`mote`, `osc_in`, `replay`) reads in its own "
+            "thread and hands each sample to the scheduler thread with `Runtime.post` (a bounded "
+            "`queue.Queue`).  Measured in one process, a thread posting at 1 kHz: from `post` to the call "
+            f"running on the scheduler thread, p50 {_ms(float(np.percentile(h, 50)))} ms, "
+            f"p99 {_ms(float(np.percentile(h, 99)))} ms, max {_ms(float(h.max()))} ms ({h.size} posts).",
+            "",
+        ]
+    out += ["![Latency distribution at 1 kHz, one glove](figures/latency_cdf_1khz.svg)", ""]
+    return out
+
+
+# ------------------------------------------------------------------------------------------ throughput
+def _throughput_section(tp: ThroughputResults) -> list[str]:
+    out = ["## 2. Throughput and cost per update", ""]
+    out += [
+        "### Patches, one core, scheduler saturated",
+        "",
+        "Samples per second through each chain: (a) `benchmarks/patches/throughput_CHAIN.pat`, the simulated "
+        "glove (`simulate output=direct`, 1 kHz sensor time) into the chain on a manual clock advanced as fast "
+        "as it goes — the glove's own cost is in it, and the 'chain only' column takes it out; (b) ADC "
+        "vectors pushed straight into the chain's first node; (c) the shipped `patches/replay_*.pat` with "
+        "`replay speed=0` of a BROAD recording on the real-time runtime (source thread → bounded queue → "
+        "scheduler thread; fusion half only, the recording is in SI units).  (a) and (b): the fastest of "
+        "5 equal chunks.",
+        "",
+    ]
+    rows = []
+    for p in tp.patches:
+        rows.append(
+            [
+                CHAINS[p.chain],
+                p.how,
+                _f(p.samples),
+                _f(p.us_per_sample, 1),
+                _f(p.per_second),
+                _f(p.chain_per_second) if p.source_us else "–",
+            ]
+        )
+    out += _table(
+        ["chain", "fed by", "samples", "µs / sample", "samples / s", "chain only, samples / s"], rows
+    )
+    sim = next((p.source_us for p in tp.patches if p.source_us), None)
+    if sim:
+        out += [f"The simulated glove alone costs {sim:.0f} µs per sample.", ""]
+    out += ["### Cost of each node of the chain, alone", ""]
+    out += [
+        "Every message each node received while ADC vectors were pushed through the chain (b) was recorded "
+        "and replayed into a fresh instance of that node alone, its outlets into a sink that does nothing "
+        "(so the cost of building its output messages is in, the downstream nodes are not).  µs per input "
+        "sample (a node may get several messages per sample); fastest of 3 replays.",
+        "",
+    ]
+    for chain in CHAINS:
+        rows = [
+            [n.node, f"`{n.type_name}`", _f(n.messages), _f(n.us_per_sample, 2)]
+            for n in tp.nodes
+            if n.chain == chain
+        ]
+        if not rows:
+            continue
+        total = sum(n.us_per_sample for n in tp.nodes if n.chain == chain)
+        rows.append(["**sum**", "", "", f"**{total:.1f}**"])
+        rows.append(["whole chain (b)", "", "", _f(tp.chain_totals.get(chain), 1)])
+        out.append(f"**{CHAINS[chain]}**")
+        out.append("")
+        out += _table(["node", "type", "messages", "µs / sample"], rows)
+    out += ["### Hot spots (cProfile of (b), by own time)", ""]
+    for chain, rows in tp.hotspots.items():
+        out.append(f"**{CHAINS[chain]}** (profiling inflates the absolute times; read them as shares)")
+        out.append("")
+        out += _table(
+            ["function", "calls", "own µs / sample", "incl. µs / sample"],
+            [[f"`{fn}`", _f(n), _f(tt, 1), _f(ct, 1)] for fn, n, tt, ct in rows],
+        )
+    if tp.gc_pauses:
+        out += ["### Garbage-collector pauses", ""]
+        out += [
+            "Python's cyclic garbage collections while 20,000 ADC vectors go through the chain (b): how many, "
+            "and how long each paused the scheduler thread.",
+            "",
+        ]
+        rows = []
+        for chain, (n, gens) in tp.gc_pauses.items():
+            if not gens:
+                rows.append([CHAINS[chain], _f(n), "none", "–", "–"])
+            for g, (count, mean, longest) in gens.items():
+                rows.append(
+                    [
+                        CHAINS[chain],
+                        _f(n),
+                        f"generation {g}: {count}",
+                        _f(mean / 1000, 2),
+                        _f(longest / 1000, 2),
+                    ]
+                )
+        out += _table(["chain", "samples", "collections", "mean pause, ms", "longest, ms"], rows)
+    out += ["### Pure filters against the peers", ""]
+    out += [
+        "One `update` per sample of BROAD trial 01 (the same samples for every filter), inputs prepared "
+        "beforehand in each library's own format; time per update, fastest and median of the rounds.  "
+        "Ratios: the filter's time over imufusion's (a C library called from Python: the floor of a "
+        "per-sample Python call) and over ahrs Madgwick's (a pure-Python peer).",
+        "",
+    ]
+    ref_c = next((f.best_us for f in tp.filters if f.library.startswith("imufusion")), None)
+    ref_py = next((f.best_us for f in tp.filters if f.name == "Madgwick"), None)
+    rows = []
+    for f in tp.filters:
+        rows.append(
+            [
+                f.name,
+                f.library,
+                _f(f.best_us, 2),
+                _f(f.median_us, 2),
+                _f(f.best_us / ref_c, 1) if ref_c else "–",
+                _f(f.best_us / ref_py, 3) if ref_py else "–",
+                f.note,
+            ]
+        )
+    out += _table(
+        ["filter", "library", "µs / update (best)", "median", "× imufusion", "× Madgwick", "notes"],
+        rows,
+        "llrrrrl",
+    )
+    return out
+
+
+# ------------------------------------------------------------------------------------------ accuracy
+def _short(trial: str) -> str:
+    return trial.split("_")[0]
+
+
+def _accuracy_section(acc: AccuracyResults, data_note: str) -> list[str]:
+    out = ["## 3. Accuracy on BROAD (optical ground truth)", ""]
+    out += [
+        data_note,
+        "",
+        "The data set's own metric (`pointat.maths.evaluation.broad_rmse`): error quaternion in the earth "
+        "frame, split into heading and inclination, RMS over the `movement` samples, NaN ground truth "
+        "skipped; every filter runs causally from sample 0 over the whole trial, **one parameter set for "
+        "all trials**, outputs turned into sensor → ENU by fixed frame changes only (pointat's NWU with "
+        "`pointat.maths.quaternion.nwu_to_enu`).  Peers use the settings of the data README's table; "
+        "'published' is that table's figure for the same filter and trials.  Degrees.",
+        "",
+    ]
+    trials = acc.trials
+    names = list(acc.scores)
+    header = ["filter", "mean total", "heading", "incl."] + [_short(t) for t in trials]
+    if len(trials) == len(PUBLISHED_ORDER):
+        header.insert(4, "published mean")
+    rows = []
+    for name in names:
+        m = acc.mean(name)
+        row = [name, f"**{m.total:.2f}**", f"{m.heading:.2f}", f"{m.inclination:.2f}"]
+        if len(trials) == len(PUBLISHED_ORDER):
+            row.append(_f(PUBLISHED_MEAN.get(name), 2))
+        row += [_f(acc.scores[name][t].total, 2) if t in acc.scores[name] else "–" for t in trials]
+        rows.append(row)
+    out += _table(header, rows)
+    # published check, per trial
+    diffs = []
+    for name, pub in PUBLISHED_TRIALS.items():
+        if name not in acc.scores:
+            continue
+        for t in trials:
+            k = _short(t)
+            if k in PUBLISHED_ORDER and t in acc.scores[name]:
+                diffs.append(abs(acc.scores[name][t].total - pub[PUBLISHED_ORDER.index(k)]))
+    if diffs:
+        out += [
+            f"Harness check: the peers' per-trial totals differ from the published table by at most "
+            f"{max(diffs):.2f}° (median {np.median(diffs):.2f}°) over {len(diffs)} filter-trial pairs, so "
+            "conventions, metric and initialisation match the data README's.",
+            "",
+        ]
+    rows = [[name, f"{acc.seconds.get(name, float('nan')):.1f}"] for name in names]
+    out += ["Run time of each filter over these trials (s, this machine):", ""]
+    out += _table(["filter", "seconds"], rows)
+    out += ["![Mean total RMSE by filter](figures/accuracy_mean.svg)", ""]
+    return out
+
+
+# ------------------------------------------------------------------------------------------ memory
+def _memory_section(mem: MemoryResult) -> list[str]:
+    out = ["## 4. Memory", ""]
+    out += [
+        f"`benchmarks/patches/soak.pat` (simulated glove at 1 kHz writing mote frames into a pty, the `mote` "
+        f"node, both chains, two `osc_out`) run for {mem.seconds:.0f} s; resident set sampled every second, "
+        f"growth = least-squares slope after the first {mem.fit_start:.0f} s.",
+        "",
+    ]
+    if mem.error:
+        return out + [f"Failed: {mem.error}", ""]
+    rss = np.array(mem.rss_kb, dtype=float)
+    t = np.array(mem.times)
+    after = rss[t >= mem.fit_start]
+    rate = mem.datagrams / mem.lifetime if mem.datagrams is not None and mem.lifetime > 0 else None
+    out += _table(
+        ["peak RSS (VmHWM)", "RSS after warm-up", "RSS at the end", "growth", "CPU", "datagrams out"],
+        [
+            [
+                f"{(mem.peak_kb or 0) / 1024:.1f} MB",
+                f"{after[0] / 1024:.1f} MB" if after.size else "–",
+                f"{rss[-1] / 1024:.1f} MB" if rss.size else "–",
+                f"{mem.slope_kb_per_min:+.2f} ± {mem.slope_stderr:.2f} KB/min",
+                _f(100 * mem.cpu_fraction) + " %" if mem.cpu_fraction is not None else "–",
+                f"{mem.datagrams:,} ({rate:,.0f}/s incl. start-up; 2,000/s at full rate)"
+                if rate is not None
+                else "–",
+            ]
+        ],
+        "rrrrrr",
+    )
+    return out
+
+
+def _memory_ok(mem: MemoryResult | None) -> bool | None:
+    if mem is None or mem.error or not math.isfinite(mem.slope_kb_per_min):
+        return None
+    return mem.slope_kb_per_min <= max(10.0, 3.0 * mem.slope_stderr)
+
+
+# ------------------------------------------------------------------------------------------ summary
+def _summary(run: Run) -> list[str]:
+    rows = []
+    lat = run.latency
+    for chain in ("torre", "tqt"):
+        r = _find(lat, "pointat-mote", chain, 1000.0)
+        name = CHAINS[chain]
+        if r:
+            rows.append(
+                [f"{name}, mote path, 1 kHz, 1 glove: p99 ≤ 1 ms", f"{_ms(r.p99)} ms", _ok(r.p99 <= 1000)]
+            )
+            rows.append(
+                [
+                    f"{name}, mote path, 1 kHz, 1 glove: jitter ≤ 0.5 ms",
+                    f"{_ms(r.jitter)} ms",
+                    _ok(r.jitter <= 500),
+                ]
+            )
+        floor = _find(lat, "floor", "python-osc", 1000.0)
+        u = _find(lat, "pointat-udp", chain, 1000.0)
+        if floor and u:
+            rows.append(
+                [
+                    f"{name}, osc_in path, 1 kHz: p99 ≤ 1.2 × python-osc relay",
+                    f"{u.p99 / floor.p99:.2f} × ({_ms(u.p99)} vs {_ms(floor.p99)} ms)",
+                    _ok(u.p99 <= 1.2 * floor.p99),
+                ]
+            )
+        if floor and r:
+            rows.append(
+                [
+                    f"{name}, mote path, 1 kHz: p99 ≤ 1.2 × python-osc relay",
+                    f"{r.p99 / floor.p99:.2f} ×",
+                    _ok(r.p99 <= 1.2 * floor.p99),
+                ]
+            )
+        for pd_kind, pd_name in (("pd", "Pd default"), ("pd-sg0.1", "Pd -sleepgrain 0.1")):
+            pd = _find(lat, "floor", pd_kind, 1000.0)
+            if pd and u:
+                rows.append(
+                    [
+                        f"{name}, osc_in path, 1 kHz: beats {pd_name} (p50 and p99)",
+                        f"p50 {_ms(u.p50)} vs {_ms(pd.p50)}, p99 {_ms(u.p99)} vs {_ms(pd.p99)} ms",
+                        _ok(u.p50 < pd.p50 and u.p99 < pd.p99),
+                    ]
+                )
+    tp = run.throughput
+    if tp:
+        a = [p for p in tp.patches if p.chain == "torre" and p.source_us]
+        b = [p for p in tp.patches if p.chain == "torre" and p.how.startswith("ADC")]
+        if b:
+            rows.append(
+                [
+                    "Pointing-at chain: ≥ 20,000 samples/s on one core",
+                    f"{b[0].per_second:,.0f} /s pushed in"
+                    + (f"; {a[0].per_second:,.0f} /s with the simulated glove" if a else ""),
+                    _ok(b[0].per_second >= 20000),
+                ]
+            )
+        f = next((x for x in tp.filters if x.name == "TQTFilter robust"), None)
+        if f:
+            rows.append(
+                [
+                    "tqt, one sensor: ≤ 10 µs per update",
+                    f"{f.best_us:.1f} µs (median {f.median_us:.1f})",
+                    _ok(f.best_us <= 10),
+                ]
+            )
+    acc = run.accuracy
+    if acc and acc.scores:
+        rob = "tqt robust (TQTFilter defaults)"
+        pap = "tqt paper (TQTFilter defaults)"
+        full = len(acc.trials) == len(PUBLISHED_ORDER)
+        scope = "" if full else f" ({len(acc.trials)} of 10 trials)"
+        if rob in acc.scores:
+            m = acc.mean(rob).total
+            rows.append([f"tqt robust: mean total RMSE ≤ 2.0°{scope}", f"{m:.2f}°", _ok(m <= 2.0)])
+            for v in ("VQF defaults (tauAcc=3, tauMag=9)", "VQF tuned (tauMag=30)"):
+                if v in acc.scores:
+                    vm = acc.mean(v).total
+                    wins = sum(acc.scores[rob][t].total < acc.scores[v][t].total for t in acc.trials)
+                    rows.append(
+                        [
+                            f"tqt robust ahead of {v.split(' (')[0]}: mean and most trials{scope}",
+                            f"{m:.2f} vs {vm:.2f}°, ahead on {wins}/{len(acc.trials)}",
+                            _ok(m < vm and wins > len(acc.trials) / 2),
+                        ]
+                    )
+        if pap in acc.scores:
+            pm = acc.mean(pap).total
+            for peer in (
+                "Madgwick gain 0.041 (ahrs default)",
+                "Mahony k_P=0.74 k_I=0.0012 (BROAD)",
+                "imufusion defaults (gain 0.5)",
+            ):
+                if peer in acc.scores:
+                    em = acc.mean(peer).total
+                    rows.append([f"tqt paper ahead of {peer}{scope}", f"{pm:.2f} vs {em:.2f}°", _ok(pm < em)])
+    mem = run.memory
+    if mem and not mem.error:
+        short = (
+            " — too short to tell warm-up from growth; the 10-min run decides" if mem.seconds < 300 else ""
+        )
+        rows.append(
+            [
+                f"no memory growth ({mem.seconds:.0f} s at 1 kHz{short})",
+                f"{mem.slope_kb_per_min:+.2f} ± {mem.slope_stderr:.2f} KB/min, peak {(mem.peak_kb or 0) / 1024:.1f} MB",
+                _ok(_memory_ok(mem)),
+            ]
+        )
+    return ["## Goals", ""] + _table(["goal", "measured", ""], rows, "lll")
+
+
+def render(run: Run) -> str:
+    m = run.machine
+    out = [
+        "# pointat benchmark report",
+        "",
+        f"Generated by `{run.command}` on {run.started} in {run.seconds / 60:.1f} min"
+        + (
+            " (**quick** run: shorter measurements, fewer trials; see the README for the full run)."
+            if run.quick
+            else "."
+        ),
+        "",
+        "## Machine",
+        "",
+    ]
+    out += _table(["", ""], [[k, v] for k, v in m.items()], "ll")
+    out += [
+        "The machine is shared: other work ran beside this benchmark (see the load averages), so absolute "
+        "times move from run to run; compare the ratios measured side by side in the same run.",
+        "",
+    ]
+    out += _summary(run)
+    if run.latency:
+        out += _latency_section(run)
+    if run.throughput:
+        out += _throughput_section(run.throughput)
+    if run.accuracy:
+        out += _accuracy_section(run.accuracy, run.data_note)
+    if run.memory:
+        out += _memory_section(run.memory)
+    out += ["## Commands", ""]
+    out += [
+        "The benchmark: `"
+        + run.command
+        + "` (quick: `python -m benchmarks --quick`; full: `python -m benchmarks`).",
+        "",
+        "Processes it started (ports are picked at run time; `/dev/pts/N` is a pseudo-terminal it opens):",
+        "",
+        "```",
+    ]
+    seen = set()
+    for r in run.latency:
+        if r.command not in seen:
+            seen.add(r.command)
+            out.append(r.command)
+    if run.memory:
+        out.append(run.memory.command)
+    out += ["```", ""]
+    errors = []
+    if run.throughput:
+        errors += run.throughput.errors
+    if run.accuracy:
+        errors += run.accuracy.errors
+    notes = run.notes + errors
+    if notes:
+        out += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
+    return "\n".join(out).rstrip() + "\n"
+
+
+# ------------------------------------------------------------------------------------------ figures
+_COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#7f7f7f", "#17becf"]
+
+
+def _esc(s: str) -> str:
+    return s.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def latency_cdf_svg(results: list[LatencyResult], rate: float = 1000.0) -> str:
+    """Cumulative distribution of latency (log time axis) of the one-glove runs at ``rate``."""
+    series = [r for r in results if r.rate == rate and r.motes == 1 and not r.error and r.received]
+    W, H, L, R, T, B = 760, 420, 60, 250, 20, 50
+    lo, hi = 30.0, 20000.0
+    if series:
+        lo = max(10.0, min(float(np.percentile(r.latencies_us, 0.1)) for r in series) * 0.8)
+        hi = max(float(r.latencies_us.max()) for r in series) * 1.2
+
+    def x(us: float) -> float:
+        return L + (math.log10(max(us, lo)) - math.log10(lo)) / (math.log10(hi) - math.log10(lo)) * (
+            W - L - R
+        )
+
+    def y(p: float) -> float:
+        return T + (1 - p) * (H - T - B)
+
+    parts = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="12">'
+    ]
+    parts.append(f'<rect width="{W}" height="{H}" fill="white"/>')
+    for dec in range(int(math.floor(math.log10(lo))), int(math.ceil(math.log10(hi))) + 1):
+        for mult in (1, 2, 5):
+            v = mult * 10**dec
+            if lo <= v <= hi:
+                parts.append(f'<line x1="{x(v):.1f}" y1="{T}" x2="{x(v):.1f}" y2="{H - B}" stroke="#ddd"/>')
+                label = f"{v / 1000:g} ms" if v >= 1000 else f"{v:g} µs"
+                parts.append(f'<text x="{x(v):.1f}" y="{H - B + 15}" text-anchor="middle">{label}</text>')
+    for p in (0, 0.5, 0.9, 0.99, 1.0):
+        parts.append(f'<line x1="{L}" y1="{y(p):.1f}" x2="{W - R}" y2="{y(p):.1f}" stroke="#eee"/>')
+        parts.append(f'<text x="{L - 5}" y="{y(p) + 4:.1f}" text-anchor="end">{p:g}</text>')
+    parts.append(
+        f'<rect x="{L}" y="{T}" width="{W - L - R}" height="{H - T - B}" fill="none" stroke="#333"/>'
+    )
+    parts.append(
+        f'<text x="{(W - R + L) / 2}" y="{H - 10}" text-anchor="middle">latency (log scale), {rate:g} Hz input, one glove</text>'
+    )
+    for i, r in enumerate(series):
+        v = np.sort(r.latencies_us)
+        n = v.size
+        idx = np.unique(np.linspace(0, n - 1, min(n, 400)).astype(int))
+        pts = " ".join(f"{x(float(v[k])):.1f},{y((k + 1) / n):.1f}" for k in idx)
+        c = _COLORS[i % len(_COLORS)]
+        parts.append(f'<polyline points="{pts}" fill="none" stroke="{c}" stroke-width="2"/>')
+        ly = T + 15 + 18 * i
+        parts.append(
+            f'<line x1="{W - R + 10}" y1="{ly - 4}" x2="{W - R + 30}" y2="{ly - 4}" stroke="{c}" stroke-width="3"/>'
+        )
+        parts.append(f'<text x="{W - R + 35}" y="{ly}">{_esc(r.label)}</text>')
+    parts.append("</svg>")
+    return "\n".join(parts) + "\n"
+
+
+def accuracy_svg(acc: AccuracyResults) -> str:
+    """Horizontal bars: mean total RMSE per filter, heading part marked."""
+    names = list(acc.scores)
+    means = [acc.mean(n) for n in names]
+    W, row, L, R, T = 760, 24, 360, 40, 20
+    H = T + row * len(names) + 40
+    top = max([m.total for m in means] + [1.0])
+    top = min(top, 30.0)
+
+    def x(v: float) -> float:
+        return L + min(v, top) / top * (W - L - R)
+
+    parts = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="12">'
+    ]
+    parts.append(f'<rect width="{W}" height="{H}" fill="white"/>')
+    step = 1 if top <= 8 else 2 if top <= 16 else 5
+    for v in np.arange(0, top + 1e-9, step):
+        parts.append(f'<line x1="{x(v):.1f}" y1="{T}" x2="{x(v):.1f}" y2="{H - 30}" stroke="#ddd"/>')
+        parts.append(f'<text x="{x(v):.1f}" y="{H - 15}" text-anchor="middle">{v:g}°</text>')
+    for i, (n, m) in enumerate(zip(names, means, strict=True)):
+        yy = T + i * row
+        c = "#1f77b4" if acc.families.get(n) == "pointat" else "#999"
+        parts.append(
+            f'<rect x="{L}" y="{yy + 4}" width="{x(m.total) - L:.1f}" height="{row - 8}" fill="{c}"/>'
+        )
+        parts.append(f'<text x="{L - 6}" y="{yy + row / 2 + 4}" text-anchor="end">{_esc(n)}</text>')
+        label = f"{m.total:.2f}" + ("+" if m.total > top else "")
+        parts.append(f'<text x="{x(m.total) + 4:.1f}" y="{yy + row / 2 + 4}">{label}</text>')
+    parts.append(
+        f'<text x="{(L + W - R) / 2}" y="{H - 2}" text-anchor="middle">mean total RMSE over {len(acc.trials)} BROAD trial(s), degrees (pointat blue)</text>'
+    )
+    parts.append("</svg>")
+    return "\n".join(parts) + "\n"
+
+
+def write_figures(run: Run, folder: Path) -> list[Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    if run.latency:
+        p = folder / "latency_cdf_1khz.svg"
+        p.write_text(latency_cdf_svg(run.latency), encoding="utf-8")
+        written.append(p)
+    if run.accuracy and run.accuracy.scores:
+        p = folder / "accuracy_mean.svg"
+        p.write_text(accuracy_svg(run.accuracy), encoding="utf-8")
+        written.append(p)
+    return written

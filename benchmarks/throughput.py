@@ -1,0 +1,550 @@
+"""Throughput on one core, the cost of each node, and the pure filters against their peers.
+
+* **Patches, scheduler saturated.**  (a) ``benchmarks/patches/throughput_CHAIN.pat``: the simulated glove
+  (``simulate output=direct``) into the chain, one thread, manual clock advanced as fast as it goes; the
+  glove's own cost is measured alone and subtracted for the "chain only" figure.  (b) The same chain fed
+  pre-made ADC vectors straight into its first node (no source at all).  (c) The shipped replay patches
+  (``patches/replay_pointing_at.pat``, ``patches/replay_tqt.pat``) with ``replay speed=0`` of a BROAD
+  recording on the real-time runtime: the source thread, the bounded queue and the scheduler thread.
+* **Per node.**  Every message each node of the chain received during (b) is recorded, then replayed into
+  a fresh instance of that node alone (its outlets into a sink that does nothing): microseconds per input
+  sample, which add up to about the chain's cost.  A ``cProfile`` of (b) names the hot functions.
+* **Pure filters.**  One ``update`` per sample of a BROAD trial, inputs prepared beforehand in each
+  library's own format: pointat's ``TQTFilter`` (robust, paper), ``ComplementaryFilter``, ``TQTBank`` over
+  15 sensors (per sensor-sample), against ``ahrs`` Madgwick and Mahony, ``imufusion`` and ``vqf``.
+  The best of several rounds is reported (the least disturbed by other work on the machine), with the
+  median beside it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import cProfile
+import gc
+import gzip
+import logging
+import math
+import pstats
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pointat.devices.glove_sim import GloveSimulator
+from pointat.loader import load
+from pointat.maths.evaluation import BROAD_RATE
+from pointat.maths.fusion import ComplementaryFilter
+from pointat.maths.tqt import TQTBank, TQTFilter
+from pointat.message import Message, vector
+from pointat.node import Inlet, Node
+from pointat.runtime import Runtime
+
+from .latency import free_udp_port, stop_process
+
+log = logging.getLogger("benchmarks.throughput")
+
+REPO = Path(__file__).resolve().parents[1]
+PATCHES = Path(__file__).resolve().parent / "patches"
+CHAINS = {"torre": "Pointing-at (torre_fusion)", "tqt": "tqt (tqt_fusion)"}
+
+
+class _Null(Node):
+    """A sink that does nothing: the outlets of a node measured alone go here."""
+
+    type_name = "null"
+    inlets = (Inlet("in", ("any",), "anything"),)
+
+    def on_in(self, msg: Message) -> None:
+        pass
+
+
+@contextlib.contextmanager
+def udp_sink(seconds: float = 900.0) -> Iterator[int]:
+    """A UDP sink on 127.0.0.1 in its own process (no receiver thread competing for this one's GIL).
+
+    Yields its port; the process is stopped on the way out (and stops by itself after ``seconds``).
+    """
+    port = free_udp_port()
+    cmd = [sys.executable, "-m", "benchmarks.relay", "--in-port", str(port), "--out-port", "0"]
+    proc = subprocess.Popen(
+        [*cmd, "--for", f"{seconds:.0f}"],
+        cwd=REPO,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline and not _bound(port):
+            time.sleep(0.05)
+        yield port
+    finally:
+        stop_process(proc)
+
+
+def _bound(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            return True
+    return False
+
+
+# --------------------------------------------------------------------------------------- results
+@dataclass
+class PatchRate:
+    """Samples per second through one patch, and what it was measured with."""
+
+    chain: str
+    how: str
+    samples: int
+    seconds: float
+    source_us: float = 0.0  # per-sample cost of the source, subtracted for "chain only"
+
+    @property
+    def per_second(self) -> float:
+        return self.samples / self.seconds if self.seconds > 0 else float("nan")
+
+    @property
+    def us_per_sample(self) -> float:
+        return 1e6 * self.seconds / self.samples if self.samples else float("nan")
+
+    @property
+    def chain_per_second(self) -> float:
+        us = self.us_per_sample - self.source_us
+        return 1e6 / us if us > 0 else float("nan")
+
+
+@dataclass
+class NodeCost:
+    chain: str
+    node: str
+    type_name: str
+    messages: int
+    us_per_sample: float
+
+
+@dataclass
+class FilterCost:
+    name: str
+    library: str
+    best_us: float
+    median_us: float
+    note: str = ""
+
+
+@dataclass
+class ThroughputResults:
+    patches: list[PatchRate] = field(default_factory=list)
+    nodes: list[NodeCost] = field(default_factory=list)
+    chain_totals: dict[str, float] = field(default_factory=dict)
+    filters: list[FilterCost] = field(default_factory=list)
+    hotspots: dict[str, list[tuple[str, int, float, float]]] = field(default_factory=dict)
+    #: chain -> (samples, {generation: (collections, mean pause us, longest pause us)})
+    gc_pauses: dict[str, tuple[int, dict[int, tuple[int, float, float]]]] = field(default_factory=dict)
+    errors: list[str] = field(default_factory=list)
+
+
+# --------------------------------------------------------------------------------------- patches
+def _adc_messages(n: int, rate: float = 1000.0) -> list[Message]:
+    sim = GloveSimulator(rate_hz=rate, seed=5)
+    cycle = [np.array(s.frame.channels, dtype=float) for s in sim.samples(min(n, 2000))]
+    return [vector(cycle[k % len(cycle)], k / rate) for k in range(n)]
+
+
+def _load_chain(chain: str, port: int) -> Runtime:
+    rt = load(PATCHES / f"throughput_{chain}.pat", overrides=[f"g/out.port={port}"], realtime=False)
+    rt.console = lambda line: None
+    return rt
+
+
+CHUNKS = 5  # patch rates: the best of this many equal chunks of the run (the least disturbed one)
+
+
+def _advance_best(rt: Runtime, seconds: float) -> float:
+    """Advance a manual clock by ``seconds`` in :data:`CHUNKS` chunks; the wall time of the fastest chunk."""
+    best = math.inf
+    for _ in range(CHUNKS):
+        t0 = time.perf_counter()
+        rt.advance(seconds / CHUNKS)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def simulate_rate(chain: str, seconds: float, port: int) -> PatchRate:
+    """(a) The patch with its simulated glove, manual clock, as fast as it goes."""
+    rt = _load_chain(chain, port)
+    rt.start()
+    rt.advance(0.2)  # the offset node's gyro averaging and first-call costs out of the way
+    wall = _advance_best(rt, seconds)
+    rt.shutdown()
+    return PatchRate(chain, "simulated glove, manual clock", round(seconds / CHUNKS * 1000), wall)
+
+
+def simulator_cost(seconds: float) -> float:
+    """Microseconds per sample of ``simulate rate=1000 output=direct`` alone (best chunk)."""
+    from pointat.testing import patch
+
+    rt = patch("node glove simulate rate=1000 output=direct\n")
+    rt.start()
+    rt.advance(0.1)
+    wall = _advance_best(rt, seconds)
+    rt.shutdown()
+    return 1e6 * wall / (seconds / CHUNKS * 1000)
+
+
+def push_rate(chain: str, messages: list[Message], port: int, record: bool = False):
+    """(b) ADC vectors straight into the chain's first node; optionally record every node's inputs."""
+    rt = _load_chain(chain, port)
+    rt.start()
+    first = rt.nodes["g/nulls"]
+    for msg in messages[:200]:  # warm up, and finish the offset node's averaging
+        first.receive(0, msg)
+    recorded: dict[str, list[tuple[int, Message]]] = {}
+    if record:
+        for name, node in rt.nodes.items():
+            if name.startswith("g/"):
+                recorded[name] = []
+
+                def spy(index: int, msg: Message, _orig=node.receive, _log=recorded[name]) -> None:
+                    _log.append((index, msg))
+                    _orig(index, msg)
+
+                node.receive = spy  # type: ignore[method-assign]
+    body = messages[200:]
+    size = len(body) // CHUNKS
+    wall = math.inf
+    for c in range(CHUNKS):
+        chunk = body[c * size : (c + 1) * size]
+        t0 = time.perf_counter()
+        for msg in chunk:
+            first.receive(0, msg)
+        wall = min(wall, time.perf_counter() - t0)
+    nodes = dict(rt.nodes)
+    rt.shutdown()
+    return PatchRate(chain, "ADC vectors pushed into the chain", size, wall), recorded, nodes
+
+
+def node_costs(
+    chain: str, recorded: dict[str, list[tuple[int, Message]]], nodes: dict[str, Node], n: int, port: int
+) -> list[NodeCost]:
+    """Replay each node's recorded inputs into a fresh instance of it alone."""
+    out = []
+    for name, inputs in recorded.items():
+        proto = nodes[name]
+        values = dict(vars(proto.p))
+        if proto.type_name == "osc_out":
+            values["port"] = port
+        best = math.inf
+        for _ in range(3):  # a fresh instance each time (same state path); the fastest run counts
+            inst = type(proto)(name, values)
+            rt = Runtime(realtime=False)
+            rt.add(inst)
+            sink = rt.add(_Null("sink"))
+            for o in range(len(inst.out_specs)):
+                rt.connect(inst, o, sink, 0)
+            rt.start()
+            receive = inst.receive
+            t0 = time.perf_counter()
+            for index, msg in inputs:
+                receive(index, msg)
+            best = min(best, time.perf_counter() - t0)
+            rt.shutdown()
+        out.append(NodeCost(chain, name.removeprefix("g/"), proto.type_name, len(inputs), 1e6 * best / n))
+    return out
+
+
+def profile_chain(
+    chain: str, messages: list[Message], port: int, top: int = 12
+) -> list[tuple[str, int, float, float]]:
+    """cProfile of (b): ``(function, calls, tottime us/sample, cumtime us/sample)``, by tottime."""
+    rt = _load_chain(chain, port)
+    rt.start()
+    first = rt.nodes["g/nulls"]
+    for msg in messages[:200]:
+        first.receive(0, msg)
+    body = messages[200:]
+    prof = cProfile.Profile()
+    prof.enable()
+    for msg in body:
+        first.receive(0, msg)
+    prof.disable()
+    rt.shutdown()
+    stats = pstats.Stats(prof)
+    rows = []
+    for (filename, line, func), (_cc, nc, tt, ct, _callers) in stats.stats.items():  # type: ignore[attr-defined]
+        where = Path(filename)
+        try:
+            where = where.resolve().relative_to(REPO)
+        except ValueError:
+            where = Path(where.name)
+        label = f"{func} ({where}:{line})" if line else func
+        rows.append((label, nc, 1e6 * tt / len(body), 1e6 * ct / len(body)))
+    rows.sort(key=lambda r: -r[2])
+    return rows[:top]
+
+
+def gc_pauses(
+    chain: str, messages: list[Message], port: int
+) -> tuple[int, dict[int, tuple[int, float, float]]]:
+    """Python's cyclic garbage collections while ADC vectors go through the chain: count and pauses."""
+    pauses: list[tuple[int, float]] = []
+    started: list[int] = []
+
+    def watch(phase: str, info: dict) -> None:
+        if phase == "start":
+            started.append(time.perf_counter_ns())
+        elif started:
+            pauses.append((info["generation"], (time.perf_counter_ns() - started.pop()) / 1000.0))
+
+    gc.callbacks.append(watch)
+    try:
+        push_rate(chain, messages, port)
+    finally:
+        gc.callbacks.remove(watch)
+    by: dict[int, list[float]] = {}
+    for gen, us in pauses:
+        by.setdefault(gen, []).append(us)
+    return len(messages), {g: (len(v), float(np.mean(v)), float(np.max(v))) for g, v in sorted(by.items())}
+
+
+def _broad_head(path: Path, rows: int, workdir: Path) -> Path:
+    """The first ``rows`` samples of a BROAD trial as a smaller .csv.gz (replay loads whole files)."""
+    out = workdir / f"head_{rows}.csv.gz"
+    with gzip.open(path, "rt", encoding="utf-8") as src, gzip.open(out, "wt", encoding="utf-8") as dst:
+        header_seen = 0
+        for line in src:
+            dst.write(line)
+            if line.startswith("#"):
+                continue
+            header_seen += 1
+            if header_seen > rows:
+                break
+    return out
+
+
+def replay_rate(chain: str, trial: Path, rows: int, port: int) -> PatchRate:
+    """(c) ``patches/replay_*.pat`` with ``speed=0``: real-time runtime, source thread and queue."""
+    patch = REPO / "patches" / ("replay_pointing_at.pat" if chain == "torre" else "replay_tqt.pat")
+    with tempfile.TemporaryDirectory(prefix="pointat-bench-") as tmp:
+        head = _broad_head(trial, rows, Path(tmp))
+        rt = load(patch, overrides=[f"source.file={head}", "source.speed=0", f"out.port={port}"])
+        rt.console = lambda line: None
+        src = rt.nodes["source"]
+        marks: dict[str, float] = {}
+        orig_emit, orig_done = src._emit, src._done  # type: ignore[attr-defined]
+
+        def emit(i: int) -> None:
+            if i == 0:
+                marks["first"] = time.perf_counter()
+            orig_emit(i)
+
+        def done() -> None:
+            marks["done"] = time.perf_counter()
+            orig_done()
+
+        src._emit, src._done = emit, done  # type: ignore[attr-defined]
+        rt.run(120.0)
+    wall = marks.get("done", math.nan) - marks.get("first", math.nan)
+    return PatchRate(chain, "replay speed=0 (real-time runtime, BROAD trial)", int(src.emitted), wall)
+
+
+# --------------------------------------------------------------------------------------- filters
+def _rounds(fn: Callable[[], None], n: int, rounds: int) -> tuple[float, float]:
+    times = []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        fn()
+        times.append(1e6 * (time.perf_counter() - t0) / n)
+    return min(times), statistics.median(times)
+
+
+def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[list[FilterCost], list[str]]:
+    """Per-update cost of pointat's pure filters and of the peers, same samples, same rounds."""
+    g, a, m = (np.ascontiguousarray(sample[k][:n]) for k in ("gyr", "acc", "mag"))
+    n = len(g)
+    dt = 1.0 / BROAD_RATE
+    gl, al, ml = g.tolist(), a.tolist(), m.tolist()
+    out: list[FilterCost] = []
+    errors: list[str] = []
+
+    def tqt(mode: str) -> Callable[[], None]:
+        def run() -> None:
+            f = TQTFilter(mode=mode)  # type: ignore[arg-type]
+            upd = f.update
+            for i in range(n):
+                upd(gl[i], al[i], ml[i], dt)
+
+        return run
+
+    for mode in ("robust", "paper"):
+        best, med = _rounds(tqt(mode), n, rounds)
+        out.append(FilterCost(f"TQTFilter {mode}", "pointat", best, med, "Python floats in"))
+
+    def compl() -> None:
+        f = ComplementaryFilter(0.05)
+        for i in range(n):
+            f.update(g[i], a[i], m[i], dt)
+
+    best, med = _rounds(compl, n, max(1, rounds - 1))
+    out.append(FilterCost("ComplementaryFilter", "pointat", best, med, "numpy rows in"))
+
+    k15 = 15
+    nb = min(n, 4000)
+    G = np.repeat(g[:nb, None, :], k15, 1)
+    A = np.repeat(a[:nb, None, :], k15, 1)
+    M = np.repeat(m[:nb, None, :], k15, 1)
+
+    def bank() -> None:
+        b = TQTBank(k15)
+        for i in range(nb):
+            b.update(G[i], A[i], M[i], dt)
+
+    best, med = _rounds(bank, nb * k15, rounds)
+    out.append(FilterCost("TQTBank robust, 15 sensors", "pointat", best, med, "per sensor-sample"))
+    G15, A15, M15 = G.tolist(), A.tolist(), M.tolist()
+
+    def fifteen() -> None:
+        fs = [TQTFilter() for _ in range(k15)]
+        for i in range(nb):
+            gi, ai, mi = G15[i], A15[i], M15[i]
+            for j in range(k15):
+                fs[j].update(gi[j], ai[j], mi[j], dt)
+
+    best, med = _rounds(fifteen, nb * k15, rounds)
+    out.append(FilterCost("15 x TQTFilter robust", "pointat", best, med, "per sensor-sample"))
+
+    try:
+        import ahrs
+
+        q0 = np.array([1.0, 0.0, 0.0, 0.0])
+
+        def madgwick() -> None:
+            f = ahrs.filters.Madgwick(frequency=BROAD_RATE, gain=0.041)
+            q = q0
+            for i in range(n):
+                q = f.updateMARG(q, g[i], a[i], m[i])
+
+        def mahony() -> None:
+            f = ahrs.filters.Mahony(frequency=BROAD_RATE, k_P=0.74, k_I=0.0012)
+            q = q0
+            for i in range(n):
+                q = f.updateMARG(q, g[i], a[i], m[i])
+
+        for name, fn in (("Madgwick", madgwick), ("Mahony", mahony)):
+            best, med = _rounds(fn, n, max(1, rounds - 1))
+            out.append(FilterCost(name, f"ahrs {ahrs.__version__}", best, med, "numpy rows in"))
+    except ImportError as exc:
+        errors.append(f"ahrs not installed ({exc}): pip install ahrs")
+
+    try:
+        import imufusion
+
+        gd = np.ascontiguousarray(np.degrees(g))
+        ag = np.ascontiguousarray(a / 9.80665)
+
+        def fusion() -> None:
+            s = imufusion.AhrsSettings()
+            s.sample_rate = BROAD_RATE
+            f = imufusion.Ahrs()
+            f.set_settings(s)
+            upd, get = f.update, f.get_quaternion
+            for i in range(n):
+                upd(gd[i], ag[i], m[i])
+                get()
+
+        best, med = _rounds(fusion, n, rounds)
+        out.append(
+            FilterCost(
+                "Ahrs (update + get_quaternion)",
+                f"imufusion {_version('imufusion')}",
+                best,
+                med,
+                "C, numpy rows in",
+            )
+        )
+    except ImportError as exc:
+        errors.append(f"imufusion not installed ({exc}): pip install imufusion")
+
+    try:
+        import vqf
+
+        def vqf_loop() -> None:
+            f = vqf.VQF(dt)
+            upd, get = f.update, f.getQuat9D
+            for i in range(n):
+                upd(g[i], a[i], m[i])
+                get()
+
+        def vqf_batch() -> None:
+            vqf.VQF(dt).updateBatch(g, a, m)
+
+        best, med = _rounds(vqf_loop, n, rounds)
+        out.append(
+            FilterCost("VQF (update + getQuat9D)", f"vqf {_version('vqf')}", best, med, "C++, numpy rows in")
+        )
+        best, med = _rounds(vqf_batch, n, rounds)
+        out.append(
+            FilterCost(
+                "VQF updateBatch", f"vqf {_version('vqf')}", best, med, "C++ loop over the whole array"
+            )
+        )
+    except ImportError as exc:
+        errors.append(f"vqf not installed ({exc}): pip install vqf")
+    return out, errors
+
+
+def _version(dist: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(dist)
+    except PackageNotFoundError:
+        return "?"
+
+
+# --------------------------------------------------------------------------------------- all
+def run_all(
+    sample: dict[str, np.ndarray],
+    trial: Path,
+    quick: bool,
+    progress: Callable[[str], None],
+) -> ThroughputResults:
+    res = ThroughputResults()
+    sim_seconds = 2.0 if quick else 10.0
+    n_push = 4000 if quick else 20000
+    replay_rows = 5000 if quick else 20000
+    n_filter = 5000 if quick else 20000
+    rounds = 3 if quick else 5
+    with udp_sink() as port:
+        progress("throughput: simulated glove alone")
+        sim_us = simulator_cost(sim_seconds / 2)
+        messages = _adc_messages(n_push + 200)
+        for chain in CHAINS:
+            progress(f"throughput: {chain} chain")
+            r = simulate_rate(chain, sim_seconds, port)
+            r.source_us = sim_us
+            res.patches.append(r)
+            pushed, recorded, nodes = push_rate(chain, messages, port)
+            res.patches.append(pushed)
+            res.chain_totals[chain] = pushed.us_per_sample
+            _, recorded, nodes = push_rate(chain, messages, port, record=True)
+            res.nodes += node_costs(chain, recorded, nodes, n_push, port)
+            res.hotspots[chain] = profile_chain(chain, messages, port)
+            res.gc_pauses[chain] = gc_pauses(chain, _adc_messages(20200), port)
+            try:
+                res.patches.append(replay_rate(chain, trial, replay_rows, port))
+            except Exception as exc:  # report, do not stop the other benchmarks
+                res.errors.append(f"replay {chain}: {type(exc).__name__}: {exc}")
+    progress("throughput: pure filters and peers")
+    res.filters, errs = filter_costs(sample, n_filter, rounds)
+    res.errors += errs
+    return res
