@@ -42,13 +42,11 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pointat.maths import scalar as _sq
 from pointat.maths.quaternion import (
     matrix_to_quat,
     quat_identity,
-    quat_multiply,
     quat_normalize,
-    quat_slerp,
-    rotvec_to_quat,
     unwrap_degrees,
 )
 
@@ -543,12 +541,13 @@ class ComplementaryFilter:
             self.q = quat_normalize(np.asarray(q, dtype=float).reshape(4))
             self.initialized = True
 
-    def _accmag(self, acc: ArrayLike, mag: ArrayLike) -> np.ndarray | None:
+    def _accmag(self, acc: ArrayLike, mag: ArrayLike) -> tuple[float, float, float, float] | None:
+        a = tuple(float(v) for v in np.ravel(acc))
         if self.accel_tolerance is not None:
-            na = float(np.linalg.norm(np.asarray(acc, dtype=float)))
+            na = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
             if not abs(na - self.gravity) <= self.accel_tolerance * self.gravity:
                 return None
-        return accmag_quat(acc, mag)
+        return _sq.accmag_quat(a, tuple(float(v) for v in np.ravel(mag)))
 
     def update(self, gyro: ArrayLike, acc: ArrayLike, mag: ArrayLike, dt: float) -> tuple[np.ndarray, bool]:
         """Advance by one sample.
@@ -576,26 +575,28 @@ class ComplementaryFilter:
         ValueError
             On a non-finite gyro rate or a negative ``dt`` (the state is unchanged).
         """
-        w = np.asarray(gyro, dtype=float).reshape(3)
+        wx, wy, wz = (float(v) for v in np.ravel(gyro))
         dt = float(dt)
-        if not np.all(np.isfinite(w)):
-            raise ValueError(f"gyro rate must be finite, got {w.tolist()}")
+        if not math.isfinite(wx + wy + wz):
+            raise ValueError(f"gyro rate must be finite, got {[wx, wy, wz]}")
         if not (math.isfinite(dt) and dt >= 0.0):
             raise ValueError(f"dt must be a finite non-negative number of seconds, got {dt}")
-        q_pred = quat_normalize(quat_multiply(self.q, rotvec_to_quat(w * dt)))
+        # the per-sample work runs on plain floats (pointat.maths.scalar): numpy costs more than the maths
+        rate = math.sqrt(wx * wx + wy * wy + wz * wz)
+        q = tuple(self.q.tolist())
+        if rate > 0.0 and dt > 0.0:
+            q = _sq.normalize(
+                _sq.multiply(q, _sq.axis_angle_quat(wx / rate, wy / rate, wz / rate, rate * dt))
+            )
         q_am = self._accmag(acc, mag)
-        if q_am is None:
-            self.q = q_pred
-            return self.q.copy(), False
-        if not self.initialized:
-            self.q = q_am
+        if q_am is not None and not self.initialized:
+            q = q_am
             self.initialized = True
-            return self.q.copy(), True
-        if np.dot(q_am, q_pred) < 0.0:  # same hemisphere, so the output sign stays continuous
-            q_am = -q_am
-        alpha = dt / (self.tau + dt) if dt > 0.0 else 0.0
-        self.q = quat_normalize(quat_slerp(q_pred, q_am, alpha))
-        return self.q.copy(), True
+        elif q_am is not None:
+            alpha = dt / (self.tau + dt) if dt > 0.0 else 0.0
+            q = _sq.normalize(_sq.slerp(q, q_am, alpha))  # along the shorter arc: the sign stays continuous
+        self.q = np.array(q)
+        return self.q.copy(), q_am is not None
 
 
 class RollDistance:
