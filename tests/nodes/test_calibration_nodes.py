@@ -128,3 +128,22 @@ dir.elevation -> el
     assert rt.nodes["el"].values[-1] == pytest.approx(10.0)  # heading mode keeps the true elevation
     ref.receive(0, vector(euler_to_quat(70.0, 0.0, 0.0, degrees=True)))
     assert rt.nodes["az"].values[-1] == pytest.approx(30.0)
+
+
+def test_calibrate_finds_a_gyro_scale_from_a_known_rotation(tmp_path):
+    rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    null, scale = 2048.0, 573.0  # counts at rest, counts per rad/s on z
+    t = 0.0
+    cal.receive(0, method("rest"))
+    for _ in range(20):
+        cal.receive(0, vector([2048, 2048, null] + [2048] * 6, t))
+        t += 0.01
+    cal.receive(0, method("turn_begin"))
+    for k in range(100):  # a quarter turn about z in one second, smooth: rate = (pi/4) * pi * sin(pi t)
+        rate = (math.pi / 4) * math.pi * math.sin(math.pi * (k + 0.5) / 100)
+        cal.receive(0, vector([2048, 2048, null + scale * rate] + [2048] * 6, t))
+        t += 0.01
+    cal.receive(0, method("turn_end", 90, 2))
+    assert rt.nodes["st"].values[-1][:2] == ("gyro_scale", 2)
+    assert cal.calibration.gyro_scale[2] == pytest.approx(scale, rel=2e-3)
