@@ -37,7 +37,7 @@ three things:
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -104,20 +104,7 @@ def torre_increment(rate: ArrayLike, dt: ArrayLike) -> np.ndarray:
     angles = _as_rate(rate) * np.asarray(dt, dtype=float)[..., None]
     ca, cp, ct = np.cos(angles[..., 0]), np.cos(angles[..., 1]), np.cos(angles[..., 2])
     sa, sp, st = np.sin(angles[..., 0]), np.sin(angles[..., 1]), np.sin(angles[..., 2])
-    r = np.stack(
-        [
-            ct * cp,
-            ct * sp * sa - st * ca,
-            ct * sp * ca + st * sa,
-            st * cp,
-            st * sp * sa + ct * ca,
-            st * sp * ca - ct * sa,
-            -sp,
-            cp * sa,
-            cp * ca,
-        ],
-        axis=-1,
-    )
+    r = np.stack(_torre_entries(ca, sa, cp, sp, ct, st), axis=-1)
     return r.reshape(r.shape[:-1] + (3, 3))
 
 
@@ -214,9 +201,18 @@ def _exact_flat(wx: float, wy: float, wz: float, dt: float) -> tuple[float, ...]
 
 def _torre_flat(wx: float, wy: float, wz: float, dt: float) -> tuple[float, ...]:
     """Scalar fast path of :func:`torre_increment`, row-major 9-tuple."""
-    ca, sa = math.cos(wx * dt), math.sin(wx * dt)
-    cp, sp = math.cos(wy * dt), math.sin(wy * dt)
-    ct, st = math.cos(wz * dt), math.sin(wz * dt)
+    return _torre_entries(
+        math.cos(wx * dt),
+        math.sin(wx * dt),
+        math.cos(wy * dt),
+        math.sin(wy * dt),
+        math.cos(wz * dt),
+        math.sin(wz * dt),
+    )
+
+
+def _torre_entries(ca: Any, sa: Any, cp: Any, sp: Any, ct: Any, st: Any) -> tuple[Any, ...]:
+    """R(w)·R(v)·R(u), row major, from the cosines and sines of the three angles (floats or arrays)."""
     return (
         ct * cp,
         ct * sp * sa - st * ca,

@@ -1015,6 +1015,51 @@ def _mul_exp(
     )
 
 
+def _normal_equations(rw, rx, ry, rz, hx, hy, hz, bx, by, bz, nx, nz, r2):  # type: ignore[no-untyped-def]
+    r"""One reduced Gauss-Newton system, on floats or (element-wise) on arrays.
+
+    With :math:`a, c` the computed up and field of :math:`\hat q` (rows of its matrix) and :math:`h, b` the
+    measured ones: :math:`X^TX = 4[(I - aa^T) + \rho^2(I - cc^T)]`,
+    :math:`X^T\varepsilon = 2(h\times a + \rho^2\, b\times c)`.  Returns the gravity and the field
+    residual cross products :math:`h\times a`, :math:`b\times c`, the determinant of the bracket, and a
+    ``solve(det=det)`` giving :math:`\Delta v` (only meaningful where the determinant is not ~0).
+    """
+    # computed up = R[2, :], computed field = nx R[0, :] + nz R[2, :]
+    ux = 2.0 * (rx * rz - rw * ry)
+    uy = 2.0 * (ry * rz + rw * rx)
+    uz = 1.0 - 2.0 * (rx * rx + ry * ry)
+    cx = nx * (1.0 - 2.0 * (ry * ry + rz * rz)) + nz * ux
+    cy = nx * 2.0 * (rx * ry - rw * rz) + nz * uy
+    cz = nx * 2.0 * (rx * rz + rw * ry) + nz * uz
+    ha = (hy * uz - hz * uy, hz * ux - hx * uz, hx * uy - hy * ux)
+    bc = (by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx)
+    d = 1.0 + r2
+    m00 = d - ux * ux - r2 * cx * cx
+    m11 = d - uy * uy - r2 * cy * cy
+    m22 = d - uz * uz - r2 * cz * cz
+    m01 = -ux * uy - r2 * cx * cy
+    m02 = -ux * uz - r2 * cx * cz
+    m12 = -uy * uz - r2 * cy * cz
+    c00 = m11 * m22 - m12 * m12
+    c01 = m02 * m12 - m01 * m22
+    c02 = m01 * m12 - m02 * m11
+    det = m00 * c00 + m01 * c01 + m02 * c02
+
+    def solve(det=det):  # type: ignore[no-untyped-def]
+        gx, gy, gz = ha[0] + r2 * bc[0], ha[1] + r2 * bc[1], ha[2] + r2 * bc[2]
+        c11 = m00 * m22 - m02 * m02
+        c12 = m01 * m02 - m00 * m12
+        c22 = m00 * m11 - m01 * m01
+        k = 0.5 / det
+        return (
+            k * (c00 * gx + c01 * gy + c02 * gz),
+            k * (c01 * gx + c11 * gy + c12 * gz),
+            k * (c02 * gx + c12 * gy + c22 * gz),
+        )
+
+    return ha, bc, det, solve
+
+
 def _gauss_newton_floats(
     w: float,
     x: float,
@@ -1045,47 +1090,15 @@ def _gauss_newton_floats(
     for i in range(iterations):
         if i:
             rw, rx, ry, rz = _mul_exp(rw, rx, ry, rz, vx, vy, vz)
-        # computed up = R[2, :], computed field = nx R[0, :] + nz R[2, :]
-        ux = 2.0 * (rx * rz - rw * ry)
-        uy = 2.0 * (ry * rz + rw * rx)
-        uz = 1.0 - 2.0 * (rx * rx + ry * ry)
-        cx = nx * (1.0 - 2.0 * (ry * ry + rz * rz)) + nz * ux
-        cy = nx * 2.0 * (rx * ry - rw * rz) + nz * uy
-        cz = nx * 2.0 * (rx * rz + rw * ry) + nz * uz
-        if a_ok and m_ok:
-            gx = hy * uz - hz * uy + r2 * (by * cz - bz * cy)
-            gy = hz * ux - hx * uz + r2 * (bz * cx - bx * cz)
-            gz = hx * uy - hy * ux + r2 * (bx * cy - by * cx)
-            d = 1.0 + r2
-            m00 = d - ux * ux - r2 * cx * cx
-            m11 = d - uy * uy - r2 * cy * cy
-            m22 = d - uz * uz - r2 * cz * cz
-            m01 = -ux * uy - r2 * cx * cy
-            m02 = -ux * uz - r2 * cx * cz
-            m12 = -uy * uz - r2 * cy * cz
-            c00 = m11 * m22 - m12 * m12
-            c01 = m02 * m12 - m01 * m22
-            c02 = m01 * m12 - m02 * m11
-            det = m00 * c00 + m01 * c01 + m02 * c02
-            if det > 1e-9 * r2:
-                c11 = m00 * m22 - m02 * m02
-                c12 = m01 * m02 - m00 * m12
-                c22 = m00 * m11 - m01 * m01
-                k = 0.5 / det
-                dvx = k * (c00 * gx + c01 * gy + c02 * gz)
-                dvy = k * (c01 * gx + c11 * gy + c12 * gz)
-                dvz = k * (c02 * gx + c12 * gy + c22 * gz)
-            else:  # field (nearly) parallel to gravity: gravity alone
-                dvx, dvy, dvz = (
-                    0.5 * (hy * uz - hz * uy),
-                    0.5 * (hz * ux - hx * uz),
-                    0.5 * (hx * uy - hy * ux),
-                )
-        elif a_ok:  # minimum-norm step of the gravity rows alone
-            dvx, dvy, dvz = 0.5 * (hy * uz - hz * uy), 0.5 * (hz * ux - hx * uz), 0.5 * (hx * uy - hy * ux)
+        (ax_, ay_, az_), (mx_, my_, mz_), det, solve = _normal_equations(
+            rw, rx, ry, rz, hx, hy, hz, bx, by, bz, nx, nz, r2
+        )
+        if a_ok and m_ok and det > 1e-9 * r2:
+            vx, vy, vz = solve()
+        elif a_ok:  # gravity rows alone (minimum-norm step), also when the field is parallel to gravity
+            vx, vy, vz = 0.5 * ax_, 0.5 * ay_, 0.5 * az_
         else:  # magnetometer rows alone
-            dvx, dvy, dvz = 0.5 * (by * cz - bz * cy), 0.5 * (bz * cx - bx * cz), 0.5 * (bx * cy - by * cx)
-        vx, vy, vz = dvx, dvy, dvz
+            vx, vy, vz = 0.5 * mx_, 0.5 * my_, 0.5 * mz_
         if iterations == 1:
             return vx, vy, vz
     rw, rx, ry, rz = _mul_exp(rw, rx, ry, rz, vx, vy, vz)
@@ -1480,37 +1493,15 @@ def _gauss_newton_arrays(
     for i in range(iterations):
         if i:
             rw, rx, ry, rz = _mul_exp_arrays(rw, rx, ry, rz, vx, vy, vz)
-        ux = 2.0 * (rx * rz - rw * ry)
-        uy = 2.0 * (ry * rz + rw * rx)
-        uz = 1.0 - 2.0 * (rx * rx + ry * ry)
-        cx = nx * (1.0 - 2.0 * (ry * ry + rz * rz)) + nz * ux
-        cy = nx * 2.0 * (rx * ry - rw * rz) + nz * uy
-        cz = nx * 2.0 * (rx * rz + rw * ry) + nz * uz
-        ax_, ay_, az_ = hy * uz - hz * uy, hz * ux - hx * uz, hx * uy - hy * ux
-        mx_, my_, mz_ = by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx
-        gx = hy * uz - hz * uy + r2 * (by * cz - bz * cy)
-        gy = hz * ux - hx * uz + r2 * (bz * cx - bx * cz)
-        gz = hx * uy - hy * ux + r2 * (bx * cy - by * cx)
-        d = 1.0 + r2
-        m00 = d - ux * ux - r2 * cx * cx
-        m11 = d - uy * uy - r2 * cy * cy
-        m22 = d - uz * uz - r2 * cz * cz
-        m01 = -ux * uy - r2 * cx * cy
-        m02 = -ux * uz - r2 * cx * cz
-        m12 = -uy * uz - r2 * cy * cz
-        c00 = m11 * m22 - m12 * m12
-        c01 = m02 * m12 - m01 * m22
-        c02 = m01 * m12 - m02 * m11
-        det = m00 * c00 + m01 * c01 + m02 * c02
+        (ax_, ay_, az_), (mx_, my_, mz_), det, solve = _normal_equations(
+            rw, rx, ry, rz, hx, hy, hz, bx, by, bz, nx, nz, r2
+        )
         full = both & (det > 1e-9 * r2)
-        c11 = m00 * m22 - m02 * m02
-        c12 = m01 * m02 - m00 * m12
-        c22 = m00 * m11 - m01 * m01
-        k = 0.5 / np.where(full, det, 1.0)
+        fx, fy, fz = solve(np.where(full, det, 1.0))
         acc_only = a_ok & ~full
-        vx = np.where(full, k * (c00 * gx + c01 * gy + c02 * gz), np.where(acc_only, 0.5 * ax_, 0.5 * mx_))
-        vy = np.where(full, k * (c01 * gx + c11 * gy + c12 * gz), np.where(acc_only, 0.5 * ay_, 0.5 * my_))
-        vz = np.where(full, k * (c02 * gx + c12 * gy + c22 * gz), np.where(acc_only, 0.5 * az_, 0.5 * mz_))
+        vx = np.where(full, fx, np.where(acc_only, 0.5 * ax_, 0.5 * mx_))
+        vy = np.where(full, fy, np.where(acc_only, 0.5 * ay_, 0.5 * my_))
+        vz = np.where(full, fz, np.where(acc_only, 0.5 * az_, 0.5 * mz_))
         none = ~(a_ok | m_ok)
         vx, vy, vz = np.where(none, 0.0, vx), np.where(none, 0.0, vy), np.where(none, 0.0, vz)
         if iterations == 1:
