@@ -1,3 +1,69 @@
-"""pointat: a dataflow toolkit for pointing with a hand-worn IMU (placeholder, filled in below)."""
+"""pointat: a dataflow toolkit for pointing with a hand-worn IMU, after the Pointing-at glove.
+
+Cheat sheet::
+
+    import pointat
+
+    rt = pointat.load("patches/glove_tqt.pat", overrides=["fuse.k=0.5"])   # read, check, build
+    rt.run(10.0)                                    # run 10 s (Ctrl-C, rt.stop() or the end stop it)
+
+    # a node type of your own (register it; list it with `pointat nodes`)
+    @pointat.register("double")
+    class Double(pointat.Node):
+        "Output twice the input."
+        inlets = (pointat.Inlet("in", ("float",), "a number"),)
+        outlets = (pointat.Outlet("out", "float", "twice the number"),)
+        params = (pointat.Param("gain", "float", 2.0, "the factor", live=True),)
+
+        def on_in(self, msg):
+            self.out(0, self.p.gain * pointat.as_float(msg))
+
+    pointat.make(0.5, time=1.0)                     # a float message; vector(...), bang(), method("set")
+
+Modules: :mod:`pointat.message` (messages), :mod:`pointat.node` (the node model), :mod:`pointat.registry`,
+:mod:`pointat.runtime` (scheduler, clocks), :mod:`pointat.patchfile` (the .pat format),
+:mod:`pointat.pdfile` (Pure Data files), :mod:`pointat.loader` (check and build), :mod:`pointat.cli`,
+:mod:`pointat.testing` (patches in tests).  The pure math is in :mod:`pointat.maths` and the devices in
+:mod:`pointat.devices`; neither imports the engine, and importing them does not load it either: the
+names below are loaded on first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __version__ = "0.1.0"
+
+_EXPORTS = {
+    "Message": "message",
+    "as_float": "message",
+    "as_vector": "message",
+    "bang": "message",
+    "make": "message",
+    "method": "message",
+    "vector": "message",
+    "Inlet": "node",
+    "Node": "node",
+    "Outlet": "node",
+    "Param": "node",
+    "register": "registry",
+    "Registry": "registry",
+    "Runtime": "runtime",
+    "StartError": "runtime",
+    "check": "loader",
+    "load": "loader",
+    "PatchError": "errors",
+    "PointatError": "errors",
+}
+
+__all__ = ["__version__", *sorted(_EXPORTS)]
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pointat' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"pointat.{module}"), name)
+    globals()[name] = value
+    return value
