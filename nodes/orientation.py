@@ -441,8 +441,8 @@ class Matrix2Quat(Node):
     outlets = (Outlet("quat", "vector", "quaternion (w, x, y, z)"),)
 
     def on_matrix(self, msg: Message) -> None:
-        if as_vector(msg, 9) is not None:  # a matrix only: a quaternion here is a wiring mistake
-            self.out(0, vector(_as_quat(msg), msg.time))
+        as_vector(msg, 9)  # raises for anything but a matrix: a quaternion here is a wiring mistake
+        self.out(0, vector(_as_quat(msg), msg.time))
 
 
 @register("quat2matrix")
