@@ -51,6 +51,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pointat.devices._threads import join, start_daemon
 from pointat.devices.mote_frame import (
     DEFAULT_RESOLUTION,
     DEFAULT_SPEC,
@@ -597,20 +598,13 @@ class PtyGlove:
             raise RuntimeError("PtyGlove is closed")
         if not self.is_running:
             self._stop.clear()
-            self._thread = threading.Thread(
-                target=self._run, name=f"pty-glove:{self.device_path}", daemon=True
-            )
-            self._thread.start()
+            self._thread = start_daemon(self._run, f"pty-glove:{self.device_path}")
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
         """Stop sending; idempotent.  The device stays open (see :meth:`close`)."""
         self._stop.set()
-        thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout)
-            if thread.is_alive():
-                log.warning("pty glove %s did not stop within %.1f s", self.device_path, timeout)
+        join(self._thread, timeout)
 
     def close(self) -> None:
         """Stop and close the pseudo-terminal (readers then see the device vanish); idempotent."""

@@ -48,6 +48,7 @@ from typing import Any, NamedTuple
 
 import serial
 
+from pointat.devices._threads import join, start_daemon
 from pointat.devices.mote_frame import Frame, FrameEvent, FrameFormat, FrameParser, ParserStats
 
 __all__ = [
@@ -189,18 +190,13 @@ class SerialMoteReader:
         if self.is_running:
             return self
         self._stop.clear()
-        self._thread = threading.Thread(target=self._run, name=f"mote-reader:{self.port_path}", daemon=True)
-        self._thread.start()
+        self._thread = start_daemon(self._run, f"mote-reader:{self.port_path}")
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
         """Stop the thread and close the port; idempotent.  Waits at most ``timeout`` seconds."""
         self._stop.set()
-        thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout)
-            if thread.is_alive():
-                log.warning("mote reader on %s did not stop within %.1f s", self.port_path, timeout)
+        join(self._thread, timeout)
         self._close()  # idempotent; if the thread is stuck in a callback, its next read fails and it ends
 
     def wait_open(self, timeout: float) -> bool:
