@@ -413,7 +413,7 @@ dir.azimuth -> out.azimuth
                 # an earlier datagram found nobody listening; the error is now cleared: try this one again
                 self.refused += 1
                 d.refused += 1
-                if worth_reporting(d.refused):
+                if worth_reporting(d.refused, first=1):
                     log.warning(
                         "osc_out '%s': nobody listening at %s (connection refused, %d times so far); "
                         "sending on",
@@ -424,7 +424,7 @@ dir.azimuth -> out.azimuth
             except OSError as exc:  # buffer full (EAGAIN), no route: drop, count, go on
                 self.failed += 1
                 d.failed += 1
-                if worth_reporting(d.failed):
+                if worth_reporting(d.failed, first=1):
                     log.warning(
                         "osc_out '%s': cannot send to %s (%s); %d datagrams dropped so far",
                         self.name,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import functools
 import logging
+import os
 import signal
 import sys
 from pathlib import Path
@@ -127,7 +128,15 @@ def _checked(args: argparse.Namespace, registry: Registry):
 def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     checked = _checked(args, registry)
     rt = build(checked)
-    rt.console = lambda line: print(line, flush=True)
+
+    def console(line: str) -> None:
+        try:
+            print(line, flush=True)
+        except BrokenPipeError:  # the reader went away (pointat run ... | head): stop, quietly
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            rt.stop()
+
+    rt.console = console
 
     def on_signal(signum: int, _frame: object) -> None:
         log.info("signal %d: stopping", signum)

@@ -53,11 +53,13 @@ class FeedbackError(PointatError):
     """Messages went round a loop deeper than the depth guard allows (a feedback loop without a delay)."""
 
 
-def worth_reporting(n: int) -> bool:
-    """Whether the ``n``-th repeat of a run-time problem should be logged: the first three, then the 10th,
-    100th, 1000th... so a receiver that is off for a whole show, or a noisy link, stays readable.
+def worth_reporting(n: int, first: int = 3) -> bool:
+    """Whether the ``n``-th repeat of a run-time problem should be logged: the ``first`` few, then the
+    10th, 100th, 1000th... so a receiver that is off for a whole show, or a noisy link, stays readable.
 
     >>> [n for n in range(1, 2001) if worth_reporting(n)]
     [1, 2, 3, 10, 100, 1000]
+    >>> [n for n in range(1, 2001) if worth_reporting(n, first=1)]
+    [1, 10, 100, 1000]
     """
-    return 1 <= n <= 3 or (n >= 10 and 10 ** (len(str(n)) - 1) == n)
+    return 1 <= n <= first or (n >= 10 and 10 ** (len(str(n)) - 1) == n)
