@@ -106,6 +106,7 @@ class Runtime:
         self._queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self._threads: list[threading.Thread] = []
         self._closed = False
+        self._scheduler: threading.Thread | None = None
         #: Where ``print`` nodes write; the CLI points it at the terminal, tests at a list.
         self.console: Callable[[str], None] = logging.getLogger("pointat.console").info
         for node in nodes:
@@ -174,6 +175,8 @@ class Runtime:
         without it a full queue drops the event and counts it.  Returns whether it was queued.
         """
         item = (node, fn, args)
+        if block and threading.current_thread() is self._scheduler:
+            block = False  # the scheduler waiting for its own queue to drain would wait forever
         if not block:
             try:
                 self._queue.put_nowait(item)
@@ -256,6 +259,7 @@ class Runtime:
 
     def run(self, duration: float | None = None) -> None:
         """Run on this thread until stopped, ``duration`` seconds pass, or nothing is left to happen."""
+        self._scheduler = threading.current_thread()
         self.start()
         if duration is not None:
             self.call_at(self.clock.now() + duration, None, self.stop, daemon=True)

@@ -195,3 +195,30 @@ dir.azimuth -> out
     assert [d.name for d, _ in rt.nodes["t"]._targets[0]] == ["dir"]
     rt.nodes["t"].receive(0, vector([1.0, 0.0, 0.0, 0.0]))
     assert rt.nodes["out"].values == [0.0]
+
+
+class Echo(Node):
+    """Posts to itself from the scheduler thread: with a full queue this must not deadlock."""
+
+    type_name = "echo_test"
+    outlets = (Outlet("out", "float"),)
+
+    def start(self):
+        self.active = True
+        self.call_later(0.0, self._burst)
+
+    def _burst(self):
+        for i in range(50):  # more than the queue holds
+            self.post(self.out, 0, make(float(i)))
+        self.active = False
+
+
+def test_posting_from_the_scheduler_thread_never_deadlocks():
+    rt = Runtime(queue_size=8)
+    src = rt.add(Echo("echo"))
+    out = rt.add(Collect("out"))
+    rt.connect(src, 0, out, 0)
+    th = rt.run_in_thread(5.0)
+    th.join(10)
+    assert not th.is_alive()
+    assert len(out.values) == 8 and rt.dropped == 42  # what did not fit was dropped and counted
