@@ -135,20 +135,6 @@ def oscdump(dump, require_tool):
     return dump
 
 
-@pytest.fixture
-def started():
-    runtimes = []
-
-    def start(rt):
-        runtimes.append(rt)
-        rt.start()
-        return rt
-
-    yield start
-    for rt in runtimes:
-        rt.shutdown()
-
-
 def push(node, az, el=0.0, dist=0.0, spread=0.0):
     for inlet, value in ((3, spread), (2, dist), (1, el)):
         node.receive(inlet, make(float(value)))

@@ -110,21 +110,6 @@ def receivers():
         r.close()
 
 
-@pytest.fixture
-def started():
-    """Start a patch and shut it down after the test."""
-    runtimes = []
-
-    def start(rt):
-        runtimes.append(rt)
-        rt.start()
-        return rt
-
-    yield start
-    for rt in runtimes:
-        rt.shutdown()
-
-
 def push(node, az, el=None, dist=None, spread=None):
     """Cold inlets first, then the hot azimuth, as a patch would."""
     for inlet, value in ((3, spread), (2, dist), (1, el)):
