@@ -13,6 +13,8 @@
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from typing import Any
 
 from .loader import build, check
@@ -22,7 +24,7 @@ from .patchfile import parse_patch
 from .registry import Registry, default_registry
 from .runtime import Runtime
 
-__all__ = ["Collect", "make", "patch", "test_registry"]
+__all__ = ["Collect", "make", "patch", "test_registry", "wait_until"]
 
 
 class Collect(Node):
@@ -58,3 +60,16 @@ def patch(text: str, *, realtime: bool = False, registry: Registry | None = None
     checked = check(parse_patch(text, "<test>"), registry or test_registry())
     rt = build(checked, realtime=realtime)
     return rt
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float = 5.0, poll: float = 0.005) -> bool:
+    """Poll ``predicate`` until it is true or ``timeout`` seconds pass (threads, ports); its last answer."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(poll)
+    return bool(predicate())
+
+
+wait_until.__test__ = False  # type: ignore[attr-defined]

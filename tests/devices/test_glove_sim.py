@@ -34,17 +34,9 @@ from pointat.maths.quaternion import (
     quat_rotate,
     rotvec_to_quat,
 )
+from pointat.testing import wait_until
 
 WAIT = 5.0
-
-
-def wait_for(predicate, timeout: float = WAIT) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
 
 
 @pytest.fixture(scope="module")
@@ -256,7 +248,7 @@ def test_pty_glove_frames_read_back_through_the_serial_reader(fmt):
         )
         with reader:
             assert reader.wait_open(WAIT)
-            assert wait_for(lambda: len(got) >= 60)
+            assert wait_until(lambda: len(got) >= 60)
             stats = reader.stats()
         assert glove.is_running
     assert not glove.is_running
@@ -315,7 +307,7 @@ def test_pty_glove_start_stop_idempotent():
     assert glove.index == 10
     glove.stop()
     assert glove.start() is glove and glove.start() is glove
-    assert wait_for(lambda: glove.index > 12)
+    assert wait_until(lambda: glove.index > 12)
     glove.stop()
     glove.stop()
     stopped_at = glove.index

@@ -6,7 +6,6 @@ import os
 import threading
 import time
 import tty
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -19,6 +18,7 @@ from pointat.devices.serial_reader import (
     ReaderError,
     SerialMoteReader,
 )
+from pointat.testing import wait_until
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs pseudo-terminals")
 
@@ -69,15 +69,6 @@ class Collector:
             return [e for e in self.events if isinstance(e, kind)]
 
 
-def wait_for(predicate: Callable[[], bool], timeout: float = WAIT) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
-
-
 def frame(n: int, mote: int = 1) -> Frame:
     return Frame(mote, n & 0xFFFF, tuple((n * 37 + k * 411) % 4096 for k in range(9)))
 
@@ -103,7 +94,7 @@ def test_frames_arrive_in_order_with_counts_and_timestamps(pty):
         sent = [frame(n) for n in range(300)]
         for k in range(0, 300, 30):  # bursts of 30 frames
             pty.write(b"".join(encode_frame(f) for f in sent[k : k + 30]))
-        assert wait_for(lambda: len(col.got()) >= 300)
+        assert wait_until(lambda: len(col.got()) >= 300)
         stats = reader.stats()
     assert col.got() == sent
     times = [t for _, t in col.frames]
@@ -122,7 +113,7 @@ def test_garbage_between_frames_and_text_lines_survive(pty):
         for n, f in enumerate(sent):
             junk = bytes([0xA5, 0x5A, n, 0x00, 0xFF]) if n % 3 == 0 else b"boot junk\r\n"
             pty.write(junk + (encode_text(f) if n % 4 == 0 else encode_frame(f)))
-        assert wait_for(lambda: len(col.got()) >= 60)
+        assert wait_until(lambda: len(col.got()) >= 60)
         stats = reader.stats()
     assert col.got() == sent
     assert stats.garbage_bytes > 0 and stats.text_frames == 15
@@ -135,8 +126,8 @@ def test_lost_packets_are_reported(pty):
         assert reader.wait_open(WAIT)
         ns = [65533, 65534, 1, 2, 3, 7, 8]  # 65535 and 0 lost across the wrap; 4, 5, 6 lost
         pty.write(b"".join(encode_frame(frame(n)) for n in ns))
-        assert wait_for(lambda: len(col.got()) >= len(ns))
-        assert wait_for(lambda: len(col.of(LostPackets)) >= 2)
+        assert wait_until(lambda: len(col.got()) >= len(ns))
+        assert wait_until(lambda: len(col.of(LostPackets)) >= 2)
         assert reader.stats().motes[1].lost == 5
     assert col.of(LostPackets) == [LostPackets(1, 65535, 1, 2), LostPackets(1, 4, 7, 3)]
 
@@ -151,20 +142,20 @@ def test_device_vanishes_and_comes_back(tmp_path: Path):
         with make_reader(link, col) as reader:
             assert reader.wait_open(WAIT)
             first.write(b"".join(encode_frame(frame(n)) for n in range(10)) + encode_frame(frame(10))[:7])
-            assert wait_for(lambda: len(col.got()) >= 10)
+            assert wait_until(lambda: len(col.got()) >= 10)
 
             first.close()  # unplug: the pty hangs up and its path goes away
             link.unlink()
-            assert wait_for(lambda: bool(col.of(DeviceLost)))
-            assert wait_for(lambda: not reader.is_open)
-            assert wait_for(lambda: bool(col.of(OpenFailed)))  # retrying a path that is not there
+            assert wait_until(lambda: bool(col.of(DeviceLost)))
+            assert wait_until(lambda: not reader.is_open)
+            assert wait_until(lambda: bool(col.of(OpenFailed)))  # retrying a path that is not there
 
             second = Pty()  # plug in again, maybe under another /dev/pts number
             link.symlink_to(second.path)
-            assert wait_for(lambda: len(col.of(DeviceOpened)) >= 2)
+            assert wait_until(lambda: len(col.of(DeviceOpened)) >= 2)
             assert reader.wait_open(WAIT)
             second.write(b"".join(encode_frame(frame(n)) for n in range(15, 25)))
-            assert wait_for(lambda: len(col.got()) >= 20)
+            assert wait_until(lambda: len(col.got()) >= 20)
             stats = reader.stats()
             assert reader.is_running and reader.open_count == 2
     finally:
@@ -182,12 +173,12 @@ def test_path_missing_at_start_then_appears(tmp_path: Path, pty):
     link = tmp_path / "later"
     col = Collector()
     with make_reader(link, col) as reader:
-        assert wait_for(lambda: bool(col.of(OpenFailed)))
+        assert wait_until(lambda: bool(col.of(OpenFailed)))
         assert not reader.is_open and reader.is_running
         link.symlink_to(pty.path)
         assert reader.wait_open(WAIT)
         pty.write(encode_frame(frame(1)))
-        assert wait_for(lambda: col.got() == [frame(1)])
+        assert wait_until(lambda: col.got() == [frame(1)])
 
 
 def test_repointed_symlink_is_noticed_while_idle(tmp_path: Path):
@@ -201,10 +192,10 @@ def test_repointed_symlink_is_noticed_while_idle(tmp_path: Path):
             tmp = tmp_path / "mote.new"
             tmp.symlink_to(b.path)
             os.replace(tmp, link)  # atomic, as udev does: the old device still exists, the path names another
-            assert wait_for(lambda: len(col.of(DeviceOpened)) >= 2)
+            assert wait_until(lambda: len(col.of(DeviceOpened)) >= 2)
             assert reader.wait_open(WAIT)
             b.write(encode_frame(frame(3)))
-            assert wait_for(lambda: col.got() == [frame(3)])
+            assert wait_until(lambda: col.got() == [frame(3)])
         assert "another device" in col.of(DeviceLost)[0].reason
     finally:
         a.close()
@@ -227,8 +218,8 @@ def test_callback_errors_are_reported_and_the_thread_lives_on(pty, caplog):
     with reader:
         assert reader.wait_open(WAIT)
         pty.write(b"".join(encode_frame(frame(n)) for n in range(3)))
-        assert wait_for(lambda: len(col.got()) >= 3)
-        assert wait_for(lambda: bool(col.of(ReaderError)))
+        assert wait_until(lambda: len(col.got()) >= 3)
+        assert wait_until(lambda: bool(col.of(ReaderError)))
         assert reader.is_running
     err = col.of(ReaderError)[0]
     assert err.where == "on_frame" and "boom" in err.reason
@@ -256,10 +247,10 @@ def test_loop_error_is_reported_backed_off_and_recovered(pty):
         assert reader.is_running
         assert len(col.of(DeviceOpened)) <= 8  # backoff 10, 20, 40, 80, 100 ms...: no spinning
         reader._parser.feed = real_feed  # type: ignore[method-assign]
-        assert wait_for(lambda: reader.is_open)
+        assert wait_until(lambda: reader.is_open)
         for n in range(1, 200):
             pty.write(encode_frame(frame(n)))
-            if wait_for(lambda: len(col.got()) > 0, timeout=0.02):
+            if wait_until(lambda: len(col.got()) > 0, timeout=0.02):
                 break
         assert col.got() and reader.is_running
 

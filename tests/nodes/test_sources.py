@@ -8,21 +8,7 @@ import pytest
 
 from pointat.devices.glove_sim import GloveSimulator
 from pointat.devices.mote_frame import Frame, encode_frame, encode_text
-from pointat.testing import patch
-
-
-def _wait(predicate, timeout=5.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return False
-
-
-def _run(rt):
-    th = rt.run_in_thread()
-    return th
+from pointat.testing import patch, wait_until
 
 
 def test_mote_reads_a_pty_separates_motes_and_reports_lost_packets(tmp_path):
@@ -41,17 +27,17 @@ base.events -> ev
 """,
         realtime=True,
     )
-    th = _run(rt)
+    th = rt.run_in_thread()
     try:
-        assert _wait(lambda: any(m.value[0] == "opened" for m in rt.nodes["ev"].messages))
+        assert wait_until(lambda: any(m.value[0] == "opened" for m in rt.nodes["ev"].messages))
         data = b"garbage\xa5\x5a\x00" + encode_frame(Frame(1, 10, (2048,) * 9))
         data += encode_text(Frame(2, 7, (1,) * 9))
         data += encode_frame(Frame(1, 11, (2049,) * 9))
         data += encode_frame(Frame(1, 15, (2050,) * 9))  # 12, 13, 14 lost
         data += encode_frame(Frame(9, 0, (0,) * 9))  # a mote nobody asked for
         os.write(master, data)
-        assert _wait(lambda: len(rt.nodes["one"].messages) == 3)
-        assert _wait(lambda: any(m.value[0] == "lost" for m in rt.nodes["ev"].messages))
+        assert wait_until(lambda: len(rt.nodes["one"].messages) == 3)
+        assert wait_until(lambda: any(m.value[0] == "lost" for m in rt.nodes["ev"].messages))
         one = rt.nodes["one"].messages
         assert [m.value[0] for m in one] == [2048, 2049, 2050]
         assert rt.nodes["two"].values[0].tolist() == [1.0] * 9
@@ -76,20 +62,20 @@ def test_mote_survives_the_device_vanishing_and_coming_back(tmp_path):
         f"node base mote device={link}\nnode out collect\nnode ev collect\nbase.m1 -> out\nbase.events -> ev\n",
         realtime=True,
     )
-    th = _run(rt)
+    th = rt.run_in_thread()
     try:
-        assert _wait(lambda: len(rt.nodes["ev"].messages) >= 1)
+        assert wait_until(lambda: len(rt.nodes["ev"].messages) >= 1)
         os.write(master, encode_frame(Frame(1, 0, (100,) * 9)))
-        assert _wait(lambda: len(rt.nodes["out"].messages) == 1)
+        assert wait_until(lambda: len(rt.nodes["out"].messages) == 1)
         os.close(master)  # the base station is unplugged
         os.close(slave)
         os.unlink(link)
-        assert _wait(lambda: any(m.value[0] == "device_lost" for m in rt.nodes["ev"].messages))
+        assert wait_until(lambda: any(m.value[0] == "device_lost" for m in rt.nodes["ev"].messages))
         master, slave = os.openpty()  # ... and plugged in again
         os.symlink(os.ttyname(slave), link)
-        assert _wait(lambda: sum(m.value[0] == "opened" for m in rt.nodes["ev"].messages) >= 2, 10)
+        assert wait_until(lambda: sum(m.value[0] == "opened" for m in rt.nodes["ev"].messages) >= 2, 10)
         os.write(master, encode_frame(Frame(1, 1, (200,) * 9)))
-        assert _wait(lambda: len(rt.nodes["out"].messages) == 2)
+        assert wait_until(lambda: len(rt.nodes["out"].messages) == 2)
         assert rt.nodes["out"].values[-1][0] == 200.0
     finally:
         rt.stop()
@@ -109,8 +95,8 @@ base.m1 -> out
 """,
         realtime=True,
     )
-    th = _run(rt)
-    assert _wait(lambda: len(rt.nodes["out"].messages) >= 90, 10)
+    th = rt.run_in_thread()
+    assert wait_until(lambda: len(rt.nodes["out"].messages) >= 90, 10)
     rt.stop()
     th.join(5)
     sim = GloveSimulator(rate_hz=200.0)
