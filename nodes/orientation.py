@@ -45,16 +45,6 @@ def _matrix(q: sq.Quat, time: float) -> Message:
     return vector(sq.quat_matrix(q), time, (3, 3))
 
 
-def _finite3(msg: Message | None) -> np.ndarray | None:
-    """A finite, non-zero 3-vector, or None (missing, zero or NaN: the caller keeps its state)."""
-    if msg is None:
-        return None
-    a = as_vector(msg, 3)
-    if not np.all(np.isfinite(a)) or not np.any(a):
-        return None
-    return a
-
-
 class SampleClock:
     """Time steps from message time stamps, with ``1/rate`` when there is no usable previous stamp."""
 
