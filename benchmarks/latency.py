@@ -47,6 +47,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -557,6 +558,30 @@ def _finish(
     res.rss_peak_kb = mem.get("VmHWM")
 
 
+def _measure(
+    res: LatencyResult,
+    cmd: list[str],
+    log: Path,
+    src: Any,
+    sock: socket.socket,
+    rate: float,
+    phases: Phases,
+    key: Callable[[bytes], tuple[int, int]],
+    period: int | None,
+    n_sources: int,
+) -> LatencyResult:
+    """Run ``cmd`` as a child, drive ``src`` at ``rate`` into it, fill ``res``; always close src and sock."""
+    try:
+        with child_process(cmd, log) as proc:
+            _finish(res, proc, drive(src.tick, rate, sock, phases, proc), key, period, n_sources)
+    except RuntimeError as exc:
+        res.error = str(exc)
+    finally:
+        src.close()
+        sock.close()
+    return res
+
+
 def run_pointat_mote(
     chain: str, rate: float, motes: int, phases: Phases, sample: dict[str, np.ndarray], workdir: Path
 ) -> LatencyResult:
@@ -572,15 +597,8 @@ def run_pointat_mote(
     res = LatencyResult(
         f"pointat {chain} (mote, pty)", "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes)
     )
-    try:
-        with child_process(cmd, workdir / f"mote_{chain}_{motes}_{rate:g}.log") as proc:
-            _finish(res, proc, drive(src.tick, rate, sock, phases, proc), _pointat_key, _TAG_PERIOD, motes)
-    except RuntimeError as exc:
-        res.error = str(exc)
-    finally:
-        src.close()
-        sock.close()
-    return res
+    log = workdir / f"mote_{chain}_{motes}_{rate:g}.log"
+    return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, motes)
 
 
 def _shown_mote(cmd: list[str], motes: int) -> str:
@@ -610,15 +628,8 @@ def run_pointat_udp(
     total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
     cmd = pointat_command(patch, overrides, total)
     res = LatencyResult(f"pointat {chain} (osc_in, UDP)", "pointat-udp", chain, rate, 1, shown(cmd))
-    try:
-        with child_process(cmd, workdir / f"oscin_{chain}_{rate:g}.log") as proc:
-            _finish(res, proc, drive(src.tick, rate, sock, phases, proc), _pointat_key, _TAG_PERIOD, 1)
-    except RuntimeError as exc:
-        res.error = str(exc)
-    finally:
-        src.close()
-        sock.close()
-    return res
+    log = workdir / f"oscin_{chain}_{rate:g}.log"
+    return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, 1)
 
 
 def pd_version() -> str | None:
@@ -669,17 +680,11 @@ def run_floor(
     shown_cmd = shown(cmd).replace(str(workdir / f"relay_{in_port}.pd"), "benchmarks/patches/relay.pd")
     res = LatencyResult(label, "floor", kind, rate, 1, shown_cmd)
     if kind != "python-osc" and shutil.which("pd") is None:
-        res.error = "Pure Data (pd) is not installed"
-        return res
-    try:
-        with child_process(cmd, workdir / f"{kind}_{rate:g}.log") as proc:
-            _finish(res, proc, drive(src.tick, rate, sock, phases, proc), _floor_key, None, 1)
-    except RuntimeError as exc:
-        res.error = str(exc)
-    finally:
         src.close()
         sock.close()
-    return res
+        res.error = "Pure Data (pd) is not installed"
+        return res
+    return _measure(res, cmd, workdir / f"{kind}_{rate:g}.log", src, sock, rate, phases, _floor_key, None, 1)
 
 
 class _Idle(Node):
