@@ -23,7 +23,7 @@ from pointat.maths.calibration import (
     minmax_magnetometer,
     six_position_accel,
 )
-from pointat.message import Message, as_vector, vector
+from pointat.message import Message, as_floats, as_vector, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
 
@@ -66,31 +66,34 @@ class Offset(Node):
     )
 
     def setup(self) -> None:
-        self.nulls = np.full(9, self.p.null)
+        nulls = [self.p.null] * 9
         if self.p.calibration:
             cal = _load(self.p.calibration)
             for i, sensor in enumerate(("gyro", "acc", "mag")):
                 if _calibrated(cal, sensor):
-                    self.nulls[3 * i : 3 * i + 3] = getattr(cal, f"{sensor}_null")
+                    nulls[3 * i : 3 * i + 3] = getattr(cal, f"{sensor}_null").tolist()
+        self.nulls: tuple[float, ...] = tuple(float(n) for n in nulls)
         self.do_recalibrate()
 
     def do_recalibrate(self) -> None:
-        self._sum = np.zeros(3)
+        self._sum = [0.0, 0.0, 0.0]
         self._n = 0
 
     def on_adc(self, msg: Message) -> None:
-        counts = as_vector(msg, 9)
+        counts = as_floats(msg, 9)
         if self._n < self.p.samples:
-            if np.all(np.isfinite(counts[:3])):
-                self._sum += counts[:3]
+            gx, gy, gz = counts[:3]
+            if math.isfinite(gx + gy + gz):
+                s = self._sum
+                self._sum = [s[0] + gx, s[1] + gy, s[2] + gz]
                 self._n += 1
             if self._n == self.p.samples:
-                self.nulls[:3] = self._sum / self._n
-                self.out(1, ("ready", *np.round(self.nulls[:3], 3).tolist()))
+                self.nulls = (*(s / self._n for s in self._sum), *self.nulls[3:])
+                self.out(1, ("ready", *(round(n, 3) for n in self.nulls[:3])))
             elif self._n == 1:
                 self.out(1, ("calibrating", self.p.samples))
             return
-        self.out(0, vector(counts - self.nulls, msg.time))
+        self.out(0, vector([c - n for c, n in zip(counts, self.nulls, strict=True)], msg.time))
 
 
 @register("scaling")
@@ -122,22 +125,32 @@ class Scaling(Node):
     )
 
     def setup(self) -> None:
-        self.soft_iron: np.ndarray | None = None
-        self.factor = np.array([math.radians(self.p.gyro)] * 3 + [self.p.accel] * 3 + [self.p.mag] * 3)
+        self.soft_iron: tuple[float, ...] | None = None  # row major
+        factor = [math.radians(self.p.gyro)] * 3 + [self.p.accel] * 3 + [self.p.mag] * 3
         if self.p.calibration:
             cal = _load(self.p.calibration)
             for i, sensor in enumerate(("gyro", "acc", "mag")):
                 if _calibrated(cal, sensor):
-                    self.factor[3 * i : 3 * i + 3] = 1.0 / getattr(cal, f"{sensor}_scale")
-            self.soft_iron = cal.mag_soft_iron
+                    factor[3 * i : 3 * i + 3] = (1.0 / getattr(cal, f"{sensor}_scale")).tolist()
+            if cal.mag_soft_iron is not None:
+                self.soft_iron = tuple(np.ravel(cal.mag_soft_iron).tolist())
+        self.factor: tuple[float, ...] = tuple(float(f) for f in factor)
 
     def on_adc(self, msg: Message) -> None:
-        v = as_vector(msg, 9) * self.factor
-        mag = v[6:9] if self.soft_iron is None else self.soft_iron @ v[6:9]
+        gx, gy, gz, ax, ay, az, mx, my, mz = (
+            c * f for c, f in zip(as_floats(msg, 9), self.factor, strict=True)
+        )
+        W = self.soft_iron
+        if W is not None:
+            mx, my, mz = (
+                W[0] * mx + W[1] * my + W[2] * mz,
+                W[3] * mx + W[4] * my + W[5] * mz,
+                W[6] * mx + W[7] * my + W[8] * mz,
+            )
         t = msg.time
-        self.out(2, vector(mag, t))
-        self.out(1, vector(v[3:6], t))
-        self.out(0, vector(v[0:3], t))
+        self.out(2, vector((mx, my, mz), t))
+        self.out(1, vector((ax, ay, az), t))
+        self.out(0, vector((gx, gy, gz), t))
 
 
 @register("calibrate")

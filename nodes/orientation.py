@@ -25,7 +25,7 @@ from pointat.maths.quaternion import (
     quat_positive,
 )
 from pointat.maths.tqt import TQTFilter, TQTFlags
-from pointat.message import Message, as_vector, vector
+from pointat.message import Message, as_floats, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
 
@@ -34,15 +34,14 @@ ORIENTATION = ("vector", "list")
 
 def _as_quat(msg: Message) -> sq.Quat:
     """A unit quaternion (floats) from a quaternion or a rotation-matrix message; NaN is an error."""
-    a = as_vector(msg, 4, 9)
-    values = a.ravel().tolist()
+    values = as_floats(msg, 4, 9)
     if not math.isfinite(sum(values)):  # any NaN or infinity makes the sum one
         raise ValueError("orientation has NaN or infinite values")
     return sq.matrix_quat(values) if len(values) == 9 else sq.normalize(values)
 
 
 def _matrix(q: sq.Quat, time: float) -> Message:
-    return vector(sq.quat_matrix(q), time, (3, 3))
+    return vector(sq.quat_matrix(q), time)
 
 
 class SampleClock:
@@ -116,14 +115,15 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
         )
 
     def on_gyro(self, msg: Message) -> None:
-        w = as_vector(msg, 3)
+        wx, wy, wz = as_floats(msg, 3)
         dt = self.step(msg.time)
-        if not np.all(np.isfinite(w)):
+        if not math.isfinite(wx + wy + wz):
             self.report("bad_gyro")
+            R = self.integrator.flat
         else:
-            self.integrator.update(w, dt)
+            R = self.integrator.step(wx, wy, wz, dt)
             self.report("ok")
-        self.out(0, vector(self.integrator.flat, msg.time, (3, 3)))
+        self.out(0, vector(R, msg.time))
 
     def on_orientation(self, msg: Message) -> None:
         self.integrator.reset(np.reshape(sq.quat_matrix(_as_quat(msg)), (3, 3)))
@@ -187,7 +187,7 @@ class AccMagMatrix(Flagged, Node):
         if mag is None:
             self.report("bad_accmag")
             return
-        a, m = as_vector(msg, 3).tolist(), as_vector(mag, 3).tolist()
+        a, m = as_floats(msg, 3), as_floats(mag, 3)
         C = sq.accmag_matrix(a, m)
         if C is None:
             self.report("bad_accmag")
@@ -210,7 +210,7 @@ class AccMagMatrix(Flagged, Node):
         self._norm_ref += self.LEARN * (nm - self._norm_ref)
         self._dip_ref += self.LEARN * (dip - self._dip_ref)
         self.report("ok")
-        self.out(0, vector(C, msg.time, (3, 3)))
+        self.out(0, vector(C, msg.time))
 
 
 @register("complementary")
@@ -347,13 +347,13 @@ cal.mag -> fuse.mag
             self.filter.retune(**{name: getattr(self.p, name)})
 
     def on_gyro(self, msg: Message) -> None:
-        gyro = as_vector(msg, 3)
+        gyro = as_floats(msg, 3)
         acc, mag = self.cold.get("accel"), self.cold.get("mag")
         nan3 = (math.nan, math.nan, math.nan)
         q = self.filter.update(
             gyro,
-            as_vector(acc, 3) if acc is not None else nan3,
-            as_vector(mag, 3) if mag is not None else nan3,
+            as_floats(acc, 3) if acc is not None else nan3,
+            as_floats(mag, 3) if mag is not None else nan3,
             self.step(msg.time),
         )
         flags = self.filter.flags & ~(TQTFlags.REST)
@@ -431,7 +431,7 @@ class Matrix2Quat(Node):
     outlets = (Outlet("quat", "vector", "quaternion (w, x, y, z)"),)
 
     def on_matrix(self, msg: Message) -> None:
-        as_vector(msg, 9)  # raises for anything but a matrix: a quaternion here is a wiring mistake
+        as_floats(msg, 9)  # raises for anything but a matrix: a quaternion here is a wiring mistake
         self.out(0, vector(_as_quat(msg), msg.time))
 
 

@@ -111,7 +111,7 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
         if self._fh is None:
             raise RuntimeError(f"record: {self.p.file} is not open")
         if self._fmt == "ndjson":
-            value = msg.value.tolist() if msg.kind == "vector" else msg.value
+            value = list(msg.value) if msg.kind == "vector" else msg.value
             if msg.is_method:
                 value = list(value)
             self._fh.write(json.dumps({"t": msg.time, "kind": msg.kind, "value": value}) + "\n")

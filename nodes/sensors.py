@@ -10,8 +10,6 @@ import logging
 import os
 from typing import Any
 
-import numpy as np
-
 from pointat.devices.glove_sim import GloveSimulator, PtyGlove, SensorModel
 from pointat.devices.mote_frame import CorruptFrame, Frame, LostPackets
 from pointat.devices.serial_reader import DeviceLost, DeviceOpened, OpenFailed, SerialMoteReader
@@ -137,7 +135,7 @@ base.1 -> right
             return
         self.received += 1
         t = self._clocks[frame.mote].time(frame.n_pack, host_time)
-        self.out(k, vector(np.array(frame.channels, dtype=float), t))
+        self.out(k, vector(frame.channels, t))
 
     def _event(self, event: object) -> None:
         ev = len(self.out_specs) - 1
@@ -234,7 +232,7 @@ glove -> cal
             return
         s = self.sim.sample(k)
         self.out(1, vector(s.q, t))
-        self.out(0, vector(np.array(s.frame.channels, dtype=float), t))
+        self.out(0, vector(s.frame.channels, t))
 
     def close(self) -> None:
         self.active = False

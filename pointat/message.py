@@ -11,8 +11,8 @@ kind        value                                        Pd equivalent
 ``int``     ``int``                                      (a float in Pd)
 ``symbol``  ``str``                                      ``symbol``
 ``list``    ``tuple`` of floats, ints and strings         ``list``
-``vector``  read-only ``numpy.ndarray`` (3-vector,       (no equivalent: one value,
-            quaternion, 3x3 matrix...)                   not spread across inlets)
+``vector``  ``tuple`` of floats (a 3-vector, a          (no equivalent: one value,
+            quaternion, a 3x3 matrix row major...)       not spread across inlets)
 any other   ``tuple`` of arguments: a *method* message   ``anything`` (``set 3``,
             such as ``recalibrate`` or ``k 0.5``         ``stop``)
 ==========  ===========================================  ==========================
@@ -23,8 +23,8 @@ any other   ``tuple`` of arguments: a *method* message   ``anything`` (``set 3``
 >>> make([1, 2, "a"]).kind
 'list'
 >>> v = make(np.array([0.0, 0.0, 1.0]))
->>> v.kind, v.value.flags.writeable
-('vector', False)
+>>> v.kind, v.value
+('vector', (0.0, 0.0, 1.0))
 >>> method("recalibrate").kind
 'recalibrate'
 """
@@ -35,7 +35,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["KINDS", "Message", "as_float", "as_vector", "bang", "make", "method", "vector"]
+__all__ = ["KINDS", "Message", "as_float", "as_floats", "as_vector", "bang", "make", "method", "vector"]
 
 #: The kinds of plain data; any other kind is a method selector.
 KINDS = frozenset({"bang", "float", "int", "symbol", "list", "vector"})
@@ -81,16 +81,22 @@ def bang(time: float = 0.0) -> Message:
     return Message("bang", None, time)
 
 
-def vector(values: Any, time: float = 0.0, shape: tuple[int, ...] | None = None) -> Message:
-    """A vector message; the array is copied and made read-only so that nobody downstream can change it.
+def vector(values: Any, time: float = 0.0) -> Message:
+    """A vector message: the numbers as one flat tuple of floats (a matrix row major).
 
-    ``shape`` reshapes the copy (9 floats into a 3x3 matrix) without a second copy.
+    A tuple cannot be changed, so nobody downstream can alter what another node received, and the
+    per-sample math (:mod:`pointat.maths.scalar`) reads it without building an array.  Arrays and nested
+    lists are flattened: a 3x3 matrix becomes its nine numbers, row by row.
+
+    >>> vector(np.eye(2), 0.5)
+    Message(kind='vector', value=(1.0, 0.0, 0.0, 1.0), time=0.5)
     """
-    a = np.array(values, dtype=float)
-    if shape is not None:
-        a = a.reshape(shape)
-    a.setflags(write=False)
-    return Message("vector", a, time)
+    if type(values) is np.ndarray:
+        return Message("vector", tuple(values.ravel().tolist()), time)
+    try:
+        return Message("vector", tuple(map(float, values)), time)
+    except TypeError:  # nested (a matrix as rows) or not numbers at all
+        return Message("vector", tuple(np.ravel(np.asarray(values, dtype=float)).tolist()), time)
 
 
 def method(selector: str, *args: Any, time: float = 0.0) -> Message:
@@ -138,21 +144,39 @@ def as_float(msg: Message) -> float:
     raise TypeError(f"expected a number, got {kind} {msg.describe()!r}")
 
 
-def as_vector(msg: Message, *sizes: int) -> np.ndarray:
-    """The numbers a vector or list message carries, as a float array of one of the allowed ``sizes``.
+def as_floats(msg: Message, *sizes: int) -> tuple[float, ...]:
+    """The numbers a vector or list message carries, as a tuple of floats of one of the allowed ``sizes``.
 
-    Raises ``TypeError`` saying what was expected and what came.
+    The per-sample accessor: a vector's tuple is returned as it is.  Raises ``TypeError`` saying what was
+    expected and what came.
+
+    >>> as_floats(make([1, 2, 3]), 3)
+    (1.0, 2.0, 3.0)
+    >>> as_floats(vector([1.0, 2.0]), 3, 4)
+    Traceback (most recent call last):
+    ...
+    TypeError: expected a vector of 3 or 4 numbers, got 2
     """
-    if msg.kind == "vector":
-        a = msg.value
-    elif msg.kind == "list":
+    kind = msg.kind
+    if kind == "vector":
+        v = msg.value
+    elif kind == "list":
         try:
-            a = np.array(msg.value, dtype=float)
+            v = tuple(map(float, msg.value))
         except (TypeError, ValueError):
             raise TypeError(f"expected numbers, got {msg.describe()!r}") from None
     else:
-        raise TypeError(f"expected a vector, got {msg.kind} {msg.describe()[:40]!r}")
-    if sizes and a.size not in sizes:
+        raise TypeError(f"expected a vector, got {kind} {msg.describe()[:40]!r}")
+    if sizes and len(v) not in sizes:
         want = " or ".join(str(s) for s in sizes)
-        raise TypeError(f"expected a vector of {want} numbers, got {a.size}")
-    return a
+        raise TypeError(f"expected a vector of {want} numbers, got {len(v)}")
+    return v
+
+
+def as_vector(msg: Message, *sizes: int) -> np.ndarray:
+    """The numbers a vector or list message carries, as a new float array of one of the allowed ``sizes``.
+
+    For nodes that compute with numpy; per-sample nodes use :func:`as_floats`.  Raises ``TypeError``
+    saying what was expected and what came.
+    """
+    return np.array(as_floats(msg, *sizes), dtype=float)

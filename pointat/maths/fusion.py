@@ -326,7 +326,7 @@ class GyroIntegrator:
             On a non-finite rate or a negative or non-finite ``dt``; the state is unchanged.
         """
         wx, wy, wz = rate
-        self._step(float(wx), float(wy), float(wz), float(dt))
+        self.step(float(wx), float(wy), float(wz), float(dt))
         return self.R
 
     def update_many(self, rates: ArrayLike, dt: ArrayLike) -> np.ndarray:
@@ -355,12 +355,16 @@ class GyroIntegrator:
         if rates.ndim != 2 or rates.shape[1] != 3:
             raise ValueError(f"rates must have shape (n, 3), got {rates.shape}")
         dts = np.broadcast_to(np.asarray(dt, dtype=float), rates.shape[:1]).tolist()
-        step = self._step
+        step = self.step
         for (wx, wy, wz), d in zip(rates.tolist(), dts, strict=True):
             step(wx, wy, wz, d)
         return self.R
 
-    def _step(self, wx: float, wy: float, wz: float, dt: float) -> None:
+    def step(self, wx: float, wy: float, wz: float, dt: float) -> tuple[float, ...]:
+        """:meth:`update` on plain floats, returning the matrix as nine floats, row major (no array is built).
+
+        The per-sample path of the ``gyro_integrator`` node; raises ``ValueError`` as :meth:`update` does.
+        """
         if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
             raise ValueError(f"angular rate must be finite, got {(wx, wy, wz)}")
         if not (math.isfinite(dt) and dt >= 0.0):
@@ -384,6 +388,7 @@ class GyroIntegrator:
             # so a drift of ~1e-15 is gone to rounding, at a fraction of the cost of an SVD.
             R = self.R
             self._R = tuple((0.5 * R @ (3.0 * np.eye(3) - R.T @ R)).ravel().tolist())
+        return self._R
 
 
 def accmag_matrix(acc: ArrayLike, mag: ArrayLike) -> np.ndarray | None:

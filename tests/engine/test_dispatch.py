@@ -211,7 +211,18 @@ def test_bad_message_is_logged_with_node_name_and_dropped(caplog):
 
 
 def test_vectors_are_read_only_and_carry_time():
-    m = vector(np.array([1.0, 2.0, 3.0]), time=4.5)
-    with pytest.raises(ValueError):
+    source = np.array([1.0, 2.0, 3.0])
+    m = vector(source, time=4.5)
+    with pytest.raises(TypeError):
         m.value[0] = 9
+    source[0] = 9.0  # the message is a copy: changing the array afterwards changes nothing
+    assert m.value == (1.0, 2.0, 3.0) and all(type(v) is float for v in m.value)
     assert m.time == 4.5 and m.describe() == "vector 1 2 3"
+
+
+def test_vectors_are_flat_floats_whatever_they_are_made_of():
+    assert vector([[1, 2], [3, 4]]).value == (1.0, 2.0, 3.0, 4.0)  # a matrix travels row major
+    assert vector(np.eye(3)).value == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    assert vector((np.float32(0.5), 2)).value == (0.5, 2.0)
+    with pytest.raises(ValueError):
+        vector(["a", "b"])

@@ -340,7 +340,7 @@ def test_vbap_node_3d_from_a_file_and_a_list_at_the_left_inlet(tmp_path):
     np.testing.assert_allclose(rt.nodes["g"].values[-1], vbap_gains(DOME, 10.0, 0.0), atol=1e-12)
     assert rt.nodes["d"].values[-1] == pytest.approx((10.0, 0.0))
     spk.receive(0, make((45.0, 45.0, 0.0)))
-    assert rt.nodes["g"].values[-1].tolist() == [0.0] * 8 + [1.0, 0.0, 0.0, 0.0]
+    assert list(rt.nodes["g"].values[-1]) == [0.0] * 8 + [1.0, 0.0, 0.0, 0.0]
 
 
 def test_vbap_node_layout_can_change_while_running_and_a_bad_one_changes_nothing():

@@ -22,7 +22,7 @@ def test_offset_nulls_gyros_from_rest_and_keeps_gravity():
     assert rt.nodes["status"].values[-1][0] == "ready"
     nulls.receive(0, vector(rest, 0.1))
     got = rt.nodes["out"].values[0]
-    assert got[:3].tolist() == [0.0, 0.0, 0.0]  # gyro bias removed
+    assert list(got[:3]) == [0.0, 0.0, 0.0]  # gyro bias removed
     assert got[5] == 511.0 and got[8] == -442.0  # gravity and the field stay (mid-scale nulls)
     nulls.receive(0, method("recalibrate"))
     nulls.receive(0, vector(rest, 0.2))
@@ -40,9 +40,9 @@ units.mag -> log
     rt.nodes["units"].receive(0, vector([10, 0, -10, 0, 0, 490, 400, 0, -900]))
     g, a, m = rt.nodes["log"].values[2], rt.nodes["log"].values[1], rt.nodes["log"].values[0]
     assert [x.kind for x in rt.nodes["log"].messages] == ["vector"] * 3
-    assert g.tolist() == pytest.approx([math.radians(1.0), 0.0, -math.radians(1.0)])
-    assert a.tolist() == pytest.approx([0.0, 0.0, 9.8])
-    assert m.tolist() == pytest.approx([0.4, 0.0, -0.9])
+    assert list(g) == pytest.approx([math.radians(1.0), 0.0, -math.radians(1.0)])
+    assert list(a) == pytest.approx([0.0, 0.0, 9.8])
+    assert list(m) == pytest.approx([0.4, 0.0, -0.9])
 
 
 def test_calibrate_recovers_known_nulls_and_scales_and_the_chain_uses_the_file(tmp_path):

@@ -25,8 +25,8 @@ def _errors(rt, est_name, t_from=3.0):
     ]
     q_est = np.array([p[0] for p in pairs])
     q_true = np.array([p[1] for p in pairs])
-    if q_est.shape[1:] == (3, 3):
-        q_est = matrix_to_quat(q_est)
+    if q_est.shape[1:] == (9,):  # rotation matrices, row major
+        q_est = matrix_to_quat(q_est.reshape(-1, 3, 3))
     return np.degrees(quat_angle(q_est, q_true))
 
 

@@ -445,11 +445,11 @@ def test_ngimu_sensors_and_quaternion_in_si_units_right_to_left(started):
     with sender() as tx:
         tx.sendto(bundle(100.0, sensors, quat), addr)  # NGIMU stamps bundles with its own clock
         assert wait_for(rt, lambda: len(rt.nodes["s"].messages) == 3 and rt.nodes["q"].messages)
-    mag, accel, gyro = (m.value.tolist() for m in rt.nodes["s"].messages)  # right to left
+    mag, accel, gyro = (list(m.value) for m in rt.nodes["s"].messages)  # right to left
     assert values_match(gyro, [math.pi / 2, -math.pi / 4, 0.0])
     assert values_match(accel, [0.0, 0.0, 9.80665])  # +1 g up at rest -> m/s²
     assert values_match(mag, [0.2, 0.0, -0.4])  # uT -> gauss
-    assert rt.nodes["q"].values[0].tolist() == [0.5, 0.5, -0.5, 0.5]  # w first, as sent
+    assert list(rt.nodes["q"].values[0]) == [0.5, 0.5, -0.5, 0.5]  # w first, as sent
 
 
 def test_zigsim_reorders_the_quaternion_and_feeds_accel_from_gravity(started):
@@ -472,9 +472,9 @@ def test_zigsim_reorders_the_quaternion_and_feeds_accel_from_gravity(started):
             addr,
         )
         assert wait_for(rt, lambda: rt.nodes["other"].messages)
-    assert values_match(rt.nodes["q"].values[0].tolist(), [0.9, 0.1, 0.2, 0.3])  # x y z w -> w x y z
-    assert values_match(rt.nodes["a"].values[0].tolist(), [0.0, 0.0, 9.80665])  # gravity down -> +g up
-    assert values_match(rt.nodes["g"].values[0].tolist(), [0.5, 0.0, -0.25])  # rad/s already
+    assert values_match(list(rt.nodes["q"].values[0]), [0.9, 0.1, 0.2, 0.3])  # x y z w -> w x y z
+    assert values_match(list(rt.nodes["a"].values[0]), [0.0, 0.0, 9.80665])  # gravity down -> +g up
+    assert values_match(list(rt.nodes["g"].values[0]), [0.5, 0.0, -0.25])  # rad/s already
     [user_accel] = rt.nodes["other"].messages  # user acceleration is not specific force: passed on
     assert user_accel.kind == f"{uuid}/accel"
 
@@ -490,8 +490,8 @@ def test_generic_map_scales_and_wrong_argument_counts_are_dropped(started):
         tx.sendto(osc("/imu/acc", 1.0, 2, 3.0).dgram, addr)
         tx.sendto(osc("/imu/left/q", 1.0, 0.0, 0.0, 0.0).dgram, addr)
         assert wait_for(rt, lambda: rt.nodes["a"].messages and rt.nodes["q"].messages)
-    assert rt.nodes["a"].values[0].tolist() == [2.0, 4.0, 6.0]
-    assert rt.nodes["q"].values[0].tolist() == [1.0, 0.0, 0.0, 0.0]
+    assert list(rt.nodes["a"].values[0]) == [2.0, 4.0, 6.0]
+    assert list(rt.nodes["q"].values[0]) == [1.0, 0.0, 0.0, 0.0]
     assert imu.malformed == 1
 
 

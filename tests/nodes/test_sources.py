@@ -40,7 +40,7 @@ base.events -> ev
         assert wait_until(lambda: any(m.value[0] == "lost" for m in rt.nodes["ev"].messages))
         one = rt.nodes["one"].messages
         assert [m.value[0] for m in one] == [2048, 2049, 2050]
-        assert rt.nodes["two"].values[0].tolist() == [1.0] * 9
+        assert list(rt.nodes["two"].values[0]) == [1.0] * 9
         # sensor time from the packet counter: 1 sample, then 4 (3 lost) at 100 Hz
         assert one[1].time - one[0].time == pytest.approx(0.01)
         assert one[2].time - one[1].time == pytest.approx(0.04)
