@@ -23,7 +23,7 @@ from pointat.maths.calibration import (
     minmax_magnetometer,
     six_position_accel,
 )
-from pointat.message import Message, as_floats, as_vector, vector
+from pointat.message import Message, as_floats, as_vector, floats
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
 
@@ -93,7 +93,7 @@ class Offset(Node):
             elif self._n == 1:
                 self.out(1, ("calibrating", self.p.samples))
             return
-        self.out(0, vector([c - n for c, n in zip(counts, self.nulls, strict=True)], msg.time))
+        self.out(0, floats(tuple([c - n for c, n in zip(counts, self.nulls, strict=True)]), msg.time))
 
 
 @register("scaling")
@@ -137,9 +137,8 @@ class Scaling(Node):
         self.factor: tuple[float, ...] = tuple(float(f) for f in factor)
 
     def on_adc(self, msg: Message) -> None:
-        gx, gy, gz, ax, ay, az, mx, my, mz = (
-            c * f for c, f in zip(as_floats(msg, 9), self.factor, strict=True)
-        )
+        c, f = as_floats(msg, 9), self.factor
+        mx, my, mz = c[6] * f[6], c[7] * f[7], c[8] * f[8]
         W = self.soft_iron
         if W is not None:
             mx, my, mz = (
@@ -148,9 +147,9 @@ class Scaling(Node):
                 W[6] * mx + W[7] * my + W[8] * mz,
             )
         t = msg.time
-        self.out(2, vector((mx, my, mz), t))
-        self.out(1, vector((ax, ay, az), t))
-        self.out(0, vector((gx, gy, gz), t))
+        self.out(2, floats((mx, my, mz), t))
+        self.out(1, floats((c[3] * f[3], c[4] * f[4], c[5] * f[5]), t))
+        self.out(0, floats((c[0] * f[0], c[1] * f[1], c[2] * f[2]), t))
 
 
 @register("calibrate")

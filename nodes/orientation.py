@@ -25,7 +25,7 @@ from pointat.maths.quaternion import (
     quat_positive,
 )
 from pointat.maths.tqt import TQTFilter, TQTFlags
-from pointat.message import Message, as_floats, vector
+from pointat.message import Message, as_floats, floats, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
 
@@ -41,7 +41,7 @@ def _as_quat(msg: Message) -> sq.Quat:
 
 
 def _matrix(q: sq.Quat, time: float) -> Message:
-    return vector(sq.quat_matrix(q), time)
+    return floats(sq.quat_matrix(q), time)
 
 
 class SampleClock:
@@ -123,7 +123,7 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
         else:
             R = self.integrator.step(wx, wy, wz, dt)
             self.report("ok")
-        self.out(0, vector(R, msg.time))
+        self.out(0, floats(R, msg.time))
 
     def on_orientation(self, msg: Message) -> None:
         self.integrator.reset(np.reshape(sq.quat_matrix(_as_quat(msg)), (3, 3)))
@@ -210,7 +210,7 @@ class AccMagMatrix(Flagged, Node):
         self._norm_ref += self.LEARN * (nm - self._norm_ref)
         self._dip_ref += self.LEARN * (dip - self._dip_ref)
         self.report("ok")
-        self.out(0, vector(C, msg.time))
+        self.out(0, floats(C, msg.time))
 
 
 @register("complementary")
@@ -359,7 +359,7 @@ cal.mag -> fuse.mag
         flags = self.filter.flags & ~(TQTFlags.REST)
         self.report("ok" if not flags else str(flags.name or flags).lower().replace("|", ","))
         if self.filter.initialised:
-            self.out(0, vector(q, msg.time))
+            self.out(0, floats(q, msg.time))
 
     def do_reset(self) -> None:
         self.filter.reset()
@@ -418,7 +418,7 @@ class Reference(Node):
             else:
                 self.offset = sq.conjugate(q)
         # the reference earth frame is the earth frame turned by the reference: q_rel = offset ⊗ q
-        self.out(0, vector(sq.normalize(sq.multiply(self.offset, q)), msg.time))
+        self.out(0, floats(sq.normalize(sq.multiply(self.offset, q)), msg.time))
 
 
 @register("matrix2quat")
@@ -432,7 +432,7 @@ class Matrix2Quat(Node):
 
     def on_matrix(self, msg: Message) -> None:
         as_floats(msg, 9)  # raises for anything but a matrix: a quaternion here is a wiring mistake
-        self.out(0, vector(_as_quat(msg), msg.time))
+        self.out(0, floats(_as_quat(msg), msg.time))
 
 
 @register("quat2matrix")

@@ -34,9 +34,18 @@ from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
 from pointat.runtime import Timer
 
-from .profiles import FIELDS, PROFILES, SENSORS, Rule, Source, check_fields, parse_rule
+from .profiles import FIELDS, PROFILES, SENSORS, Profile, Rule, Source, check_fields, parse_rule
 
-__all__ = ["OscIn", "OscOut", "check_bundle", "destinations", "encode_bundle", "encode_message", "ntp_time"]
+__all__ = [
+    "OscIn",
+    "OscOut",
+    "UpdateEncoder",
+    "check_bundle",
+    "destinations",
+    "encode_bundle",
+    "encode_message",
+    "ntp_time",
+]
 
 log = logging.getLogger("pointat.osc")
 
@@ -82,6 +91,26 @@ def encode_message(address: str, args: Sequence[Any]) -> bytes:
 
 _F32 = struct.Struct(">f")
 _I32 = struct.Struct(">i")
+
+
+class UpdateEncoder:
+    """The OSC messages of one update, their addresses and type tags encoded once (:meth:`Profile.compile`):
+    per update only the numbers are packed.  The same bytes as :func:`encode_message` of
+    :meth:`Profile.render`.
+
+    >>> enc = UpdateEncoder(PROFILES["adm"], 3)
+    >>> enc.encode(Source(3, az=30.0)) == [encode_message("/adm/obj/3/aed", [30.0, 0.0, 1.0])]
+    True
+    """
+
+    def __init__(self, profile: Profile, n: int, messages: Sequence[tuple[str, Sequence[Any]]] | None = None):
+        self.parts = tuple(
+            (_padded(address) + _padded("," + tags), getters, struct.Struct(">" + tags).pack)
+            for address, tags, getters in profile.compile(n, messages)
+        )
+
+    def encode(self, source: Source) -> list[bytes]:
+        return [head + pack(*[g(source) for g in getters]) for head, getters, pack in self.parts]
 
 
 def ntp_time(unix_seconds: float) -> bytes:
@@ -279,6 +308,7 @@ dir.azimuth -> out.azimuth
     def setup(self) -> None:
         self.profile = PROFILES[self.p.profile]
         self.messages = self.profile.messages or ((self.p.address, check_fields(self.p.fields)),)
+        self._encoder = UpdateEncoder(self.profile, self.p.source or self.profile.first, self.messages)
         self.dests = [
             _Destination(h, p)
             for h, p in destinations(self.p.host, self.p.port or self.profile.port, self.p.to)
@@ -349,7 +379,7 @@ dir.azimuth -> out.azimuth
         else:
             self.state[0] = as_float(msg)
         update = tuple(self.state)
-        if not all(math.isfinite(v) for v in update):
+        if not math.isfinite(sum(update)):  # NaN or infinity anywhere makes the sum so
             raise ValueError(f"not sent: not a finite number in {update}")
         if msg.kind == "bang":
             self._release(update)
@@ -382,14 +412,19 @@ dir.azimuth -> out.azimuth
         self._last, self._last_time = update, self.now
         self.updates += 1
         az, el, dist, spread = update
-        n = self.p.source or self.profile.first
-        src = Source(n, az, el, dist, spread, self.p.radius)
-        self.send(self.profile.render(src, self.messages))
+        src = Source(self.p.source or self.profile.first, az, el, dist, spread, self.p.radius)
+        self._send(self._encoder.encode(src))
+
+    def param_changed(self, name: str) -> None:
+        if name == "source":
+            self._encoder = UpdateEncoder(self.profile, self.p.source or self.profile.first, self.messages)
 
     # sending -------------------------------------------------------------------
     def send(self, messages: Sequence[tuple[str, Sequence[Any]]]) -> None:
         """Send (address, arguments) pairs, as messages or one bundle, to every destination."""
-        datagrams = [encode_message(address, args) for address, args in messages]
+        self._send([encode_message(address, args) for address, args in messages])
+
+    def _send(self, datagrams: list[bytes]) -> None:
         if self.p.bundle:
             when = time.time() + self.p.delay / 1000.0 if self.p.delay > 0 else None
             datagrams = [encode_bundle(datagrams, when)]

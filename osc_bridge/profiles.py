@@ -46,7 +46,7 @@ import fnmatch
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 __all__ = [
     "FIELDS",
@@ -68,9 +68,8 @@ __all__ = [
 G = 9.80665
 
 
-@dataclass(frozen=True)
-class Source:
-    """One update of one source, in pointat's convention.
+class Source(NamedTuple):
+    """One update of one source, in pointat's convention (a small immutable record, built per update).
 
     Parameters
     ----------
@@ -166,6 +165,13 @@ def _value(field: str | int | float, source: Source) -> int | float:
     return field  # a constant
 
 
+def _getter(field: str | int | float) -> Callable[[Source], int | float]:
+    if isinstance(field, str):
+        f = FIELDS[field]
+        return (lambda s, fn=f.fn: int(fn(s))) if f.tag == "i" else f.fn
+    return lambda s, c=field: c  # a constant
+
+
 def check_fields(fields: Sequence[Any]) -> tuple[str | int | float, ...]:
     """Validate a generic field list: names from :data:`FIELDS`, or numeric constants.
 
@@ -208,6 +214,22 @@ class Profile:
             (template.format(n=source.n), [_value(f, source) for f in fields])
             for template, fields in (self.messages if messages is None else messages)
         ]
+
+    def compile(
+        self, n: int, messages: Sequence[tuple[str, Sequence[str | int | float]]] | None = None
+    ) -> tuple[tuple[str, str, tuple[Callable[[Source], int | float], ...]], ...]:
+        """For source ``n``: each message's address, its type tags and one function per argument.
+
+        What :meth:`render` works out on every update, worked out once; ``osc_out`` encodes from it.
+
+        >>> [(address, tags) for address, tags, _ in PROFILES["icst"].compile(2)]
+        [('/icst/ambi/sourceindex/xyz', 'ifff')]
+        """
+        msgs = self.messages if messages is None else messages
+        return tuple(
+            (template.format(n=n), tags, tuple(_getter(f) for f in fields))
+            for (template, fields), tags in zip(msgs, self.type_tags(msgs), strict=True)
+        )
 
     def type_tags(
         self, messages: Sequence[tuple[str, Sequence[str | int | float]]] | None = None

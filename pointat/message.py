@@ -35,7 +35,18 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["KINDS", "Message", "as_float", "as_floats", "as_vector", "bang", "make", "method", "vector"]
+__all__ = [
+    "KINDS",
+    "Message",
+    "as_float",
+    "as_floats",
+    "as_vector",
+    "bang",
+    "floats",
+    "make",
+    "method",
+    "vector",
+]
 
 #: The kinds of plain data; any other kind is a method selector.
 KINDS = frozenset({"bang", "float", "int", "symbol", "list", "vector"})
@@ -70,6 +81,11 @@ class Message(NamedTuple):
         return _atom(v)
 
 
+#: ``tuple.__new__``: builds a message without the NamedTuple constructor's extra Python call (per sample,
+#: every node builds one or more).
+_new = tuple.__new__
+
+
 def _atom(x: Any) -> str:
     if isinstance(x, float):
         return f"{x if abs(x) >= 1e-9 else 0.0:.6g}"
@@ -78,7 +94,7 @@ def _atom(x: Any) -> str:
 
 def bang(time: float = 0.0) -> Message:
     """A bang."""
-    return Message("bang", None, time)
+    return _new(Message, ("bang", None, time))
 
 
 def vector(values: Any, time: float = 0.0) -> Message:
@@ -92,11 +108,23 @@ def vector(values: Any, time: float = 0.0) -> Message:
     Message(kind='vector', value=(1.0, 0.0, 0.0, 1.0), time=0.5)
     """
     if type(values) is np.ndarray:
-        return Message("vector", tuple(values.ravel().tolist()), time)
+        return _new(Message, ("vector", tuple(values.ravel().tolist()), time))
     try:
-        return Message("vector", tuple(map(float, values)), time)
+        return _new(Message, ("vector", tuple(map(float, values)), time))
     except TypeError:  # nested (a matrix as rows) or not numbers at all
-        return Message("vector", tuple(np.ravel(np.asarray(values, dtype=float)).tolist()), time)
+        return _new(Message, ("vector", tuple(np.ravel(np.asarray(values, dtype=float)).tolist()), time))
+
+
+def floats(values: tuple[float, ...], time: float = 0.0) -> Message:
+    """A vector message from a tuple that holds floats already (what float arithmetic returns).
+
+    :func:`vector` without the conversion, for nodes that build a vector on every sample from the
+    results of :mod:`pointat.maths.scalar`; anything else goes through :func:`vector`.
+
+    >>> floats((0.5, 1.5), 2.0)
+    Message(kind='vector', value=(0.5, 1.5), time=2.0)
+    """
+    return _new(Message, ("vector", values, time))
 
 
 def method(selector: str, *args: Any, time: float = 0.0) -> Message:
@@ -112,12 +140,14 @@ def make(value: Any, time: float = 0.0) -> Message:
     ``None`` is a bang, ``bool`` and ``int`` are ints, ``float`` a float, ``str`` a symbol, a tuple or
     list of scalars a list, and a numpy array a vector.  A message is returned as it is.
     """
+    if type(value) is float:  # the per-sample case first
+        return _new(Message, ("float", value, time))
     if isinstance(value, Message):
         return value
     if value is None:
-        return Message("bang", None, time)
+        return _new(Message, ("bang", None, time))
     if isinstance(value, float):
-        return Message("float", value, time)
+        return _new(Message, ("float", value, time))
     if isinstance(value, (bool, int, np.integer)):
         return Message("int", int(value), time)
     if isinstance(value, np.floating):

@@ -661,3 +661,21 @@ def test_our_encoder_writes_what_python_osc_writes():
                 "f" if isinstance(a, float) else "i" if isinstance(a, int) else "s",
             )
         assert encode_message(address, args) == b.build().dgram
+
+
+@pytest.mark.parametrize("profile", sorted(PROFILES))
+def test_the_compiled_update_encoder_writes_what_render_and_encode_message_write(profile):
+    from osc_bridge.nodes import UpdateEncoder, encode_message
+    from osc_bridge.profiles import Source
+
+    prof = PROFILES[profile]
+    messages = prof.messages or (("/g/{n}/x", ("n", "az", "el", "dist01", "spread", 7, 0.25, "pan")),)
+    for n in (0, 1, 12):
+        enc = UpdateEncoder(prof, n, messages)
+        for src in (
+            Source(n, 30.0),
+            Source(n, -170.5, 12.25, 45.0, 50.0, 2.5),
+            Source(n, 190.0, -95.0, 99.0),
+        ):
+            expected = [encode_message(a, args) for a, args in prof.render(src, messages)]
+            assert enc.encode(src) == expected
