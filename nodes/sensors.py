@@ -10,6 +10,8 @@ import logging
 import os
 from typing import Any
 
+from serial import SerialException
+
 from pointat.devices.glove_sim import GloveSimulator, PtyGlove, SensorModel
 from pointat.devices.mote_frame import CorruptFrame, Frame, LostPackets
 from pointat.devices.serial_reader import DeviceLost, DeviceOpened, OpenFailed, SerialMoteReader
@@ -79,10 +81,19 @@ base.1 -> right
         outs = tuple(Outlet(f"m{int(i)}", "vector", f"mote {int(i)}: {ADC_DOC}") for i in ids)
         return cls.inlets, (*outs, Outlet("events", "list", "lost, corrupt, device_lost, opened..."))
 
+    #: Seconds between attempts to reopen a device that is gone: the first, and the largest (doubling).
+    BACKOFF = (0.05, 1.0)
+    #: Seconds between checks that the device is still where its path says (a udev symlink replugged).
+    CHECK_EVERY = 0.25
+
     def setup(self) -> None:
         self._outlet = {int(i): k for k, i in enumerate(self.p.ids)}
         self._clocks = {i: _MoteClock(self.p.rate) for i in self._outlet}
         self._reader: SerialMoteReader | None = None
+        self._fd: int | None = None
+        self._timer: Timer | None = None
+        self._delay = self.BACKOFF[0]
+        self._failing = False
         self._unknown: set[int] = set()
         self.received = 0
 
@@ -101,31 +112,82 @@ base.1 -> right
         self.do_close()
         self.p.device = str(path)
         self._reader = SerialMoteReader(
-            self.p.device, self.p.baud, self._on_frame, self._on_event, format=self.p.format
-        ).start()
+            self.p.device, self.p.baud, self._on_frame, self._event, format=self.p.format
+        )
+        self._delay, self._failing = self.BACKOFF[0], False
+        self._try_open()
 
     def do_close(self) -> None:
+        self._unwatch()
         if self._reader is not None:
-            self._reader.stop()
+            self._reader.close()
             self._reader = None
 
     def do_stats(self) -> None:
         if self._reader is None:
             return
-        s = self._reader.stats
+        s = self._reader.stats()
         self.out(len(self.out_specs) - 1, ("stats", self.received, s.corrupt, s.lost, s.garbage_bytes))
 
     def close(self) -> None:
         self.do_close()
 
-    # reader thread -> scheduler
+    # The device is read on the scheduler thread (Runtime.add_reader): a frame goes from the kernel
+    # into the chain with no thread hand-off.  Opening, losing and reopening are events on the same thread.
+    def _try_open(self) -> None:
+        self._timer = None
+        reader = self._reader
+        if reader is None:
+            return
+        try:
+            reader.open(nonblocking=True)
+            self._fd = reader.fileno()
+            self._runtime().add_reader(self._fd, self._readable, self)
+        except (SerialException, OSError, ValueError) as exc:
+            reader.close()
+            self._fd = None
+            if not self._failing:  # once per outage; the retries go on quietly
+                self._failing = True
+                log.warning("mote '%s': cannot open %s: %s (retrying)", self.name, self.p.device, exc)
+                self._event(OpenFailed(self.p.device, str(exc)))
+            self._timer = self.call_later(self._delay, self._try_open)
+            self._delay = min(2.0 * self._delay, self.BACKOFF[1])
+            return
+        self._failing, self._delay = False, self.BACKOFF[0]
+        self._timer = self.call_later(self.CHECK_EVERY, self._check)
+
+    def _readable(self) -> None:
+        reader = self._reader
+        if reader is not None and not reader.poll():
+            self._reopen_later()
+
+    def _check(self) -> None:
+        self._timer = None
+        reader = self._reader
+        if reader is None:
+            return
+        if reader.check():
+            self._timer = self.call_later(self.CHECK_EVERY, self._check)
+        else:
+            self._reopen_later()
+
+    def _reopen_later(self) -> None:
+        self._unwatch()
+        if self._reader is not None:
+            self._timer = self.call_later(self.BACKOFF[0], self._try_open)
+
+    def _unwatch(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        if self._fd is not None:
+            if self.rt is not None:
+                self.rt.remove_reader(self._fd)
+            self._fd = None
+
     def _on_frame(self, frame: Frame, host_time: float) -> None:
-        self.post(self._frame, frame, self._runtime().clock.from_monotonic(host_time))
+        self._frame(frame, self._runtime().clock.from_monotonic(host_time))
 
-    def _on_event(self, event: object) -> None:
-        self.post(self._event, event)
-
-    # scheduler thread
     def _frame(self, frame: Frame, host_time: float) -> None:
         k = self._outlet.get(frame.mote)
         if k is None:

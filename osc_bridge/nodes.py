@@ -582,10 +582,10 @@ phone.quat -> dir
         except OSError:
             sock.close()
             raise
-        sock.settimeout(0.1)
+        sock.setblocking(False)
         self._sock = sock
         self.active = True
-        self.spawn(self._listen, "listen")
+        self._runtime().add_reader(sock, self._readable, self)  # read on the scheduler thread: no hand-off
 
     @property
     def address(self) -> tuple[str, int]:
@@ -599,18 +599,22 @@ phone.quat -> dir
         ip = ipaddress.ip_address(sender)
         return any(ip in net for net in self._allow)
 
-    def _listen(self) -> None:
-        rt = self._runtime()
-        while not rt.stopping.is_set():
-            sock = self._sock
+    #: Datagrams read per wake-up at most, so that a flood cannot starve timers and other sources.
+    BURST = 64
+
+    def _readable(self) -> None:
+        """Scheduler thread, the socket has data: read what is there (up to :attr:`BURST` datagrams)."""
+        sock = self._sock
+        for _ in range(self.BURST):
             if sock is None:
                 return
             try:
                 data, sender = sock.recvfrom(65536)
-            except TimeoutError:
-                continue
-            except OSError:  # closed under us: the patch is stopping
+            except (BlockingIOError, InterruptedError):
                 return
+            except OSError as exc:  # e.g. an ICMP error reported on the socket: drop it, go on
+                log.debug("osc_in '%s': %s", self.name, exc)
+                continue
             t = time.monotonic()
             if not self._heard(sender[0]):
                 self.refused += 1
@@ -631,7 +635,7 @@ phone.quat -> dir
                         self.malformed,
                     )
                 continue
-            self.post(self._handle, messages, t, block=False)
+            self._handle(messages, t)
 
     def _handle(self, messages: list[tuple[str, list[Any]]], t: float) -> None:
         """Scheduler thread: route one packet's messages."""
@@ -687,4 +691,6 @@ phone.quat -> dir
         self.active = False
         sock, self._sock = self._sock, None
         if sock is not None:
+            if self.rt is not None:
+                self.rt.remove_reader(sock)
             sock.close()

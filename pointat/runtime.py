@@ -4,10 +4,14 @@
   follows ``time.monotonic()`` and timers are *deadlines*: a metro that ticks every 10 ms schedules tick
   ``n`` at ``start + n * 0.01``, so it never drifts.  With ``realtime=False`` time stands still until a
   test calls :meth:`Runtime.advance`, which runs every timer due on the way, in order.
-* **Sources** (serial readers, OSC servers, file replay) do their blocking I/O in their own threads
+* **Sources with a file descriptor** (a serial port, a UDP socket) are read on the scheduler thread
+  itself, as Pd does: :meth:`Runtime.add_reader` registers the descriptor and a callback, and the
+  scheduler sleeps in one ``select`` (epoll) over every descriptor and the next timer's deadline.  A
+  datagram or a frame goes from the kernel into the graph with no thread hand-off in between.
+* **Other sources** (file replay, MIDI input) do their blocking work in their own threads
   (:meth:`Node.spawn <pointat.node.Node.spawn>`) and hand results to the scheduler with
-  :meth:`Node.post <pointat.node.Node.post>`.  The queue is bounded: a fast file replay waits for the graph
-  instead of filling memory.
+  :meth:`Node.post <pointat.node.Node.post>`, which wakes the ``select``.  The queue is bounded: a fast
+  file replay waits for the graph instead of filling memory.
 * **Ending.**  :meth:`Runtime.run` returns when :meth:`stop` is called (Ctrl-C, SIGTERM, ``--for``), or by
   itself when nothing can happen any more: no active source, no pending timer, nothing queued.  Every
   node's ``close()`` runs and every thread is joined.
@@ -21,6 +25,8 @@ import heapq
 import itertools
 import logging
 import queue
+import selectors
+import socket
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -107,6 +113,12 @@ class Runtime:
         self._threads: list[threading.Thread] = []
         self._closed = False
         self._scheduler: threading.Thread | None = None
+        # Descriptors read on the scheduler thread, and a socket pair that wakes its select for posts
+        # (made when first needed, closed at shutdown).
+        self._selector: selectors.BaseSelector | None = None
+        self._wake_r: socket.socket | None = None
+        self._wake_w: socket.socket | None = None
+        self._sleeping = False
         #: Where ``print`` nodes write; the CLI points it at the terminal, tests at a list.
         self.console: Callable[[str], None] = logging.getLogger("pointat.console").info
         for node in nodes:
@@ -180,17 +192,53 @@ class Runtime:
         if not block:
             try:
                 self._queue.put_nowait(item)
-                return True
             except queue.Full:
                 self.dropped += 1
                 return False
+            self._wake()
+            return True
         while not self.stopping.is_set():
             try:
                 self._queue.put(item, timeout=0.1)
-                return True
             except queue.Full:
                 continue
+            self._wake()
+            return True
         return False
+
+    def _wake(self) -> None:
+        """Wake the scheduler's select when it sleeps (a posted event is waiting)."""
+        if self._sleeping and self._wake_w is not None:
+            try:
+                self._wake_w.send(b"\0")
+            except (BlockingIOError, OSError):  # already full of wake-ups, or closed at shutdown
+                pass
+
+    def add_reader(self, fileobj: Any, callback: Callable[[], Any], node: Node | None = None) -> None:
+        """Call ``callback()`` on the scheduler thread whenever ``fileobj`` (a socket, a file descriptor,
+        anything with ``fileno()``) has data to read.  Call it from the scheduler thread (``start``,
+        a timer, a handler).  A failure in the callback is logged with ``node``'s name and the patch goes
+        on; the callback must read what is there (the descriptor stays readable until it does).
+        """
+        self._io().register(fileobj, selectors.EVENT_READ, (node, callback))
+
+    def remove_reader(self, fileobj: Any) -> None:
+        """Stop watching ``fileobj`` (idempotent: a descriptor that is not watched is ignored)."""
+        if self._selector is None:
+            return
+        try:
+            self._selector.unregister(fileobj)
+        except (KeyError, ValueError, OSError):
+            pass
+
+    def _io(self) -> selectors.BaseSelector:
+        if self._selector is None:
+            self._selector = selectors.DefaultSelector()
+            self._wake_r, self._wake_w = socket.socketpair()
+            self._wake_r.setblocking(False)
+            self._wake_w.setblocking(False)
+            self._selector.register(self._wake_r, selectors.EVENT_READ, None)
+        return self._selector
 
     def spawn(self, node: Node, target: Callable[[], Any], what: str = "") -> threading.Thread:
         """Start a daemon thread for ``node``'s blocking I/O; exceptions are logged with the node's name."""
@@ -271,11 +319,7 @@ class Runtime:
                 timeout = 0.25
                 if self._timers:
                     timeout = min(timeout, max(0.0, self._timers[0].when - self.clock.now()))
-                try:
-                    item = self._queue.get(timeout=timeout)
-                except queue.Empty:
-                    continue
-                self._run_item(item)
+                self._poll(timeout)
         finally:
             self.shutdown()
 
@@ -292,6 +336,7 @@ class Runtime:
             self._queue.put_nowait(None)
         except queue.Full:
             pass
+        self._wake()
 
     def shutdown(self) -> None:
         """Close every node (in reverse order) and join the threads. Idempotent."""
@@ -302,6 +347,10 @@ class Runtime:
         self.running = False
         for node in reversed(list(self.nodes.values())):
             self._guard(node, node.close)
+        if self._selector is not None:
+            self._selector.close()
+            self._wake_r.close()  # type: ignore[union-attr]
+            self._wake_w.close()  # type: ignore[union-attr]
         deadline = time.monotonic() + 3.0
         for th in self._threads:
             th.join(timeout=max(0.0, deadline - time.monotonic()))
@@ -325,16 +374,9 @@ class Runtime:
         self.drain()
 
     def drain(self, timeout: float = 0.0) -> int:
-        """Run queued events; wait up to ``timeout`` seconds for the first one. Returns how many ran."""
-        n = 0
-        try:
-            item = self._queue.get(timeout=timeout) if timeout > 0 else self._queue.get_nowait()
-            while True:
-                self._run_item(item)
-                n += 1
-                item = self._queue.get_nowait()
-        except queue.Empty:
-            return n
+        """Read ready descriptors and run queued events, waiting up to ``timeout`` seconds for the first
+        one.  Returns how many ran."""
+        return self._poll(timeout)
 
     # internals ---------------------------------------------------------------------
     def _finished(self) -> bool:
@@ -356,6 +398,39 @@ class Runtime:
                 t.fn(*t.args)
             if self.stopping.is_set():
                 return
+
+    def _poll(self, timeout: float) -> int:
+        """Sleep in select until a watched descriptor is readable, an event is posted or ``timeout``
+        passes; then run the ready readers and every queued event.  Returns how many ran."""
+        if self._closed:
+            return 0
+        selector = self._io()
+        self._sleeping = True
+        if not self._queue.empty():  # checked after _sleeping is set: a post from now on wakes us
+            timeout = 0.0
+        try:
+            ready = selector.select(timeout)
+        finally:
+            self._sleeping = False
+        n = 0
+        for key, _events in ready:
+            if key.data is None:  # the wake-up socket
+                try:
+                    while self._wake_r.recv(4096):
+                        pass
+                except (BlockingIOError, OSError):
+                    pass
+                continue
+            node, callback = key.data
+            self._guard(node, callback)
+            n += 1
+        try:  # what is queued now, not what keeps coming: timers get their turn between polls
+            for _ in range(self._queue.qsize()):
+                self._run_item(self._queue.get_nowait())
+                n += 1
+        except queue.Empty:
+            pass
+        return n
 
     def _run_item(self, item: tuple | None) -> None:
         if item is None:

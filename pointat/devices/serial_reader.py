@@ -1,4 +1,4 @@
-"""Read mote frames from a serial port in a background thread, surviving unplugs.
+"""Read mote frames from a serial port, in a background thread or driven by an event loop, surviving unplugs.
 
 :class:`SerialMoteReader` opens the base station's serial device with pyserial, parses the byte stream
 with a :class:`~pointat.devices.mote_frame.FrameParser`, stamps every frame with the host's
@@ -15,6 +15,12 @@ during the outage are reported as lost packets when the stream resumes.
 Nothing raised in the thread kills it silently: callback errors are logged and reported as
 :class:`ReaderError` and the loop goes on; an unexpected error in the loop itself is logged, reported,
 and followed by a reopen.
+
+Without the thread, an event loop drives the same reader (the ``mote`` node does, on pointat's
+scheduler thread): :meth:`SerialMoteReader.open` with ``nonblocking=True``, then
+:meth:`~SerialMoteReader.poll` whenever :meth:`~SerialMoteReader.fileno` is readable and
+:meth:`~SerialMoteReader.check` now and then; each returns ``False`` once the device is lost (reported
+and closed), and reopening is then the loop's to schedule.
 
 Examples
 --------
@@ -246,8 +252,59 @@ class SerialMoteReader:
                     delay = min(2.0 * delay, self.backoff[1])
         self._close()
 
-    def _open(self) -> None:
-        port = serial.Serial(self.port_path, self.baudrate, timeout=self.read_timeout)
+    # -- driven by an event loop ----------------------------------------------------------------
+
+    def open(self, *, nonblocking: bool = True) -> None:
+        """Open the device now and report :class:`DeviceOpened` (for an event loop, not the thread).
+
+        Raises :class:`serial.SerialException`, :class:`OSError` or :class:`ValueError` when it cannot be
+        opened; the caller decides when to try again.  ``nonblocking`` makes :meth:`poll` return at once.
+        """
+        self._open(timeout=0 if nonblocking else self.read_timeout)
+        self._emit(DeviceOpened(self.port_path, os.path.realpath(self.port_path), self._open_count))
+
+    def fileno(self) -> int:
+        """The open device's file descriptor (to wait on with ``select``); ``ValueError`` when closed."""
+        if self._port is None:
+            raise ValueError(f"{self.port_path} is not open")
+        return self._port.fileno()
+
+    def poll(self) -> bool:
+        """Read and parse what the device has now, calling ``on_frame`` and ``on_event``.
+
+        Returns ``False`` when the device was lost (reported as :class:`DeviceLost` and closed).
+        """
+        if self._port is None:
+            return False
+        try:
+            self._poll()
+        except (serial.SerialException, OSError) as exc:
+            self._lose(str(exc) or type(exc).__name__)
+        except Exception as exc:
+            log.exception("mote reader on %s: unexpected error", self.port_path)
+            self._emit(ReaderError(self.port_path, "loop", repr(exc)))
+            self._lose(repr(exc))
+        return self._port is not None
+
+    def check(self) -> bool:
+        """Is the device still where its path says?  If not, report it lost, close it, return ``False``."""
+        if self._port is None:
+            return False
+        reason = self._path_problem()
+        if reason:
+            self._lose(reason)
+        return self._port is not None
+
+    def close(self) -> None:
+        """Close the device (idempotent); nothing is reported."""
+        self._close()
+
+    # -- internals ------------------------------------------------------------------------------
+
+    def _open(self, timeout: float | None = None) -> None:
+        port = serial.Serial(
+            self.port_path, self.baudrate, timeout=self.read_timeout if timeout is None else timeout
+        )
         try:
             self._rdev = os.stat(self.port_path).st_rdev
         except OSError:
@@ -262,7 +319,7 @@ class SerialMoteReader:
         port = self._port
         assert port is not None
         data = port.read(max(1, port.in_waiting))
-        if not data:  # idle: is the device still where its path says?
+        if not data:  # idle (or, non-blocking, woken with nothing): is the device still where its path says?
             reason = self._path_problem()
             if reason:
                 self._lose(reason)

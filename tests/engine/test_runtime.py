@@ -9,7 +9,7 @@ import time
 from pointat.message import make, vector
 from pointat.node import Node, Outlet, Param
 from pointat.runtime import Runtime
-from pointat.testing import Collect, patch
+from pointat.testing import Collect, patch, wait_until
 
 
 def test_manual_clock_runs_timers_in_order():
@@ -222,3 +222,61 @@ def test_posting_from_the_scheduler_thread_never_deadlocks():
     th.join(10)
     assert not th.is_alive()
     assert len(out.values) == 8 and rt.dropped == 42  # what did not fit was dropped and counted
+
+
+class Socketed(Node):
+    """A test source read by the scheduler itself: one float per datagram; 'boom' raises in the callback."""
+
+    type_name = "socketed_test"
+    outlets = (Outlet("out", "float"),)
+
+    def start(self):
+        import socket
+
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.setblocking(False)
+        self.threads = []
+        self.active = True
+        self.rt.add_reader(self.sock, self.readable, self)
+
+    def readable(self):
+        data = self.sock.recv(100)
+        self.threads.append(threading.current_thread())
+        if data == b"boom":
+            raise ValueError("a callback that fails")
+        self.out(0, float(data))
+
+    def close(self):
+        self.rt.remove_reader(self.sock)
+        self.rt.remove_reader(self.sock)  # idempotent
+        self.sock.close()
+
+
+def test_descriptors_are_read_on_the_scheduler_thread_and_a_failing_reader_does_not_stop_it(caplog):
+    import socket
+
+    rt = Runtime()
+    src = rt.add(Socketed("src"))
+    out = rt.add(Collect("out"))
+    rt.connect(src, 0, out, 0)
+    th = rt.run_in_thread(duration=20)
+    try:
+        assert wait_until(lambda: hasattr(src, "sock"))
+        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        for data in (b"1.5", b"boom", b"2.5"):
+            tx.sendto(data, src.sock.getsockname())
+        tx.close()
+        assert wait_until(lambda: len(out.values) == 2)
+        assert out.values == [1.5, 2.5]
+        assert set(src.threads) == {th}  # no thread of its own: the scheduler read every datagram
+        assert "a callback that fails" in caplog.text and "src" in caplog.text
+        # a post from another thread wakes the select at once, whatever its timeout
+        t0 = time.monotonic()
+        rt.send("out", 7.0)
+        assert wait_until(lambda: out.values[-1:] == [7.0])
+        assert time.monotonic() - t0 < 0.2
+    finally:
+        rt.stop()
+        th.join(timeout=5)
+    assert not th.is_alive()

@@ -46,6 +46,10 @@ base.events -> ev
         assert one[2].time - one[1].time == pytest.approx(0.04)
         events = [m.value for m in rt.nodes["ev"].messages]
         assert ("lost", 1, 3) in events and ("unknown_mote", 9) in events
+        rt.send("base", "stats")  # received, corrupt, lost, garbage bytes
+        assert wait_until(lambda: rt.nodes["ev"].values[-1][0] == "stats")
+        name, received, corrupt, lost, garbage = rt.nodes["ev"].values[-1]
+        assert (received, lost) == (4, 3) and corrupt >= 1 and garbage >= len(b"garbage")
     finally:
         rt.stop()
         th.join(5)
@@ -160,3 +164,33 @@ def test_a_source_that_cannot_start_stops_the_patch_with_a_clear_error(tmp_path)
     assert "node 'src' (replay): cannot start:" in str(info.value) and "nope.csv" in str(info.value)
     assert "node 'sink' (record): cannot start:" in str(info.value)
     assert not rt.running
+
+
+def test_mote_waits_for_a_device_that_is_not_there_yet_without_a_thread_of_its_own(tmp_path):
+    import threading
+
+    link = tmp_path / "base"
+    rt = patch(
+        f"node base mote device={link}\nnode out collect\nnode ev collect\nbase.m1 -> out\nbase.events -> ev\n",
+        realtime=True,
+    )
+    th = rt.run_in_thread()
+    master = slave = None
+    try:
+        assert wait_until(lambda: any(m.value[0] == "open_failed" for m in rt.nodes["ev"].messages))
+        master, slave = os.openpty()  # the base station is plugged in after the patch started
+        os.symlink(os.ttyname(slave), link)
+        assert wait_until(lambda: any(m.value[0] == "opened" for m in rt.nodes["ev"].messages), 10)
+        os.write(master, encode_frame(Frame(1, 0, (300,) * 9)))
+        assert wait_until(lambda: len(rt.nodes["out"].messages) == 1)
+        assert rt.nodes["out"].values[0][0] == 300.0
+        assert [m.value[0] for m in rt.nodes["ev"].messages].count("open_failed") == 1  # once per outage
+        # no reader thread: the scheduler reads the device (every pointat thread is named after its job)
+        assert not [t.name for t in threading.enumerate() if "mote" in t.name or "base" in t.name]
+    finally:
+        rt.stop()
+        th.join(5)
+        for fd in (master, slave):
+            if fd is not None:
+                os.close(fd)
+    assert not th.is_alive()
