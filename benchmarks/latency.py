@@ -698,7 +698,8 @@ class _Idle(Node):
 
 def handoff(rate: float, seconds: float) -> np.ndarray:
     """The engine's hand-off alone: a thread calls ``Runtime.post`` at ``rate`` Hz; microseconds until
-    the scheduler thread runs the call (the step every source -- ``mote``, ``osc_in``, ``replay`` -- takes).
+    the scheduler thread runs the call (the step a source in a thread of its own -- ``replay``,
+    ``midi_in`` -- takes; ``mote`` and ``osc_in`` are read on the scheduler thread and skip it).
     """
     rt = Runtime(realtime=True)
     node = rt.add(_Idle("idle"))

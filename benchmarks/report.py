@@ -147,9 +147,11 @@ def _latency_section(run: Run) -> list[str]:
     if run.handoff is not None and run.handoff.size:
         h = run.handoff
         out += [
-            "**The engine's hand-off alone.**  Every source (`mote`, `osc_in`, `replay`) reads in its own "
-            "thread and hands each sample to the scheduler thread with `Runtime.post` (a bounded "
-            "`queue.Queue`).  Measured in one process, a thread posting at 1 kHz: from `post` to the call "
+            "**The engine's hand-off alone.**  `mote` and `osc_in` are read on the scheduler thread itself "
+            "(one `select` over their descriptors and the timers), so their samples take no hand-off; "
+            "sources without a descriptor (`replay`, `midi_in`) read in a thread of their own and hand each "
+            "sample over with `Runtime.post` (a bounded queue that wakes the `select`).  Measured in one "
+            "process, a thread posting at 1 kHz: from `post` to the call "
             f"running on the scheduler thread, p50 {_ms(float(np.percentile(h, 50)))} ms, "
             f"p99 {_ms(float(np.percentile(h, 99)))} ms, max {_ms(float(h.max()))} ms ({h.size} posts).",
             "",
