@@ -679,3 +679,69 @@ def test_the_compiled_update_encoder_writes_what_render_and_encode_message_write
         ):
             expected = [encode_message(a, args) for a, args in prof.render(src, messages)]
             assert enc.encode(src) == expected
+
+
+def _packets():
+    """Valid packets built by python-osc: every argument type it writes, bundles nested two deep."""
+    specs = [
+        ("/a", []),
+        ("/sensors", [0.5, -1.25, 3.0, 1e-8, 2.0, 9.80665, 0.2, 0.0, -0.4]),
+        ("/mixed", [1, 2.5, "héllo", True, False, None, "", "abc"]),
+        ("/wide", [(2**40, "h"), (1.0 / 3.0, "d"), (b"\x00\x01\x02", "b"), 7]),
+        ("/x/y/zz", ["a" * 3, "b" * 4, -(2**31)]),
+    ]
+    messages = []
+    for address, args in specs:
+        b = OscMessageBuilder(address)
+        for a in args:
+            if isinstance(a, tuple):
+                b.add_arg(a[0], a[1])
+            else:
+                b.add_arg(a)
+        messages.append(b.build())
+    inner = OscBundleBuilder(PY_IMMEDIATELY)
+    inner.add_content(messages[0])
+    inner.add_content(messages[2])
+    outer = OscBundleBuilder(PY_IMMEDIATELY)
+    outer.add_content(messages[1])
+    outer.add_content(inner.build())
+    outer.add_content(messages[3])
+    return [m.dgram for m in messages] + [outer.build().dgram]
+
+
+def _python_osc(data):
+    from pythonosc.osc_packet import OscPacket
+
+    return [(m.message.address, list(m.message.params)) for m in OscPacket(data).messages]
+
+
+def test_decode_packet_reads_what_python_osc_reads():
+    from osc_bridge.nodes import decode_packet
+
+    for data in _packets():
+        assert decode_packet(data) == _python_osc(data)
+
+
+def test_decode_packet_says_malformed_with_a_value_error_and_never_reads_garbage_as_data():
+    import random
+
+    from osc_bridge.nodes import decode_packet
+
+    rng = random.Random(7)
+    packets = _packets()
+    rejected = 0
+    for _ in range(3000):
+        data = bytearray(rng.choice(packets))
+        for _ in range(rng.randint(1, 3)):
+            if rng.random() < 0.5 and len(data) > 4:
+                del data[rng.randrange(1, len(data)) :]  # cut short
+            elif data:
+                data[rng.randrange(len(data))] = rng.randrange(256)  # a flipped byte
+        data = bytes(data)
+        try:
+            got = decode_packet(data)
+        except ValueError:
+            rejected += 1
+            continue
+        assert got == _python_osc(data)  # what is accepted, python-osc reads the same way
+    assert rejected > 500  # the damage is mostly caught
