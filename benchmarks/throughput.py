@@ -89,6 +89,61 @@ def udp_sink(seconds: float = 900.0) -> Iterator[int]:
         stop_process(proc)
 
 
+@contextlib.contextmanager
+def udp_hole() -> Iterator[int]:
+    """A UDP socket in this process that nobody waits on: sending to it wakes no receiver.
+
+    Yields its port; :func:`_empty` drops what arrived between runs.
+    """
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 24)
+        sock.bind(("127.0.0.1", 0))
+        sock.setblocking(False)
+        _HOLES[sock.getsockname()[1]] = sock
+        yield sock.getsockname()[1]
+    finally:
+        _HOLES.pop(sock.getsockname()[1], None)
+        sock.close()
+
+
+_HOLES: dict[int, socket.socket] = {}
+
+
+def _empty(port: int) -> None:
+    sock = _HOLES.get(port)
+    try:
+        while sock is not None and sock.recv(2048):
+            pass
+    except BlockingIOError:
+        pass
+
+
+def wake_cost(sink_port: int, hole_port: int, n: int = 2000, gap: float = 50e-6) -> tuple[float, float]:
+    """Microseconds one ``send`` of a 40-byte datagram takes, ``gap`` seconds after the previous one, to the
+    sink process (asleep between datagrams, as a receiver is) and to the hole (nobody to wake): the best
+    of 3 rounds of ``n`` each."""
+    result = []
+    for port in (sink_port, hole_port):
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.connect(("127.0.0.1", port))
+        best = math.inf
+        for _ in range(3):
+            total = 0.0
+            for _ in range(n):
+                t0 = time.perf_counter()
+                while time.perf_counter() - t0 < gap:
+                    pass
+                t = time.perf_counter()
+                sock.send(b"x" * 40)
+                total += time.perf_counter() - t
+            best = min(best, 1e6 * total / n)
+        sock.close()
+        _empty(port)
+        result.append(best)
+    return result[0], result[1]
+
+
 def _bound(port: int) -> bool:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         try:
@@ -148,6 +203,8 @@ class ThroughputResults:
     chain_totals: dict[str, float] = field(default_factory=dict)
     filters: list[FilterCost] = field(default_factory=list)
     hotspots: dict[str, list[tuple[str, int, float, float]]] = field(default_factory=dict)
+    #: (us per send to a sleeping receiver, us per send to a socket nobody waits on)
+    wake: tuple[float, float] | None = None
     #: chain -> (samples, {generation: (collections, mean pause us, longest pause us)})
     gc_pauses: dict[str, tuple[int, dict[int, tuple[int, float, float]]]] = field(default_factory=dict)
     errors: list[str] = field(default_factory=list)
@@ -201,7 +258,12 @@ def simulator_cost(seconds: float) -> float:
     return 1e6 * wall / (seconds / CHUNKS * 1000)
 
 
-def push_rate(chain: str, messages: list[Message], port: int, record: bool = False):
+PUSHED = "ADC vectors pushed into the chain"
+#: (b'): as (b), the OSC going to a socket no process sleeps on.
+PUSHED_NO_WAKE = "ADC vectors pushed, OSC to a socket nobody waits on"
+
+
+def push_rate(chain: str, messages: list[Message], port: int, record: bool = False, how: str = PUSHED):
     """(b) ADC vectors straight into the chain's first node; optionally record every node's inputs."""
     rt = _load_chain(chain, port)
     rt.start()
@@ -230,7 +292,8 @@ def push_rate(chain: str, messages: list[Message], port: int, record: bool = Fal
         wall = min(wall, time.perf_counter() - t0)
     nodes = dict(rt.nodes)
     rt.shutdown()
-    return PatchRate(chain, "ADC vectors pushed into the chain", size, wall), recorded, nodes
+    _empty(port)
+    return PatchRate(chain, how, size, wall), recorded, nodes
 
 
 def node_costs(
@@ -524,7 +587,9 @@ def run_all(
     replay_rows = 5000 if quick else 20000
     n_filter = 5000 if quick else 20000
     rounds = 3 if quick else 5
-    with udp_sink() as port:
+    with udp_sink() as port, udp_hole() as hole:
+        progress("throughput: the system's cost of waking a receiver")
+        res.wake = wake_cost(port, hole)
         progress("throughput: simulated glove alone")
         sim_us = simulator_cost(sim_seconds / 2)
         messages = _adc_messages(n_push + 200)
@@ -536,6 +601,7 @@ def run_all(
             pushed, recorded, nodes = push_rate(chain, messages, port)
             res.patches.append(pushed)
             res.chain_totals[chain] = pushed.us_per_sample
+            res.patches.append(push_rate(chain, messages, hole, how=PUSHED_NO_WAKE)[0])
             _, recorded, nodes = push_rate(chain, messages, port, record=True)
             res.nodes += node_costs(chain, recorded, nodes, n_push, port)
             res.hotspots[chain] = profile_chain(chain, messages, port)
