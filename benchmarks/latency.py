@@ -687,6 +687,21 @@ def run_floor(
     return _measure(res, cmd, workdir / f"{kind}_{rate:g}.log", src, sock, rate, phases, _floor_key, None, 1)
 
 
+def run_floor_pty(rate: float, phases: Phases, sample: dict[str, np.ndarray], workdir: Path) -> LatencyResult:
+    """The mote path's floor: the same frames into a pty, a bare Python process (pointat's frame parser,
+    python-osc's client) sending one datagram per frame to our socket."""
+    sock = receiver_socket()
+    src = MoteSource(rate, 1)
+    total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
+    cmd = [sys.executable, "-m", "benchmarks.relay", "--pty", src.device]
+    cmd += ["--out-port", str(sock.getsockname()[1]), "--for", f"{total:.0f}"]
+    res = LatencyResult(
+        "python pty relay", "floor", "pty", rate, 1, shown(cmd).replace(src.device, "/dev/pts/N")
+    )
+    log = workdir / f"pty_{rate:g}.log"
+    return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, 1)
+
+
 class _Idle(Node):
     """A node that only keeps a runtime alive (``active``) while :func:`handoff` posts to it."""
 
@@ -746,6 +761,7 @@ def run_all(
                 ("Pd relay", partial(run_floor, "pd", rate, ph, sample, workdir)),
                 ("Pd relay -sleepgrain 0.1", partial(run_floor, "pd-sg0.1", rate, ph, sample, workdir)),
             ]
+            plan.append(("python pty relay", partial(run_floor_pty, rate, ph, sample, workdir)))
             for motes in (1, 16):
                 for chain in ("torre", "tqt"):
                     plan.append(

@@ -3,17 +3,24 @@
 Each datagram is parsed by python-osc's server and re-encoded by its client (as Pd's ``[oscparse]`` ->
 ``[oscformat]`` does), on 127.0.0.1 only.  It stops by itself after ``--for`` seconds.  With
 ``--out-port 0`` it only reads and drops what arrives (a sink that lets a sender run at full speed
-without a receiver thread in the sender's own process).
+without a receiver thread in the sender's own process).  With ``--pty PATH`` it is the floor of the mote
+path instead: it reads mote frames from a pseudo-terminal with pointat's own frame parser and sends one
+python-osc message per frame, ``/floor ID TAG`` (the sample tag of the frame's gyro x count, as the
+benchmark's mote patches send it), so that the pty's own cost is measured as the UDP floors measure UDP.
 
     python -m benchmarks.relay --in-port 9100 --out-port 9101 --for 60
+    python -m benchmarks.relay --pty /dev/pts/5 --out-port 9101 --for 60
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import select
 import signal
 import socket
 import time
+import tty
 
 from pythonosc.dispatcher import Dispatcher
 from pythonosc.osc_server import BlockingOSCUDPServer
@@ -22,11 +29,15 @@ from pythonosc.udp_client import SimpleUDPClient
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.relay", description=__doc__.splitlines()[0])
-    ap.add_argument("--in-port", type=int, required=True, help="UDP port to listen on (127.0.0.1)")
+    src = ap.add_mutually_exclusive_group(required=True)
+    src.add_argument("--in-port", type=int, help="UDP port to listen on (127.0.0.1)")
+    src.add_argument("--pty", help="read mote frames from this pseudo-terminal instead")
     ap.add_argument("--out-port", type=int, required=True, help="UDP port to forward to (127.0.0.1)")
     ap.add_argument("--for", dest="seconds", type=float, default=600.0, help="stop after this long")
     args = ap.parse_args(argv)
     deadline = time.monotonic() + args.seconds
+    if args.pty:
+        return _pty_relay(args.pty, args.out_port, deadline)
     if args.out_port == 0:
         return _sink(args.in_port, deadline)
     client = SimpleUDPClient("127.0.0.1", args.out_port)
@@ -39,6 +50,30 @@ def main(argv: list[str] | None = None) -> int:
             server.handle_request()
     finally:
         server.server_close()
+    return 0
+
+
+#: The benchmark's mote patches: gyro x count = TAG_BASE + tag (see benchmarks.latency).
+TAG_BASE = 1548
+
+
+def _pty_relay(path: str, out_port: int, deadline: float) -> int:
+    from pointat.devices.mote_frame import FrameParser
+
+    client = SimpleUDPClient("127.0.0.1", out_port)
+    parser = FrameParser("binary")
+    fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
+    tty.setraw(fd)
+    stop = []
+    signal.signal(signal.SIGTERM, lambda *_: stop.append(True))
+    try:
+        while time.monotonic() < deadline and not stop:
+            if not select.select([fd], [], [], 0.2)[0]:
+                continue
+            for frame in parser.feed(os.read(fd, 4096)):
+                client.send_message("/floor", [frame.mote, (frame.channels[0] - TAG_BASE) / 10.0])
+    finally:
+        os.close(fd)
     return 0
 
 

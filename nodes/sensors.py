@@ -85,6 +85,8 @@ base.1 -> right
     BACKOFF = (0.05, 1.0)
     #: Seconds between checks that the device is still where its path says (a udev symlink replugged).
     CHECK_EVERY = 0.25
+    #: Where select cannot wait on a serial port (Windows), the reader runs in a thread of its own.
+    READ_IN_THREAD = os.name != "posix"
 
     def setup(self) -> None:
         self._outlet = {int(i): k for k, i in enumerate(self.p.ids)}
@@ -111,6 +113,15 @@ base.1 -> right
     def do_open(self, path: Any) -> None:
         self.do_close()
         self.p.device = str(path)
+        if self.READ_IN_THREAD:  # the reader's own thread, handing each frame and event to the scheduler
+            self._reader = SerialMoteReader(
+                self.p.device,
+                self.p.baud,
+                lambda frame, t: self.post(self._on_frame, frame, t, block=False),
+                lambda event: self.post(self._event, event, block=False),
+                format=self.p.format,
+            ).start()
+            return
         self._reader = SerialMoteReader(
             self.p.device, self.p.baud, self._on_frame, self._event, format=self.p.format
         )
@@ -120,7 +131,7 @@ base.1 -> right
     def do_close(self) -> None:
         self._unwatch()
         if self._reader is not None:
-            self._reader.close()
+            self._reader.stop()  # joins the thread if there is one; closes the port
             self._reader = None
 
     def do_stats(self) -> None:

@@ -168,6 +168,7 @@ class SerialMoteReader:
         self._rdev: int | None = None
         self._open_count = 0
         self._got_data = False
+        self._nonblocking = False
 
     # -- public -----------------------------------------------------------------------------------
 
@@ -195,6 +196,7 @@ class SerialMoteReader:
         """Start the reader thread (no-op if running).  Returns ``self``."""
         if self.is_running:
             return self
+        self._nonblocking = False
         self._stop.clear()
         self._thread = start_daemon(self._run, f"mote-reader:{self.port_path}")
         return self
@@ -261,6 +263,7 @@ class SerialMoteReader:
         opened; the caller decides when to try again.  ``nonblocking`` makes :meth:`poll` return at once.
         """
         self._open(timeout=0 if nonblocking else self.read_timeout)
+        self._nonblocking = nonblocking
         self._emit(DeviceOpened(self.port_path, os.path.realpath(self.port_path), self._open_count))
 
     def fileno(self) -> int:
@@ -318,8 +321,18 @@ class SerialMoteReader:
     def _poll(self) -> None:
         port = self._port
         assert port is not None
-        data = port.read(max(1, port.in_waiting))
-        if not data:  # idle (or, non-blocking, woken with nothing): is the device still where its path says?
+        if self._nonblocking:  # woken by select: one read of what is there (pyserial's read adds a select)
+            try:
+                data = os.read(port.fd, 65536)
+            except (BlockingIOError, InterruptedError):
+                return
+            if not data:
+                raise serial.SerialException(
+                    "device reports readiness to read but returned no data (unplugged?)"
+                )
+        else:
+            data = port.read(max(1, port.in_waiting))
+        if not data:  # idle: is the device still where its path says?
             reason = self._path_problem()
             if reason:
                 self._lose(reason)

@@ -11,7 +11,11 @@ from pointat.devices.mote_frame import Frame, encode_frame, encode_text
 from pointat.testing import patch, wait_until
 
 
-def test_mote_reads_a_pty_separates_motes_and_reports_lost_packets(tmp_path):
+@pytest.mark.parametrize("in_thread", [False, True], ids=["scheduler-reads", "reader-thread"])
+def test_mote_reads_a_pty_separates_motes_and_reports_lost_packets(tmp_path, monkeypatch, in_thread):
+    from nodes.sensors import Mote
+
+    monkeypatch.setattr(Mote, "READ_IN_THREAD", in_thread)  # the thread is what Windows uses
     master, slave = os.openpty()
     link = tmp_path / "base"
     os.symlink(os.ttyname(slave), link)
