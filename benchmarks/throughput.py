@@ -466,13 +466,24 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     A = np.repeat(a[:nb, None, :], k15, 1)
     M = np.repeat(m[:nb, None, :], k15, 1)
 
-    def bank() -> None:
-        b = TQTBank(k15)
-        for i in range(nb):
-            b.update(G[i], A[i], M[i], dt)
+    from pointat.maths import tqt_compiled
 
-    best, med = _rounds(bank, nb * k15, rounds)
-    out.append(FilterCost("TQTBank robust, 15 sensors", "pointat", best, med, "per sensor-sample"))
+    backends = ["numba", "numpy"] if tqt_compiled.available() else ["numpy"]
+    if not tqt_compiled.available():
+        errors.append('TQTBank numba backend: numba is not installed (pip install ".[fast]")')
+    for backend in backends:
+        TQTBank(k15, backend=backend).update(G[0], A[0], M[0], dt)  # compiles (numba) outside the timing
+
+        def bank(backend: str = backend) -> None:
+            b = TQTBank(k15, backend=backend)
+            for i in range(nb):
+                b.update(G[i], A[i], M[i], dt)
+
+        best, med = _rounds(bank, nb * k15, rounds)
+        note = "per sensor-sample; " + (
+            "compiled loop (numba)" if backend == "numba" else "numpy, vectorised"
+        )
+        out.append(FilterCost(f"TQTBank robust, 15 sensors, {backend}", "pointat", best, med, note))
     G15, A15, M15 = G.tolist(), A.tolist(), M.tolist()
 
     def fifteen() -> None:

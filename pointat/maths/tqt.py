@@ -1127,9 +1127,13 @@ class TQTBank(_TQTParams):
     State is ``(n, 4)``; :meth:`update` takes ``(n, 3)`` arrays and one ``dt`` and returns ``(n, 4)``
     quaternions (sensor -> NWU).  Every sensor follows exactly the algorithm of :class:`TQTFilter` (its own
     initialisation, rest detection, bias, references and flags), so a bank agrees with ``n`` independent
-    filters to rounding (~1e-13).  numpy's per-call overhead makes one step cost about as much as ~50
-    scalar updates (~0.28 ms) whatever ``n``: for a 15-sensor suit a list of :class:`TQTFilter` is faster
-    (~0.08 ms); the bank pays off from about 50 sensors, or where whole arrays are wanted.
+    filters to rounding (~1e-13).
+
+    Two ways to run it (``backend``): ``numba`` runs the robust update as one compiled loop over the
+    sensors (:mod:`pointat.maths.tqt_compiled`; ``pip install "pointat[fast]"``), well under a
+    microsecond per sensor; ``numpy`` vectorises across the sensors, whose per-call overhead makes one
+    step cost about as much as ~50 scalar updates (~0.3 ms) whatever ``n``, so that it only pays off from
+    about 50 sensors.  ``auto`` (default) takes numba when it is installed and the mode is robust.
 
     Parameters
     ----------
@@ -1137,6 +1141,8 @@ class TQTBank(_TQTParams):
         Number of sensors.
     k, **params
         As :class:`TQTFilter`.
+    backend : {"auto", "numba", "numpy"}
+        How the update runs (the results agree to rounding).
 
     >>> bank = TQTBank(2)
     >>> acc = np.array([[0.0, 0.0, 9.81], [0.0, 0.0, 0.0]])           # sensor 1: accelerometer dropped out
@@ -1147,11 +1153,25 @@ class TQTBank(_TQTParams):
     True
     """
 
-    def __init__(self, n: int, k: float | None = None, **params: object) -> None:
+    def __init__(self, n: int, k: float | None = None, *, backend: str = "auto", **params: object) -> None:
         if int(n) != n or n < 1:
             raise ValueError(f"n must be a positive integer, got {n!r}")
         self.n = int(n)
         super().__init__(k, **params)  # type: ignore[arg-type]
+        from pointat.maths import tqt_compiled
+
+        if backend not in ("auto", "numba", "numpy"):
+            raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', got {backend!r}")
+        if backend == "numba" and (not tqt_compiled.available() or self.mode != "robust"):
+            raise ValueError(
+                "backend='numba' needs numba (pip install \"pointat[fast]\") and mode='robust'"
+                f" (numba installed: {tqt_compiled.available()}, mode: {self.mode})"
+            )
+        numba = backend == "numba" or (
+            backend == "auto" and tqt_compiled.available() and self.mode == "robust"
+        )
+        self.backend = "numba" if numba else "numpy"
+        self._kernel = tqt_compiled.robust_step if numba else None
 
     def reset(self, q: ArrayLike | None = None) -> None:
         """Forget everything (all sensors); start from ``q`` or from each sensor's next valid acc / mag pair.
@@ -1169,7 +1189,7 @@ class TQTBank(_TQTParams):
         if q is not None:
             self._q = np.array(np.broadcast_to(quat_normalize(q), (n, 4)).T)
             self._initialised[:] = True
-        self._flags = np.where(self._initialised, 0, _UNINITIALISED)
+        self._flags = np.where(self._initialised, 0, _UNINITIALISED).astype(np.int64)
         self._bias = np.zeros((3, n))
         self._rest_t = np.zeros(n)
         self._lp_gyr = np.zeros((3, n))
@@ -1239,6 +1259,8 @@ class TQTBank(_TQTParams):
         if not 0.0 < dt < _INF:
             self._flags = np.where(self._initialised, _DT_INVALID, _DT_INVALID | _UNINITIALISED)
             return self._q.T.copy()
+        if self._kernel is not None:
+            return self._update_compiled(g, a, m, dt)
         g, a, m = g.T, a.T, m.T
         with np.errstate(all="ignore"):
             g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2]
@@ -1266,6 +1288,44 @@ class TQTBank(_TQTParams):
             good = active & (n2 > 0.0) & (n2 < _INF)
             self._q = np.where(good, q / np.sqrt(np.where(good, n2, 1.0)), self._q)
             self._flags = flags | np.where(active, more, 0)
+        return self._q.T.copy()
+
+    def _update_compiled(self, g: np.ndarray, a: np.ndarray, m: np.ndarray, dt: float) -> np.ndarray:
+        if dt != self._dt:
+            self._coefficients(dt)
+        self._kernel(  # type: ignore[misc]
+            np.ascontiguousarray(g),
+            np.ascontiguousarray(a),
+            np.ascontiguousarray(m),
+            dt,
+            self._q,
+            self._initialised,
+            self._flags,
+            self._bias,
+            self._rest_t,
+            self._lp_gyr,
+            self._lp_acc,
+            self._acc_e,
+            self._acc_known,
+            self._mag_norm,
+            self._mag_known,
+            self._dip_ref,
+            self._nref,
+            self.dip is not None,
+            self.use_gyro,
+            self.rest_gyro,
+            self.rest_acc,
+            self.rest_time,
+            self.bias_clip,
+            self.mag_norm_tol,
+            self.mag_dip_tol,
+            self._c_acc,
+            self._c_rest,
+            self._c_bias,
+            self._c_ref,
+            self._alpha,
+            self._alpha_mag,
+        )
         return self._q.T.copy()
 
     def _learn(

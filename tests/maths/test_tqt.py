@@ -486,14 +486,21 @@ def test_invalid_parameters():
 @pytest.mark.parametrize(
     "params",
     [
-        {"mode": "robust"},
+        {"mode": "robust", "backend": "numpy"},
+        {"mode": "robust", "backend": "numba"},
         {"mode": "paper"},
         {"mode": "paper", "iterations": 3, "rho": 1.5},
-        {"mode": "robust", "dip": DIP, "use_gyro": False},
+        {"mode": "robust", "dip": DIP, "use_gyro": False, "backend": "numpy"},
+        {"mode": "robust", "dip": DIP, "use_gyro": False, "backend": "numba"},
     ],
 )
-def test_bank_equals_independent_filters(params):
+def test_bank_equals_independent_filters(params, require_tool):
     """Five sensors, each its own motion, with dropped / zeroed channels and a late start."""
+    from pointat.maths import tqt_compiled
+
+    if params.get("backend") == "numba":
+        require_tool(tqt_compiled.available(), "numba is not installed (the 'fast' extra)")
+    backend = params.pop("backend", "auto")
     n = 5
     rng = np.random.default_rng(12)
     runs = [
@@ -507,7 +514,8 @@ def test_bank_equals_independent_filters(params):
             idx, who = rng.integers(0, len(arr), 100), rng.integers(0, n, 100)
             arr[idx, who] = fill
     acc[:30, 2] = np.nan  # sensor 2 starts late
-    bank = TQTBank(n, **params)
+    bank = TQTBank(n, backend=backend, **params)
+    assert bank.backend == ("numpy" if params["mode"] == "paper" else backend)
     filters = [TQTFilter(**params) for _ in range(n)]
     worst = 0.0
     for i in range(len(gyro)):
@@ -520,8 +528,9 @@ def test_bank_equals_independent_filters(params):
     assert not np.isnan(bank.q).any()
 
 
-def test_bank_reset_and_bad_dt():
-    bank = TQTBank(3)
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_bank_reset_and_bad_dt(backend):
+    bank = TQTBank(3, backend=backend)
     q0 = quat_from_axis_angle([0.0, 0.0, 1.0], 0.3)
     bank.reset(q0)
     assert bank.initialised.all()
@@ -530,3 +539,31 @@ def test_bank_reset_and_bad_dt():
     out = bank.update(np.zeros((3, 3)), np.tile([0.0, 0.0, G], (3, 1)), np.tile(FIELD, (3, 1)), math.nan)
     np.testing.assert_array_equal(out, before)
     assert (bank.flags == TQTFlags.DT_INVALID).all()
+
+
+def test_bank_backend_is_checked():
+    from pointat.maths import tqt_compiled
+
+    with pytest.raises(ValueError, match="backend must be"):
+        TQTBank(2, backend="fortran")
+    with pytest.raises(ValueError, match="needs numba"):
+        TQTBank(2, mode="paper", backend="numba")
+    assert TQTBank(2, backend="auto").backend == ("numba" if tqt_compiled.available() else "numpy")
+
+
+def test_bank_backends_agree_from_a_known_start(require_tool):
+    from pointat.maths import tqt_compiled
+
+    require_tool(tqt_compiled.available(), "numba is not installed (the 'fast' extra)")
+    q0 = quat_from_axis_angle([0.3, -0.2, 0.9], 0.7)
+    banks = [TQTBank(4, backend=b) for b in ("numpy", "numba")]
+    for bank in banks:
+        bank.reset(q0)
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        g = rng.normal(0.0, 0.3, (4, 3))
+        a = np.tile([0.0, 0.0, G], (4, 1)) + rng.normal(0.0, 0.2, (4, 3))
+        m = np.tile(FIELD, (4, 1)) + rng.normal(0.0, 0.02, (4, 3))
+        q_numpy, q_numba = (bank.update(g, a, m, 0.01) for bank in banks)
+        np.testing.assert_allclose(q_numba, q_numpy, atol=1e-12)
+        assert banks[0].flags.tolist() == banks[1].flags.tolist()
