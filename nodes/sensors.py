@@ -153,7 +153,7 @@ base.1 -> right
         try:
             reader.open(nonblocking=True)
             self._fd = reader.fileno()
-            self._runtime().add_reader(self._fd, self._readable, self)
+            self.add_reader(self._fd, self._readable)
         except (SerialException, OSError, ValueError) as exc:
             reader.close()
             self._fd = None
@@ -164,7 +164,7 @@ base.1 -> right
             self._timer = self.call_later(self._delay, self._try_open)
             self._delay = min(2.0 * self._delay, self.BACKOFF[1])
             return
-        self._failing, self._delay = False, self.BACKOFF[0]
+        self._failing = False
         self._timer = self.call_later(self.CHECK_EVERY, self._check)
 
     def _readable(self) -> None:
@@ -183,17 +183,22 @@ base.1 -> right
             self._reopen_later()
 
     def _reopen_later(self) -> None:
+        """Lost: a device that delivered data is tried again at once, one that fails right after opening
+        backs off (a broken but openable device must not make the patch spin)."""
         self._unwatch()
-        if self._reader is not None:
-            self._timer = self.call_later(self.BACKOFF[0], self._try_open)
+        if self._reader is None:
+            return
+        if self._reader.delivered:
+            self._delay = self.BACKOFF[0]
+        self._timer = self.call_later(self._delay, self._try_open)
+        self._delay = min(2.0 * self._delay, self.BACKOFF[1])
 
     def _unwatch(self) -> None:
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
         if self._fd is not None:
-            if self.rt is not None:
-                self.rt.remove_reader(self._fd)
+            self.remove_reader(self._fd)
             self._fd = None
 
     def _on_frame(self, frame: Frame, host_time: float) -> None:

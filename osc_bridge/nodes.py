@@ -699,7 +699,7 @@ phone.quat -> dir
         sock.setblocking(False)
         self._sock = sock
         self.active = True
-        self._runtime().add_reader(sock, self._readable, self)  # read on the scheduler thread: no hand-off
+        self.add_reader(sock, self._readable)  # read on the scheduler thread: no hand-off
 
     @property
     def address(self) -> tuple[str, int]:
@@ -804,6 +804,5 @@ phone.quat -> dir
         self.active = False
         sock, self._sock = self._sock, None
         if sock is not None:
-            if self.rt is not None:
-                self.rt.remove_reader(sock)
+            self.remove_reader(sock)
             sock.close()

@@ -19,6 +19,7 @@ Cheat sheet::
             self.out(0, self.p.gain * pointat.as_float(msg))
 
     pointat.make(0.5, time=1.0)                     # a float message; vector(...), bang(), method("set")
+    pointat.as_floats(pointat.vector([1, 2, 3]), 3)  # a vector is a tuple of floats: (1.0, 2.0, 3.0)
 
 Modules: :mod:`pointat.message` (messages), :mod:`pointat.node` (the node model), :mod:`pointat.registry`,
 :mod:`pointat.runtime` (scheduler, clocks), :mod:`pointat.patchfile` (the .pat format),
@@ -38,8 +39,10 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "Message": "message",
     "as_float": "message",
+    "as_floats": "message",
     "as_vector": "message",
     "bang": "message",
+    "floats": "message",
     "make": "message",
     "method": "message",
     "vector": "message",

@@ -421,10 +421,23 @@ class Node:
     def post(self, fn: Callable[..., Any], *args: Any, block: bool = True) -> bool:
         """From any thread: queue ``fn(*args)`` to run on the scheduler thread. False if it was dropped.
 
+        For a source that has a file descriptor, :meth:`add_reader` is quicker: no thread at all.
+
         ``block`` waits while the queue is full (a file replay); without it a full queue drops the event
         and counts it (a live network source must never stall its reader).
         """
         return self._runtime().post(self, fn, *args, block=block)
+
+    def add_reader(self, fileobj: Any, fn: Callable[[], Any]) -> None:
+        """Call ``fn()`` on the scheduler thread whenever ``fileobj`` (a socket, a serial port's file
+        descriptor) has data: the scheduler reads it itself, with no thread hand-off.  ``fn`` must read what
+        is there.  :meth:`remove_reader` stops it (in :meth:`close`)."""
+        self._runtime().add_reader(fileobj, fn, self)
+
+    def remove_reader(self, fileobj: Any) -> None:
+        """Stop watching ``fileobj`` (idempotent)."""
+        if self.rt is not None:
+            self.rt.remove_reader(fileobj)
 
     def spawn(self, target: Callable[[], Any], what: str = "") -> threading.Thread:
         """Start a thread for blocking I/O; the runtime joins it at shutdown."""

@@ -183,6 +183,11 @@ class SerialMoteReader:
         return self._opened.is_set()
 
     @property
+    def delivered(self) -> bool:
+        """Whether the device delivered data since it was last opened."""
+        return self._got_data
+
+    @property
     def open_count(self) -> int:
         """How many times the device was opened (reconnections + 1)."""
         return self._open_count

@@ -5,8 +5,9 @@ for a body suit (~15 sensors) that is slower than 15 separate :class:`~pointat.m
 When numba is installed (``pip install "pointat[fast]"``), :class:`~pointat.maths.tqt.TQTBank` runs
 this kernel instead: for every sensor, the float algorithm of :meth:`TQTFilter.update
 <pointat.maths.tqt.TQTFilter.update>` in robust mode, line for line (initialisation by TRIAD, rest
-detection and bias, earth-frame acceleration low-pass, gated heading correction), on the bank's own
-state arrays.  It agrees with the filter to rounding.  Without numba, or in paper mode, the bank keeps
+detection and bias, earth-frame acceleration low-pass, gated heading correction) with the filter's own
+``_rotate`` and ``_mul_exp``, on the bank's own state arrays.  It agrees with the filter to rounding;
+``tests/maths/test_tqt.py`` holds the three (filter, numpy bank, compiled bank) together.  Without numba, or in paper mode, the bank keeps
 its numpy path.
 
 The kernel is compiled at the first bank update of a process (a few seconds; numba caches the machine
@@ -29,6 +30,8 @@ from pointat.maths.tqt import (
     _MAG_INVALID,
     _REST,
     _UNINITIALISED,
+    _mul_exp,
+    _rotate,
 )
 
 __all__ = ["available", "robust_step"]
@@ -44,31 +47,6 @@ _PARALLEL_EPS = 1e-6  # as pointat.maths.scalar.accmag_matrix
 def available() -> bool:
     """Whether numba is installed, so that :func:`robust_step` is compiled."""
     return njit is not None
-
-
-def _rotate(w: float, x: float, y: float, z: float, vx: float, vy: float, vz: float) -> tuple:
-    tx = 2.0 * (y * vz - z * vy)
-    ty = 2.0 * (z * vx - x * vz)
-    tz = 2.0 * (x * vy - y * vx)
-    return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
-
-
-def _mul_exp(w: float, x: float, y: float, z: float, hx: float, hy: float, hz: float) -> tuple:
-    n2 = hx * hx + hy * hy + hz * hz
-    if n2 < _EXP_TAYLOR:
-        c, s = 1.0 - 0.5 * n2, 1.0 - n2 / 6.0
-    else:
-        n = math.sqrt(n2)
-        c, s = math.cos(n), math.sin(n) / n
-    hx *= s
-    hy *= s
-    hz *= s
-    return (
-        w * c - x * hx - y * hy - z * hz,
-        w * hx + x * c + y * hz - z * hy,
-        w * hy - x * hz + y * c + z * hx,
-        w * hz + x * hy - y * hx + z * c,
-    )
 
 
 def _triad(ax: float, ay: float, az: float, mx: float, my: float, mz: float) -> tuple:
@@ -252,7 +230,7 @@ def _compile() -> Callable[..., Any] | None:
     if njit is None:
         return None
     jit = njit(cache=True, nogil=True)
-    global _rotate, _mul_exp, _triad  # the kernel calls the compiled helpers
+    global _rotate, _mul_exp, _triad  # the kernel calls compiled helpers (TQTFilter's own _rotate, _mul_exp)
     _rotate, _mul_exp, _triad = jit(_rotate), jit(_mul_exp), jit(_triad)
     return jit(_robust_step)
 
