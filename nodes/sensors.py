@@ -54,7 +54,9 @@ class Mote(Node):
     counter at ``rate``, so lost packets keep the timing right).  Garbage is skipped, corrupt frames
     dropped and counted, lost packets reported on ``events``; when the device vanishes the port is
     reopened as soon as it comes back.  ``open PATH`` / ``close`` switch device while running; a
-    symbol at the left inlet opens that path (wire ``simulate``'s ``device`` outlet here).
+    symbol at the left inlet opens that path (wire ``simulate``'s ``device`` outlet here).  ``stats``
+    (or a bang) sends ``stats received corrupt lost garbage_bytes`` on ``events``.  The port is read on
+    the scheduler thread itself (no thread hand-off between the device and the chain).
     """
 
     inlets = (
