@@ -84,6 +84,8 @@ class LatencyResult:
     cpu_fraction: float | None = None
     rss_peak_kb: int | None = None
     error: str = ""
+    #: run at real-time priority (pointat ``--rt``; a floor under ``chrt -f``), as Pd runs by default as root
+    realtime: bool = False
 
     @property
     def received(self) -> int:
@@ -252,12 +254,25 @@ def stop_process(proc: subprocess.Popen) -> None:
             proc.wait(timeout=3.0)
 
 
-def pointat_command(patch: Path, overrides: list[str], seconds: float) -> list[str]:
-    """``pointat run PATCH --set ... --for SECONDS`` through this interpreter."""
-    cmd = [sys.executable, "-m", "pointat.cli", "run", str(patch)]
+def pointat_command(patch: Path, overrides: list[str], seconds: float, realtime: bool = False) -> list[str]:
+    """``pointat run [--rt] PATCH --set ... --for SECONDS`` through this interpreter."""
+    cmd = [sys.executable, "-m", "pointat.cli", "run", *(["--rt"] if realtime else []), str(patch)]
     for o in overrides:
         cmd += ["--set", o]
     return cmd + ["--for", f"{seconds:.0f}"]
+
+
+#: Real-time priority for the floors, as pointat's ``--rt`` asks for it (SCHED_FIFO 10).
+CHRT = ["chrt", "-f", "10"]
+
+
+def realtime_refused() -> str:
+    """Why real-time priority cannot be had here ("" when it can): the --rt rows need it."""
+    if not hasattr(os, "sched_setscheduler") or shutil.which("chrt") is None:
+        return "no real-time scheduling (sched_setscheduler, chrt) on this system"
+    if os.geteuid() != 0:
+        return "real-time priority needs root (or an rtprio limit) here"
+    return ""
 
 
 def shown(cmd: list[str]) -> str:
@@ -583,7 +598,13 @@ def _measure(
 
 
 def run_pointat_mote(
-    chain: str, rate: float, motes: int, phases: Phases, sample: dict[str, np.ndarray], workdir: Path
+    chain: str,
+    rate: float,
+    motes: int,
+    phases: Phases,
+    sample: dict[str, np.ndarray],
+    workdir: Path,
+    realtime: bool = False,
 ) -> LatencyResult:
     """pointat's mote path: frames into a pty -> ``mote`` -> chain(s) -> ``osc_out`` -> our socket."""
     patch = PATCHES / f"mote_{chain}_{motes}.pat"
@@ -593,11 +614,15 @@ def run_pointat_mote(
     overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
     overrides += [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
     total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
-    cmd = pointat_command(patch, overrides, total)
-    res = LatencyResult(
-        f"pointat {chain} (mote, pty)", "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes)
-    )
-    log = workdir / f"mote_{chain}_{motes}_{rate:g}.log"
+    cmd = pointat_command(patch, overrides, total, realtime)
+    label = f"pointat {chain} (mote, pty{', --rt' if realtime else ''})"
+    res = LatencyResult(label, "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes), realtime=realtime)
+    if realtime and realtime_refused():
+        src.close()
+        sock.close()
+        res.error = realtime_refused()
+        return res
+    log = workdir / f"mote_{chain}_{motes}_{rate:g}{'_rt' if realtime else ''}.log"
     return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, motes)
 
 
@@ -617,7 +642,12 @@ def _shown_mote(cmd: list[str], motes: int) -> str:
 
 
 def run_pointat_udp(
-    chain: str, rate: float, phases: Phases, sample: dict[str, np.ndarray], workdir: Path
+    chain: str,
+    rate: float,
+    phases: Phases,
+    sample: dict[str, np.ndarray],
+    workdir: Path,
+    realtime: bool = False,
 ) -> LatencyResult:
     """pointat's UDP path: one OSC bundle per sample -> ``osc_in`` -> fusion -> ``osc_out`` -> our socket."""
     patch = PATCHES / f"oscin_{chain}.pat"
@@ -626,9 +656,15 @@ def run_pointat_udp(
     src = UdpSource(in_port, "bundle", sample)
     overrides = [f"src.port={in_port}", f"out.port={sock.getsockname()[1]}"]
     total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
-    cmd = pointat_command(patch, overrides, total)
-    res = LatencyResult(f"pointat {chain} (osc_in, UDP)", "pointat-udp", chain, rate, 1, shown(cmd))
-    log = workdir / f"oscin_{chain}_{rate:g}.log"
+    cmd = pointat_command(patch, overrides, total, realtime)
+    label = f"pointat {chain} (osc_in, UDP{', --rt' if realtime else ''})"
+    res = LatencyResult(label, "pointat-udp", chain, rate, 1, shown(cmd), realtime=realtime)
+    if realtime and realtime_refused():
+        src.close()
+        sock.close()
+        res.error = realtime_refused()
+        return res
+    log = workdir / f"oscin_{chain}_{rate:g}{'_rt' if realtime else ''}.log"
     return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, 1)
 
 
@@ -646,9 +682,17 @@ def pd_version() -> str | None:
 
 
 def run_floor(
-    kind: str, rate: float, phases: Phases, sample: dict[str, np.ndarray], workdir: Path
+    kind: str,
+    rate: float,
+    phases: Phases,
+    sample: dict[str, np.ndarray],
+    workdir: Path,
+    realtime: bool = False,
 ) -> LatencyResult:
-    """A transport floor: ``python-osc`` relay, ``pd`` (default flags) or ``pd-sg0.1`` (-sleepgrain 0.1)."""
+    """A transport floor: ``python-osc`` relay, ``pd`` (default flags) or ``pd-sg0.1`` (-sleepgrain 0.1).
+
+    ``realtime`` runs the python-osc relay under ``chrt -f 10`` (Pd takes real-time priority itself).
+    """
     sock = receiver_socket()
     in_port = free_udp_port()
     out_port = sock.getsockname()[1]
@@ -666,6 +710,9 @@ def run_floor(
         ]
         cmd += ["--for", f"{total:.0f}"]
         label = "python-osc relay"
+        if realtime:
+            cmd = [*CHRT, *cmd]
+            label += " (chrt -f 10)"
     else:
         text = (PATCHES / "relay.pd").read_text()
         text = text.replace("IN_PORT", str(in_port)).replace("OUT_PORT", str(out_port))
@@ -678,7 +725,12 @@ def run_floor(
         cmd += ["-open", str(pd_patch)]
         label = "Pd relay" + (" -sleepgrain 0.1" if kind == "pd-sg0.1" else " (default flags)")
     shown_cmd = shown(cmd).replace(str(workdir / f"relay_{in_port}.pd"), "benchmarks/patches/relay.pd")
-    res = LatencyResult(label, "floor", kind, rate, 1, shown_cmd)
+    res = LatencyResult(label, "floor", kind, rate, 1, shown_cmd, realtime=realtime)
+    if realtime and realtime_refused():
+        src.close()
+        sock.close()
+        res.error = realtime_refused()
+        return res
     if kind != "python-osc" and shutil.which("pd") is None:
         src.close()
         sock.close()
@@ -762,6 +814,26 @@ def run_all(
                 ("Pd relay -sleepgrain 0.1", partial(run_floor, "pd-sg0.1", rate, ph, sample, workdir)),
             ]
             plan.append(("python pty relay", partial(run_floor_pty, rate, ph, sample, workdir)))
+            # at real-time priority, as Pd runs by default when it may (pointat --rt, the relay under chrt)
+            plan.append(
+                (
+                    "python-osc relay, real-time",
+                    partial(run_floor, "python-osc", rate, ph, sample, workdir, True),
+                )
+            )
+            for chain in ("torre", "tqt"):
+                plan.append(
+                    (
+                        f"pointat {chain} osc_in --rt",
+                        partial(run_pointat_udp, chain, rate, ph, sample, workdir, True),
+                    )
+                )
+                plan.append(
+                    (
+                        f"pointat {chain} mote x1 --rt",
+                        partial(run_pointat_mote, chain, rate, 1, ph, sample, workdir, True),
+                    )
+                )
             for motes in (1, 16):
                 for chain in ("torre", "tqt"):
                     plan.append(

@@ -14,6 +14,7 @@ from . import __version__
 from .errors import PatchError, PointatError
 from .loader import build, check, parse_overrides, read_spec
 from .registry import Registry, default_registry
+from .runtime import realtime_priority
 
 log = logging.getLogger("pointat")
 
@@ -67,6 +68,12 @@ def _parser() -> argparse.ArgumentParser:
     _add_patch_args(p)
     p.add_argument(
         "--for", dest="duration", type=float, metavar="SECONDS", help="stop after this many seconds"
+    )
+    p.add_argument(
+        "--rt",
+        action="store_true",
+        help="real-time priority (SCHED_FIFO), as Pd's -rt: steadier latency on a busy machine; needs root "
+        "or an rtprio limit",
     )
 
     p = sub.add_parser("check", help="validate a patch without running it")
@@ -144,6 +151,12 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    if args.rt:
+        refused = realtime_priority()
+        if refused:
+            log.warning("--rt: real-time priority %s; running at normal priority", refused)
+        else:
+            log.info("running at real-time priority (SCHED_FIFO)")
     log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
     rt.run(args.duration)
     return 0

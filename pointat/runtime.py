@@ -24,6 +24,7 @@ from __future__ import annotations
 import heapq
 import itertools
 import logging
+import os
 import queue
 import selectors
 import socket
@@ -36,9 +37,26 @@ from .errors import FeedbackError, PointatError
 from .message import make, method
 from .node import Node
 
-__all__ = ["ManualClock", "RealClock", "Runtime", "StartError", "Timer"]
+__all__ = ["ManualClock", "RealClock", "Runtime", "StartError", "Timer", "realtime_priority"]
 
 log = logging.getLogger("pointat.runtime")
+
+
+def realtime_priority(priority: int = 10) -> str | None:
+    """Ask the system to run the calling thread, and the threads it starts later, at real-time
+    (``SCHED_FIFO``) priority ``priority``, as Pd's ``-rt`` does: other work on the machine then cannot
+    delay the scheduler.  Returns ``None`` when granted, else why not (the thread keeps its priority).
+    """
+    setter = getattr(os, "sched_setscheduler", None)
+    if setter is None:
+        return "real-time scheduling is not available on this system"
+    try:
+        setter(0, os.SCHED_FIFO, os.sched_param(priority))
+    except PermissionError:
+        return "not permitted: run as root, or allow it with an rtprio limit (/etc/security/limits.conf)"
+    except OSError as exc:
+        return str(exc)
+    return None
 
 
 class StartError(PointatError):

@@ -60,6 +60,32 @@ def test_main_job_prints_directions():
     assert -180 <= az < 180
 
 
+def test_rt_runs_at_real_time_priority_or_says_why_not(tmp_path):
+    """``--rt`` asks for SCHED_FIFO as Pd's -rt does; granted (root) or not, the patch runs."""
+    probe = tmp_path / "probe.py"  # a plugin node that reports the scheduler thread's policy
+    probe.write_text(
+        "import os\nfrom pointat import Node, Outlet, register\n"
+        "@register('policy_probe')\nclass Probe(Node):\n"
+        "    outlets = (Outlet('out', 'symbol'),)\n"
+        "    def loadbang(self):\n"
+        "        policy = os.sched_getscheduler(0) if hasattr(os, 'sched_getscheduler') else -1\n"
+        "        self.out(0, 'fifo' if policy == getattr(os, 'SCHED_FIFO', -2) else 'normal')\n"
+    )
+    patch = tmp_path / "rt.pat"
+    patch.write_text("node p policy_probe\nnode show print policy\np -> show\n")
+    out = pointat("run", "--rt", "--plugins", tmp_path, patch, "--for", "0.5")
+    assert out.returncode == 0, out.stderr
+    granted = "--rt: real-time priority" not in out.stderr
+    assert ("policy: symbol fifo" if granted else "policy: symbol normal") in out.stdout, (
+        out.stdout,
+        out.stderr,
+    )
+    if not granted:
+        assert "running at normal priority" in out.stderr
+    plain = pointat("run", "--plugins", tmp_path, patch, "--for", "0.5")
+    assert "policy: symbol normal" in plain.stdout, plain.stdout
+
+
 def test_a_bad_patch_gives_located_errors_and_no_traceback(tmp_path):
     bad = tmp_path / "bad.pat"
     bad.write_text("node a metr 100\nnode b print\nnode c tqt k=fast\na -> b.3\n")
