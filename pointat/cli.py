@@ -22,6 +22,7 @@ EPILOG = """\
 examples:
   pointat run patches/pointing_at.pat --for 30     run the Pointing-at chain on the simulated glove
   pointat run my.pat --set fuse.k=0.2              override a parameter
+  pointat run --rt my.pat                          at real-time priority, as Pd's -rt
   pointat check my.pat                              validate without running
   pointat nodes                                     list the node types
   pointat help tqt                                  a node's inlets, outlets, parameters, example
