@@ -585,7 +585,15 @@ def _measure(
     period: int | None,
     n_sources: int,
 ) -> LatencyResult:
-    """Run ``cmd`` as a child, drive ``src`` at ``rate`` into it, fill ``res``; always close src and sock."""
+    """Run ``cmd`` as a child, drive ``src`` at ``rate`` into it, fill ``res``; always close src and sock.
+
+    A ``realtime`` row where real-time priority cannot be had is reported as failed, with the reason.
+    """
+    if res.realtime and realtime_refused():
+        res.error = realtime_refused()
+        src.close()
+        sock.close()
+        return res
     try:
         with child_process(cmd, log) as proc:
             _finish(res, proc, drive(src.tick, rate, sock, phases, proc), key, period, n_sources)
@@ -617,11 +625,6 @@ def run_pointat_mote(
     cmd = pointat_command(patch, overrides, total, realtime)
     label = f"pointat {chain} (mote, pty{', --rt' if realtime else ''})"
     res = LatencyResult(label, "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes), realtime=realtime)
-    if realtime and realtime_refused():
-        src.close()
-        sock.close()
-        res.error = realtime_refused()
-        return res
     log = workdir / f"mote_{chain}_{motes}_{rate:g}{'_rt' if realtime else ''}.log"
     return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, motes)
 
@@ -659,11 +662,6 @@ def run_pointat_udp(
     cmd = pointat_command(patch, overrides, total, realtime)
     label = f"pointat {chain} (osc_in, UDP{', --rt' if realtime else ''})"
     res = LatencyResult(label, "pointat-udp", chain, rate, 1, shown(cmd), realtime=realtime)
-    if realtime and realtime_refused():
-        src.close()
-        sock.close()
-        res.error = realtime_refused()
-        return res
     log = workdir / f"oscin_{chain}_{rate:g}{'_rt' if realtime else ''}.log"
     return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, 1)
 
@@ -726,11 +724,6 @@ def run_floor(
         label = "Pd relay" + (" -sleepgrain 0.1" if kind == "pd-sg0.1" else " (default flags)")
     shown_cmd = shown(cmd).replace(str(workdir / f"relay_{in_port}.pd"), "benchmarks/patches/relay.pd")
     res = LatencyResult(label, "floor", kind, rate, 1, shown_cmd, realtime=realtime)
-    if realtime and realtime_refused():
-        src.close()
-        sock.close()
-        res.error = realtime_refused()
-        return res
     if kind != "python-osc" and shutil.which("pd") is None:
         src.close()
         sock.close()
