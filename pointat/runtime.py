@@ -113,6 +113,19 @@ class Timer:
         self.cancelled = True
 
 
+class _Reader:
+    """A watched descriptor's callback, and how often in a row it has failed."""
+
+    #: Consecutive failures after which a descriptor is no longer watched (a callback that raises before
+    #: reading leaves its descriptor readable: the scheduler would spin on it).
+    GIVE_UP = 100
+
+    __slots__ = ("node", "callback", "failures")
+
+    def __init__(self, node: Node | None, callback: Callable[[], Any]) -> None:
+        self.node, self.callback, self.failures = node, callback, 0
+
+
 class Runtime:
     """Runs a graph of connected nodes.  Build one with :func:`pointat.loader.build` or by hand."""
 
@@ -238,7 +251,7 @@ class Runtime:
         a timer, a handler).  A failure in the callback is logged with ``node``'s name and the patch goes
         on; the callback must read what is there (the descriptor stays readable until it does).
         """
-        self._io().register(fileobj, selectors.EVENT_READ, (node, callback))
+        self._io().register(fileobj, selectors.EVENT_READ, _Reader(node, callback))
 
     def remove_reader(self, fileobj: Any) -> None:
         """Stop watching ``fileobj`` (idempotent: a descriptor that is not watched is ignored)."""
@@ -439,8 +452,17 @@ class Runtime:
                 except (BlockingIOError, OSError):
                     pass
                 continue
-            node, callback = key.data
-            self._guard(node, callback)
+            reader = key.data
+            if self._guard(reader.node, reader.callback):
+                reader.failures = 0
+            else:
+                reader.failures += 1
+                if reader.failures >= _Reader.GIVE_UP:  # it fails without reading: do not spin on it
+                    who = f"node '{reader.node.name}'" if reader.node is not None else "a reader"
+                    log.error(
+                        "%s failed %d times in a row: its input is no longer read", who, reader.failures
+                    )
+                    self.remove_reader(key.fileobj)
             n += 1
         try:  # what is queued now, not what keeps coming: timers get their turn between polls
             for _ in range(self._queue.qsize()):
@@ -456,11 +478,12 @@ class Runtime:
         node, fn, args = item
         self._guard(node, fn, *args)
 
-    def _guard(self, node: Node | None, fn: Callable, *args: Any) -> None:
-        """Run one event; a failure is logged with the node's name and the patch goes on."""
+    def _guard(self, node: Node | None, fn: Callable, *args: Any) -> bool:
+        """Run one event; a failure is logged with the node's name and the patch goes on.  True if it ran."""
         self.depth = 0
         try:
             fn(*args)
+            return True
         except FeedbackError as exc:
             log.error("%s", exc)
         except Exception as exc:
@@ -468,3 +491,4 @@ class Runtime:
             log.error("%s: %s: %s", who, type(exc).__name__, exc, exc_info=log.isEnabledFor(logging.DEBUG))
         finally:
             self.depth = 0
+        return False

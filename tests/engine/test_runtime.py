@@ -280,3 +280,49 @@ def test_descriptors_are_read_on_the_scheduler_thread_and_a_failing_reader_does_
         rt.stop()
         th.join(timeout=5)
     assert not th.is_alive()
+
+
+class Stuck(Node):
+    """A test source whose callback raises before it reads: its socket stays readable."""
+
+    type_name = "stuck_test"
+
+    def start(self):
+        import socket
+
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.setblocking(False)
+        self.calls = 0
+        self.active = True
+        self.add_reader(self.sock, self.readable)
+
+    def readable(self):
+        self.calls += 1
+        raise OSError("the device is in a bad state")
+
+    def close(self):
+        self.remove_reader(self.sock)
+        self.sock.close()
+
+
+def test_a_reader_that_keeps_failing_is_dropped_and_the_patch_goes_on(caplog):
+    import socket
+
+    rt = patch("node lb loadbang\nnode tick metro 10\nnode n collect\nlb -> tick -> n\n", realtime=True)
+    stuck = rt.add(Stuck("stuck"))
+    th = rt.run_in_thread(duration=20)
+    try:
+        assert wait_until(lambda: hasattr(stuck, "sock"))
+        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        tx.sendto(b"x", stuck.sock.getsockname())
+        tx.close()
+        assert wait_until(lambda: "no longer read" in caplog.text)
+        assert stuck.calls == 100  # then it is not called again, though its datagram is still there
+        ticks = len(rt.nodes["n"].messages)
+        assert wait_until(lambda: len(rt.nodes["n"].messages) > ticks + 5)  # timers run on
+        assert stuck.calls == 100
+    finally:
+        rt.stop()
+        th.join(timeout=5)
+    assert not th.is_alive()
