@@ -752,7 +752,8 @@ phone.quat -> dir
                 self._handle(messages, t)
             except Exception as exc:  # one bad packet never stops the listening (nor counts against it)
                 self.malformed += 1
-                log.warning("osc_in '%s': packet from %s dropped: %s", self.name, sender[0], exc)
+                if worth_reporting(self.malformed):
+                    log.warning("osc_in '%s': packet from %s dropped: %s", self.name, sender[0], exc)
 
     def _handle(self, messages: list[tuple[str, list[Any]]], t: float) -> None:
         """Scheduler thread: route one packet's messages."""
