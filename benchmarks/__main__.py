@@ -106,6 +106,7 @@ def machine_info() -> dict[str, str]:
         "ahrs": _version("ahrs"),
         "imufusion": _version("imufusion"),
         "vqf": _version("vqf"),
+        "numba": _version("numba"),
         "Pure Data": pd_version() or "not installed",
     }
     return info

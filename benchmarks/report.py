@@ -112,6 +112,13 @@ def _latency_section(run: Run) -> list[str]:
                 note.append("**overloaded**: does not keep up; the latency is its buffers filling")
             if r.duplicates:
                 note.append(f"{r.duplicates} ambiguous matches")
+            pds = [_find(lat, "floor", kind, rate) for kind in ("pd", "pd-sg0.1")]
+            if r.family.startswith("pointat") and all(pds):
+                note.append(
+                    "p50 / p99 over Pd's: "
+                    + ", ".join(f"{r.p50 / pd.p50:.2f} / {r.p99 / pd.p99:.2f}" for pd in pds)  # type: ignore[union-attr]
+                    + " (default, -sleepgrain 0.1)"
+                )
             if r.family == "pointat-mote" and pty_floor:
                 note.append(
                     f"p50 / p99 over the pty relay's: {r.p50 / pty_floor.p50:.2f} / {r.p99 / pty_floor.p99:.2f}"
