@@ -201,7 +201,6 @@ class SerialMoteReader:
         """Start the reader thread (no-op if running).  Returns ``self``."""
         if self.is_running:
             return self
-        self._nonblocking = False
         self._stop.clear()
         self._thread = start_daemon(self._run, f"mote-reader:{self.port_path}")
         return self
@@ -230,7 +229,7 @@ class SerialMoteReader:
         while not self._stop.is_set():
             if self._port is None:
                 try:
-                    self._open()
+                    self.open(nonblocking=False)
                 except (serial.SerialException, OSError, ValueError) as exc:
                     if not failed_since_open:
                         log.warning("cannot open mote port %s: %s (retrying)", self.port_path, exc)
@@ -240,16 +239,7 @@ class SerialMoteReader:
                     delay = min(2.0 * delay, self.backoff[1])
                     continue
                 failed_since_open = False
-                self._emit(DeviceOpened(self.port_path, os.path.realpath(self.port_path), self._open_count))
-            try:
-                self._poll()
-            except (serial.SerialException, OSError) as exc:
-                self._lose(str(exc) or type(exc).__name__)
-            except Exception as exc:  # keep the thread alive whatever happens, but say so
-                log.exception("mote reader on %s: unexpected error", self.port_path)
-                self._emit(ReaderError(self.port_path, "loop", repr(exc)))
-                self._lose(repr(exc))
-            if self._port is None and not self._stop.is_set():
+            if not self.poll() and not self._stop.is_set():
                 # lost: a device that delivered data retries at once; one that fails right after
                 # opening backs off, so a broken but openable device cannot make the loop spin
                 if self._got_data:
@@ -288,7 +278,7 @@ class SerialMoteReader:
             self._poll()
         except (serial.SerialException, OSError) as exc:
             self._lose(str(exc) or type(exc).__name__)
-        except Exception as exc:
+        except Exception as exc:  # keep the reader alive whatever happens, but say so
             log.exception("mote reader on %s: unexpected error", self.port_path)
             self._emit(ReaderError(self.port_path, "loop", repr(exc)))
             self._lose(repr(exc))
@@ -338,9 +328,7 @@ class SerialMoteReader:
         else:
             data = port.read(max(1, port.in_waiting))
         if not data:  # idle: is the device still where its path says?
-            reason = self._path_problem()
-            if reason:
-                self._lose(reason)
+            self.check()
             return
         host_time = time.monotonic()
         with self._lock:
