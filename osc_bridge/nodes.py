@@ -41,7 +41,7 @@ __all__ = [
     "OscIn",
     "OscOut",
     "UpdateEncoder",
-    "check_bundle",
+    "decode_packet",
     "destinations",
     "encode_bundle",
     "encode_message",
@@ -133,26 +133,6 @@ def encode_bundle(datagrams: Sequence[bytes], when: float | None) -> bytes:
     return b"".join(parts)
 
 
-def check_bundle(data: bytes) -> None:
-    r"""Raise ``ValueError`` when a bundle's element sizes do not fit the packet (python-osc reads on).
-
-    >>> check_bundle(encode_bundle([b"/a\x00\x00,\x00\x00\x00"], None))
-    >>> check_bundle(b"#bundle\x00" + IMMEDIATELY + struct.pack(">i", 64) + b"/a\x00\x00")
-    Traceback (most recent call last):
-    ...
-    ValueError: bundle element of 64 bytes at byte 16 does not fit in 24
-    """
-    if not data.startswith(b"#bundle\x00"):
-        return
-    i = 16
-    while i < len(data):
-        size = struct.unpack(">i", data[i : i + 4])[0] if i + 4 <= len(data) else -1
-        if size <= 0 or size % 4 or i + 4 + size > len(data):
-            raise ValueError(f"bundle element of {size} bytes at byte {i} does not fit in {len(data)}")
-        check_bundle(data[i + 4 : i + 4 + size])
-        i += 4 + size
-
-
 # --------------------------------------------------------------------------- decoding
 #: Fixed-size argument types: struct code and size in bytes (OSC 1.0 and the common 1.1 additions).
 _FIXED = {"i": "i", "f": "f", "d": "d", "h": "q"}
@@ -239,6 +219,10 @@ def decode_packet(data: bytes) -> list[tuple[str, list[Any]]]:
 
     >>> decode_packet(encode_bundle([encode_message("/a", [1.5, 2]), encode_message("/b", ["x"])], None))
     [('/a', [1.5, 2]), ('/b', ['x'])]
+    >>> decode_packet(b"#bundle\x00" + IMMEDIATELY + struct.pack(">i", 64) + b"/a\x00\x00")
+    Traceback (most recent call last):
+    ...
+    ValueError: bundle element of 64 bytes at byte 16 does not fit in 24
     """
     out: list[tuple[str, list[Any]]] = []
     _decode(data, 0, len(data), out, 0)
@@ -422,7 +406,7 @@ dir.azimuth -> out.azimuth
     def setup(self) -> None:
         self.profile = PROFILES[self.p.profile]
         self.messages = self.profile.messages or ((self.p.address, check_fields(self.p.fields)),)
-        self._encoder = UpdateEncoder(self.profile, self.p.source or self.profile.first, self.messages)
+        self._compile()
         self.dests = [
             _Destination(h, p)
             for h, p in destinations(self.p.host, self.p.port or self.profile.port, self.p.to)
@@ -527,18 +511,19 @@ dir.azimuth -> out.azimuth
         self.updates += 1
         az, el, dist, spread = update
         src = Source(self.p.source or self.profile.first, az, el, dist, spread, self.p.radius)
-        self._send(self._encoder.encode(src))
+        self.send(self._encoder.encode(src))
 
     def param_changed(self, name: str) -> None:
         if name == "source":
-            self._encoder = UpdateEncoder(self.profile, self.p.source or self.profile.first, self.messages)
+            self._compile()
+
+    def _compile(self) -> None:
+        """The encoder of one update for the current source number (addresses and tags encoded once)."""
+        self._encoder = UpdateEncoder(self.profile, self.p.source or self.profile.first, self.messages)
 
     # sending -------------------------------------------------------------------
-    def send(self, messages: Sequence[tuple[str, Sequence[Any]]]) -> None:
-        """Send (address, arguments) pairs, as messages or one bundle, to every destination."""
-        self._send([encode_message(address, args) for address, args in messages])
-
-    def _send(self, datagrams: list[bytes]) -> None:
+    def send(self, datagrams: list[bytes]) -> None:
+        """Send encoded OSC messages, as they are or as one bundle, to every destination."""
         if self.p.bundle:
             when = time.time() + self.p.delay / 1000.0 if self.p.delay > 0 else None
             datagrams = [encode_bundle(datagrams, when)]
