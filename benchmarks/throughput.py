@@ -90,41 +90,33 @@ def udp_sink(seconds: float = 900.0) -> Iterator[int]:
 
 
 @contextlib.contextmanager
-def udp_hole() -> Iterator[int]:
+def udp_hole() -> Iterator[socket.socket]:
     """A UDP socket in this process that nobody waits on: sending to it wakes no receiver.
 
-    Yields its port; :func:`_empty` drops what arrived between runs.
+    Yields the socket; :func:`_empty` drops what arrived, between runs.
     """
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 24)
         sock.bind(("127.0.0.1", 0))
         sock.setblocking(False)
-        _HOLES[sock.getsockname()[1]] = sock
-        yield sock.getsockname()[1]
+        yield sock
     finally:
-        _HOLES.pop(sock.getsockname()[1], None)
         sock.close()
 
 
-_HOLES: dict[int, socket.socket] = {}
-
-
-def _empty(port: int) -> None:
-    sock = _HOLES.get(port)
-    try:
-        while sock is not None and sock.recv(2048):
+def _empty(sock: socket.socket) -> None:
+    with contextlib.suppress(BlockingIOError):
+        while sock.recv(2048):
             pass
-    except BlockingIOError:
-        pass
 
 
-def wake_cost(sink_port: int, hole_port: int, n: int = 2000, gap: float = 50e-6) -> tuple[float, float]:
+def wake_cost(sink_port: int, hole: socket.socket, n: int = 2000, gap: float = 50e-6) -> tuple[float, float]:
     """Microseconds one ``send`` of a 40-byte datagram takes, ``gap`` seconds after the previous one, to the
     sink process (asleep between datagrams, as a receiver is) and to the hole (nobody to wake): the best
     of 3 rounds of ``n`` each."""
     result = []
-    for port in (sink_port, hole_port):
+    for port in (sink_port, hole.getsockname()[1]):
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         sock.connect(("127.0.0.1", port))
         best = math.inf
@@ -139,7 +131,7 @@ def wake_cost(sink_port: int, hole_port: int, n: int = 2000, gap: float = 50e-6)
                 total += time.perf_counter() - t
             best = min(best, 1e6 * total / n)
         sock.close()
-        _empty(port)
+        _empty(hole)
         result.append(best)
     return result[0], result[1]
 
@@ -292,7 +284,6 @@ def push_rate(chain: str, messages: list[Message], port: int, record: bool = Fal
         wall = min(wall, time.perf_counter() - t0)
     nodes = dict(rt.nodes)
     rt.shutdown()
-    _empty(port)
     return PatchRate(chain, how, size, wall), recorded, nodes
 
 
@@ -612,7 +603,8 @@ def run_all(
             pushed, recorded, nodes = push_rate(chain, messages, port)
             res.patches.append(pushed)
             res.chain_totals[chain] = pushed.us_per_sample
-            res.patches.append(push_rate(chain, messages, hole, how=PUSHED_NO_WAKE)[0])
+            res.patches.append(push_rate(chain, messages, hole.getsockname()[1], how=PUSHED_NO_WAKE)[0])
+            _empty(hole)
             _, recorded, nodes = push_rate(chain, messages, port, record=True)
             res.nodes += node_costs(chain, recorded, nodes, n_push, port)
             res.hotspots[chain] = profile_chain(chain, messages, port)
