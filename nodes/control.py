@@ -273,9 +273,7 @@ class Unpack(Node):
         return cls.inlets, tuple(Outlet(f"out{i}", "any", f"element {i}") for i in range(n))
 
     def on_in(self, msg: Message) -> None:
-        if msg.kind == "vector":
-            items = np.ravel(msg.value).tolist()
-        elif msg.kind == "list":
+        if msg.kind == "vector" or msg.kind == "list":  # a vector is a flat tuple of floats
             items = list(msg.value)
         elif msg.is_method:
             items = [msg.kind, *msg.value]

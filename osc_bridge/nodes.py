@@ -30,7 +30,7 @@ from typing import Any
 from pythonosc.osc_packet import OscPacket
 
 from pointat.errors import worth_reporting
-from pointat.message import Message, as_float, make, method, vector
+from pointat.message import Message, as_float, floats, make, method
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
 from pointat.runtime import Timer
@@ -669,6 +669,7 @@ phone.quat -> dir
         self.rules: tuple[Rule, ...] = SENSORS[self.p.device] + tuple(parse_rule(m) for m in self.p.map)
         self._outlet = {name: i for i, name in enumerate(o.name for o in self.outlets)}
         self._allow = _allowed_networks(self.p.allow)
+        self._routes: dict[str, tuple[tuple[int, Rule], ...]] = {}
         self._sock: socket.socket | None = None
         self.received = 0
         self.malformed = 0
@@ -747,20 +748,34 @@ phone.quat -> dir
             self.received += 1
             if self.p.control and address.startswith("/pointat/") and self._control(address, args):
                 continue
-            outputs = []
-            for rule in self.rules:
-                if rule.matches(address):
-                    try:
-                        outputs.append((self._outlet[rule.outlet], rule.extract(args)))
-                    except ValueError as exc:
-                        self.malformed += 1
-                        if self.malformed <= 3:
-                            log.warning("osc_in '%s': %s dropped (%s)", self.name, address, exc)
-            if outputs:
-                for outlet, values in sorted(outputs, key=lambda o: -o[0]):  # right to left
-                    self.out(outlet, vector(values, self.time))
+            routes = self._routes.get(address)
+            if routes is None:
+                routes = self._route(address)
+            if not routes:
+                self.out(4, method(address, *args))
                 continue
-            self.out(4, method(address, *args))
+            outputs = []
+            for outlet, rule in routes:
+                try:
+                    outputs.append((outlet, rule.extract(args)))
+                except ValueError as exc:
+                    self.malformed += 1
+                    if self.malformed <= 3:
+                        log.warning("osc_in '%s': %s dropped (%s)", self.name, address, exc)
+            for outlet, values in outputs:
+                self.out(outlet, floats(tuple(values), self.time))
+
+    #: Addresses whose matching rules are remembered (a sensor sends the same few; a flood of new ones
+    #: is matched afresh each time instead of filling memory).
+    ROUTES_KEPT = 256
+
+    def _route(self, address: str) -> tuple[tuple[int, Rule], ...]:
+        """The rules ``address`` matches, as (outlet, rule), right outlet first (Pd order)."""
+        found = [(self._outlet[r.outlet], r) for r in self.rules if r.matches(address)]
+        routes = tuple(sorted(found, key=lambda o: -o[0]))
+        if len(self._routes) < self.ROUTES_KEPT:
+            self._routes[address] = routes
+        return routes
 
     def _control(self, address: str, args: list[Any]) -> bool:
         """``/pointat/NODE/SELECTOR args`` or ``/pointat/NODE args``; False when it names no node.

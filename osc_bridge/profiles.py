@@ -321,14 +321,21 @@ class Rule:
         >>> Rule("/quaternion", "quat", (3, 0, 1, 2)).extract([0.1, 0.2, 0.3, 0.9])
         [0.9, 0.1, 0.2, 0.3]
         """
-        idx = self.indices if self.indices is not None else tuple(range(SENSOR_OUTLETS[self.outlet]))
-        if len(args) <= max(idx):
-            raise ValueError(f"{self.pattern}: expected at least {max(idx) + 1} arguments, got {len(args)}")
-        values = [args[i] for i in idx]
-        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
-            raise ValueError(f"{self.pattern}: expected numbers, got {values!r}")
-        return [float(v) * self.scale for v in values]
+        idx = self.indices if self.indices is not None else _FIRST[self.outlet]
+        scale = self.scale
+        try:
+            values = [args[i] * scale for i in idx if type(args[i]) is float or type(args[i]) is int]
+        except IndexError:
+            raise ValueError(
+                f"{self.pattern}: expected at least {max(idx) + 1} arguments, got {len(args)}"
+            ) from None
+        if len(values) != len(idx):  # a string, a blob, True... (bool is not int here)
+            raise ValueError(f"{self.pattern}: expected numbers, got {[args[i] for i in idx]!r}")
+        return [float(v) for v in values] if scale == 1 else values
 
+
+#: The arguments an outlet takes when a rule names none: the first ones, as many as the outlet carries.
+_FIRST = {name: tuple(range(n)) for name, n in SENSOR_OUTLETS.items()}
 
 _DEG = math.pi / 180.0
 

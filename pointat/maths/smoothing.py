@@ -247,17 +247,23 @@ class RangeMap:
         Raises ``ValueError`` if ``x`` or the result is not finite.
         """
         x = _value(x, "input")
-        with np.errstate(over="ignore", invalid="ignore"):
-            u = (x - self.in_lo) / (self.in_hi - self.in_lo)
-            if self.clip:
-                u = min(max(u, 0.0), 1.0) if isinstance(u, float) else np.clip(u, 0.0, 1.0)
-            if self.invert:
-                u = 1.0 - u
-            f = apply_curve(u, self.curve, curvature=self.curvature, gamma=self.gamma)
-            y = self.out_lo + (self.out_hi - self.out_lo) * f
+        if type(x) is float:  # one number, per sample: float arithmetic overflows to inf, never warns
+            y = self._map(x)
+        else:
+            with np.errstate(over="ignore", invalid="ignore"):
+                y = self._map(x)
         if not _all_finite(y):
             raise ValueError(f"the mapped value is not finite (input {x!r} is too far out of range)")
         return y
+
+    def _map(self, x: Value) -> Value:
+        u = (x - self.in_lo) / (self.in_hi - self.in_lo)
+        if self.clip:
+            u = min(max(u, 0.0), 1.0) if isinstance(u, float) else np.clip(u, 0.0, 1.0)
+        if self.invert:
+            u = 1.0 - u
+        f = apply_curve(u, self.curve, curvature=self.curvature, gamma=self.gamma)
+        return self.out_lo + (self.out_hi - self.out_lo) * f
 
 
 # --------------------------------------------------------------------------------- smoothing factors

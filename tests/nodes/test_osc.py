@@ -495,6 +495,32 @@ def test_generic_map_scales_and_wrong_argument_counts_are_dropped(started):
     assert imu.malformed == 1
 
 
+def test_sensor_arguments_must_be_numbers_and_true_is_not_one(started):
+    rt, imu, addr = in_patch(started, 'map=["/g=gyro"]', "node g collect\nimu.gyro -> g")
+    with sender() as tx:
+        tx.sendto(osc("/g", 1.0, "x", 3.0).dgram, addr)
+        tx.sendto(osc("/g", 1.0, True, 3.0, types="fTf").dgram, addr)
+        tx.sendto(osc("/g", 1, 2, 3).dgram, addr)  # ints are numbers
+        assert wait_for(rt, lambda: rt.nodes["g"].messages)
+    assert rt.nodes["g"].values == [(1.0, 2.0, 3.0)]
+    assert all(type(v) is float for v in rt.nodes["g"].values[0])
+    assert imu.malformed == 2
+
+
+def test_routes_are_remembered_for_a_few_addresses_and_a_flood_still_routes(started):
+    rt, imu, addr = in_patch(started, 'map=["/imu/*/g=gyro"]', "node g collect\nimu.gyro -> g")
+    n = imu.ROUTES_KEPT + 50  # more distinct addresses than are remembered
+    with sender() as tx:
+        for k in range(n):
+            tx.sendto(osc(f"/imu/{k}/g", float(k), 0.0, 0.0).dgram, addr)
+            if k % 50 == 49:  # do not overrun the socket's buffer
+                assert wait_for(rt, lambda k=k: len(rt.nodes["g"].messages) == k + 1)
+        tx.sendto(osc("/imu/0/g", -1.0, 0.0, 0.0).dgram, addr)  # remembered: the same route
+        assert wait_for(rt, lambda: len(rt.nodes["g"].messages) == n + 1)
+    assert [v[0] for v in rt.nodes["g"].values] == [*map(float, range(n)), -1.0]
+    assert len(imu._routes) == imu.ROUTES_KEPT
+
+
 def test_other_messages_leave_by_any_for_route(started):
     rt, imu, addr = in_patch(started, "", "node r route /cue\nnode c collect\nimu.any -> r\nr.0 -> c")
     with sender() as tx:
