@@ -8,7 +8,8 @@ thread that paces the input on a deadline schedule and reads the output socket i
   ``mote`` node's ``device``; the patch's ``osc_out`` sends one datagram per update to our UDP socket.
   All N motes of one tick go out in one write, as a base station delivers them.
 * **pointat, UDP path** -- ``pointat run benchmarks/patches/oscin_CHAIN.pat``: the same sensor sample as
-  one OSC datagram into ``osc_in``, through the fusion half of the chain, out of ``osc_out``.
+  one OSC datagram into ``osc_in``, through the fusion half of the chain, out of ``osc_out``.  CHAIN
+  ``relay`` has no fusion (``osc_in`` -> ``osc_out``): what the engine itself adds to the floors below.
 * **transport floors** -- a bare python-osc relay (:mod:`benchmarks.relay`: parse, re-encode, forward) and
   Pure Data relaying OSC (``benchmarks/patches/relay.pd``: ``[netreceive -u -b]`` -> ``[oscparse]`` ->
   ``[oscformat]`` -> ``[netsend -u -b]``), run as ``pd -nogui -noaudio -noprefs`` with and without
@@ -801,6 +802,7 @@ def run_all(
             ph = phases_for(rate)
             plan: list[tuple[str, Callable[[], LatencyResult]]] = [
                 ("python-osc relay", partial(run_floor, "python-osc", rate, ph, sample, workdir)),
+                ("pointat relay osc_in", partial(run_pointat_udp, "relay", rate, ph, sample, workdir)),
                 ("pointat torre osc_in", partial(run_pointat_udp, "torre", rate, ph, sample, workdir)),
                 ("pointat tqt osc_in", partial(run_pointat_udp, "tqt", rate, ph, sample, workdir)),
                 ("Pd relay", partial(run_floor, "pd", rate, ph, sample, workdir)),

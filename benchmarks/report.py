@@ -168,6 +168,7 @@ def _latency_section(run: Run) -> list[str]:
         "-sleepgrain 0.1 p50 0.22 / p99 3.4 ms; python-osc relay p50 0.26-0.45 / p99 1.4-1.6 ms.",
         "",
     ]
+    out += _where_the_time_goes(lat)
     if run.handoff is not None and run.handoff.size:
         h = run.handoff
         out += [
@@ -182,6 +183,35 @@ def _latency_section(run: Run) -> list[str]:
         ]
     out += ["![Latency distribution at 1 kHz, one glove](figures/latency_cdf_1khz.svg)", ""]
     return out
+
+
+def _where_the_time_goes(lat: list[LatencyResult]) -> list[str]:
+    """The osc_in rows at 1 kHz split into the transport, the engine and the fusion."""
+    floor = _find(lat, "floor", "python-osc", 1000.0)
+    relay = _find(lat, "pointat-udp", "relay", 1000.0)
+    if not (floor and relay):
+        return []
+    parts = [
+        f"pointat's own relay (`oscin_relay.pat`: `osc_in` → `osc_out`, no fusion) has p50 {_ms(relay.p50)} / "
+        f"p99 {_ms(relay.p99)} ms against the python-osc relay's {_ms(floor.p50)} / {_ms(floor.p99)} ms "
+        f"({relay.p50 / floor.p50:.2f} / {relay.p99 / floor.p99:.2f} ×): the engine's decoding, routing, "
+        "dispatch and encoding"
+    ]
+    for chain in ("torre", "tqt"):
+        u = _find(lat, "pointat-udp", chain, 1000.0)
+        if u:
+            parts.append(
+                f"{CHAINS[chain]} adds {u.p50 - relay.p50:.0f} µs at p50 and "
+                f"{u.p99 - relay.p99:.0f} µs at p99 to it"
+            )
+    return [
+        "**Where the time goes (osc_in path, 1 kHz).**  "
+        + "; ".join(parts)
+        + ".  The fusion is Python arithmetic on every sample (section 2 has its cost per node), and on "
+        "this virtual machine a sample's latency grows by more than the chain's time in a hot loop: each "
+        "sample arrives at a process that slept for a millisecond, its caches cold.",
+        "",
+    ]
 
 
 # ------------------------------------------------------------------------------------------ throughput

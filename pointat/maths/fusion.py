@@ -47,7 +47,6 @@ from pointat.maths.quaternion import (
     matrix_to_quat,
     quat_identity,
     quat_normalize,
-    unwrap_degrees,
 )
 
 __all__ = [
@@ -700,7 +699,8 @@ class RollDistance:
             self.mode = "azimuth"
             self.azimuth = az
         if self.mode == "distance":
-            self._unwrapped = float(unwrap_degrees(az, self._unwrapped))
+            w = (az - self._unwrapped + 180.0) % 360.0 - 180.0  # unwrap_degrees, on one float
+            self._unwrapped += w - 360.0 if w >= 180.0 else w
             delta = self._unwrapped - self._anchor_azimuth
-            self.distance = float(np.clip(self._anchor_distance + self.gain * delta, 0.0, 90.0))
+            self.distance = min(max(self._anchor_distance + self.gain * delta, 0.0), 90.0)
         return self.mode, float(self.azimuth), self.distance
