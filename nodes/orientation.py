@@ -22,7 +22,7 @@ from pointat.maths.quaternion import (
     ned_to_nwu,
     nwu_to_enu,
     nwu_to_ned,
-    quat_positive,
+    quat_identity,
 )
 from pointat.maths.tqt import TQTFilter, TQTFlags
 from pointat.message import Message, as_floats, floats, vector
@@ -578,13 +578,23 @@ class Reframe(Node):
     def setup(self) -> None:
         pair = (self.p.source, self.p.target)
         if pair[0] == pair[1]:
-            self._convert = lambda q: q
+            convert = None
         elif pair in _FRAMES:
-            self._convert = _FRAMES[pair]
+            convert = _FRAMES[pair]
         else:  # through NWU
             a, b = _FRAMES[(pair[0], "nwu")], _FRAMES[("nwu", pair[1])]
-            self._convert = lambda q: b(a(q))
+
+            def convert(q):
+                return b(a(q))
+
+        # Each change of frame multiplies by a fixed rotation on the left: the conversion of the identity
+        # is that rotation, and one product per sample on floats does the conversion.
+        self._frame = None if convert is None else tuple(convert(quat_identity()).tolist())
 
     def on_quat(self, msg: Message) -> None:
-        q = self._convert(_as_quat(msg))
-        self.out(0, vector(quat_positive(q) if self.p.positive else q, msg.time))
+        q = _as_quat(msg)
+        if self._frame is not None:
+            q = sq.multiply(self._frame, q)
+        if self.p.positive and q[0] < 0.0:
+            q = (-q[0], -q[1], -q[2], -q[3])
+        self.out(0, floats(q, msg.time))

@@ -177,3 +177,45 @@ def test_tqt_gains_are_live():
     assert (f.filter.k_heading, f.filter.k) == (0.2, 3.0)
     with pytest.raises(ValueError, match="cannot change while running"):
         f.receive(0, method("mode", "paper"))
+
+
+FRAME_FUNCTIONS = {
+    ("nwu", "enu"): ["nwu_to_enu"],
+    ("enu", "nwu"): ["enu_to_nwu"],
+    ("nwu", "ned"): ["nwu_to_ned"],
+    ("ned", "nwu"): ["ned_to_nwu"],
+    ("enu", "ned"): ["enu_to_nwu", "nwu_to_ned"],
+    ("ned", "enu"): ["ned_to_nwu", "nwu_to_enu"],
+    ("enu", "enu"): [],
+}
+
+
+@pytest.mark.parametrize("pair", list(FRAME_FUNCTIONS), ids="->".join)
+@pytest.mark.parametrize("positive", [True, False])
+def test_reframe_matches_the_reference_conversions(pair, positive):
+    from pointat.maths import quaternion as qm
+    from pointat.message import floats
+
+    source, target = pair
+    rt = patch(f"node f reframe source={source} target={target} positive={str(positive).lower()}\n")
+    rt.start()
+    f = rt.nodes["f"]
+    out = []
+    f.out = lambda outlet, msg: out.append(msg)  # what leaves, exactly
+    rng = np.random.default_rng(7)
+    qs = rng.normal(size=(50, 4))
+    qs /= np.linalg.norm(qs, axis=1, keepdims=True)
+    for q in qs:
+        f.receive(0, floats(tuple(q.tolist()), 0.0))
+    expected = qs
+    for name in FRAME_FUNCTIONS[pair]:
+        expected = getattr(qm, name)(expected)
+    if positive:
+        expected = qm.quat_positive(expected)
+    got = np.array([m.value for m in out])
+    assert got.shape == (50, 4)
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    if positive:
+        assert (got[:, 0] >= 0).all()
+    else:
+        assert (got[:, 0] < 0).any()  # the sign as it comes: some of the random ones have w < 0
