@@ -9,7 +9,8 @@ thread that paces the input on a deadline schedule and reads the output socket i
   All N motes of one tick go out in one write, as a base station delivers them.
 * **pointat, UDP path** -- ``pointat run benchmarks/patches/oscin_CHAIN.pat``: the same sensor sample as
   one OSC datagram into ``osc_in``, through the fusion half of the chain, out of ``osc_out``.  CHAIN
-  ``relay`` has no fusion (``osc_in`` -> ``osc_out``): what the engine itself adds to the floors below.
+  ``relay`` has no fusion (``osc_in`` -> ``osc_out``): what the engine itself adds to the floors below;
+  ``mote_relay_1.pat`` is the same for the mote path (``mote`` -> ``osc_out``).
 * **transport floors** -- a bare python-osc relay (:mod:`benchmarks.relay`: parse, re-encode, forward) and
   Pure Data relaying OSC (``benchmarks/patches/relay.pd``: ``[netreceive -u -b]`` -> ``[oscparse]`` ->
   ``[oscformat]`` -> ``[netsend -u -b]``), run as ``pd -nogui -noaudio -noprefs`` with and without
@@ -809,6 +810,9 @@ def run_all(
                 ("Pd relay -sleepgrain 0.1", partial(run_floor, "pd-sg0.1", rate, ph, sample, workdir)),
             ]
             plan.append(("python pty relay", partial(run_floor_pty, rate, ph, sample, workdir)))
+            plan.append(
+                ("pointat relay mote x1", partial(run_pointat_mote, "relay", rate, 1, ph, sample, workdir))
+            )
             # at real-time priority, as Pd runs by default when it may (pointat --rt, the relay under chrt)
             plan.append(
                 (

@@ -186,28 +186,38 @@ def _latency_section(run: Run) -> list[str]:
 
 
 def _where_the_time_goes(lat: list[LatencyResult]) -> list[str]:
-    """The osc_in rows at 1 kHz split into the transport, the engine and the fusion."""
-    floor = _find(lat, "floor", "python-osc", 1000.0)
-    relay = _find(lat, "pointat-udp", "relay", 1000.0)
-    if not (floor and relay):
+    """The one-glove rows at 1 kHz split into the transport, the engine and the chain."""
+    paths = (
+        ("osc_in path", "pointat-udp", ("floor", "python-osc"), "python-osc relay's", "`oscin_relay.pat`: "
+         "`osc_in` → `osc_out`", "the fusion half"),
+        ("mote path", "pointat-mote", ("floor", "pty"), "python pty relay's", "`mote_relay_1.pat`: `mote` → "
+         "`osc_out`", "`offset`, `scaling` and the fusion"),
+    )  # fmt: skip
+    out = []
+    for title, family, (floor_family, floor_chain), floor_name, relay_name, chain_name in paths:
+        floor = _find(lat, floor_family, floor_chain, 1000.0)
+        relay = _find(lat, family, "relay", 1000.0)
+        if not (floor and relay):
+            continue
+        parts = [
+            f"pointat's own relay ({relay_name}, no filter) has p50 {_ms(relay.p50)} / p99 {_ms(relay.p99)} ms "
+            f"against the {floor_name} {_ms(floor.p50)} / {_ms(floor.p99)} ms "
+            f"({relay.p50 / floor.p50:.2f} / {relay.p99 / floor.p99:.2f} ×)"
+        ]
+        for chain in ("torre", "tqt"):
+            r = _find(lat, family, chain, 1000.0)
+            if r:
+                parts.append(
+                    f"{CHAINS[chain]} ({chain_name}) adds {r.p50 - relay.p50:.0f} µs at p50 and "
+                    f"{r.p99 - relay.p99:.0f} µs at p99 to it"
+                )
+        out.append(f"*{title}*: " + "; ".join(parts) + ".")
+    if not out:
         return []
-    parts = [
-        f"pointat's own relay (`oscin_relay.pat`: `osc_in` → `osc_out`, no fusion) has p50 {_ms(relay.p50)} / "
-        f"p99 {_ms(relay.p99)} ms against the python-osc relay's {_ms(floor.p50)} / {_ms(floor.p99)} ms "
-        f"({relay.p50 / floor.p50:.2f} / {relay.p99 / floor.p99:.2f} ×): the engine's decoding, routing, "
-        "dispatch and encoding"
-    ]
-    for chain in ("torre", "tqt"):
-        u = _find(lat, "pointat-udp", chain, 1000.0)
-        if u:
-            parts.append(
-                f"{CHAINS[chain]} adds {u.p50 - relay.p50:.0f} µs at p50 and "
-                f"{u.p99 - relay.p99:.0f} µs at p99 to it"
-            )
     return [
-        "**Where the time goes (osc_in path, 1 kHz).**  "
-        + "; ".join(parts)
-        + ".  The fusion is Python arithmetic on every sample (section 2 has its cost per node), and on "
+        "**Where the time goes (1 kHz, one glove).**  "
+        + "  ".join(out)
+        + "  The chains are Python arithmetic on every sample (section 2 has their cost per node), and on "
         "this virtual machine a sample's latency grows by more than the chain's time in a hot loop: each "
         "sample arrives at a process that slept for a millisecond, its caches cold.",
         "",
