@@ -75,7 +75,7 @@ class LatencyResult:
 
     label: str
     family: str  # "pointat-mote", "pointat-udp", "floor"
-    chain: str  # "torre", "tqt", "python-osc", "pd", "pd-sg0.1"
+    chain: str  # "torre", "tqt", "relay" (pointat, no filter), "python-osc", "pty", "pd", "pd-sg0.1"
     rate: float
     motes: int
     command: str

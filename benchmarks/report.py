@@ -168,7 +168,7 @@ def _latency_section(run: Run) -> list[str]:
         "-sleepgrain 0.1 p50 0.22 / p99 3.4 ms; python-osc relay p50 0.26-0.45 / p99 1.4-1.6 ms.",
         "",
     ]
-    out += _where_the_time_goes(lat)
+    out += _where_the_time_goes(lat, per_node=bool(run.throughput and run.throughput.nodes))
     if run.handoff is not None and run.handoff.size:
         h = run.handoff
         out += [
@@ -185,7 +185,7 @@ def _latency_section(run: Run) -> list[str]:
     return out
 
 
-def _where_the_time_goes(lat: list[LatencyResult]) -> list[str]:
+def _where_the_time_goes(lat: list[LatencyResult], per_node: bool) -> list[str]:
     """The one-glove rows at 1 kHz split into the transport, the engine and the chain."""
     paths = (
         ("osc_in path", "pointat-udp", ("floor", "python-osc"), "python-osc relay's", "`oscin_relay.pat`: "
@@ -197,7 +197,7 @@ def _where_the_time_goes(lat: list[LatencyResult]) -> list[str]:
     for title, family, (floor_family, floor_chain), floor_name, relay_name, chain_name in paths:
         floor = _find(lat, floor_family, floor_chain, 1000.0)
         relay = _find(lat, family, "relay", 1000.0)
-        if not (floor and relay):
+        if not (floor and relay and floor.received and relay.received and floor.p50 > 0 and floor.p99 > 0):
             continue
         parts = [
             f"pointat's own relay ({relay_name}, no filter) has p50 {_ms(relay.p50)} / p99 {_ms(relay.p99)} ms "
@@ -206,10 +206,10 @@ def _where_the_time_goes(lat: list[LatencyResult]) -> list[str]:
         ]
         for chain in ("torre", "tqt"):
             r = _find(lat, family, chain, 1000.0)
-            if r:
+            if r and r.received:
                 parts.append(
-                    f"{CHAINS[chain]} ({chain_name}) adds {r.p50 - relay.p50:.0f} µs at p50 and "
-                    f"{r.p99 - relay.p99:.0f} µs at p99 to it"
+                    f"{CHAINS[chain]} ({chain_name}): p50 {_ms(r.p50)} / p99 {_ms(r.p99)} ms, "
+                    f"{r.p50 - relay.p50:+.0f} / {r.p99 - relay.p99:+.0f} µs from the relay's"
                 )
         out.append(f"*{title}*: " + "; ".join(parts) + ".")
     if not out:
@@ -217,9 +217,10 @@ def _where_the_time_goes(lat: list[LatencyResult]) -> list[str]:
     return [
         "**Where the time goes (1 kHz, one glove).**  "
         + "  ".join(out)
-        + "  The chains are Python arithmetic on every sample (section 2 has their cost per node), and on "
-        "this virtual machine a sample's latency grows by more than the chain's time in a hot loop: each "
-        "sample arrives at a process that slept for a millisecond, its caches cold.",
+        + "  The chains are Python arithmetic on every sample"
+        + (" (section 2 has their cost per node, measured back to back)" if per_node else "")
+        + ".  A sample that arrives at a process which slept for a millisecond finds its caches cold, "
+        "and on this virtual machine the same Python work then takes more time than it does back to back.",
         "",
     ]
 
@@ -647,7 +648,9 @@ def render(run: Run) -> str:
 
 
 # ------------------------------------------------------------------------------------------ figures
-_COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#7f7f7f", "#17becf"]
+_COLORS = [
+    "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#7f7f7f", "#17becf", "#bcbd22",
+]  # fmt: skip
 
 
 def _esc(s: str) -> str:
@@ -655,8 +658,13 @@ def _esc(s: str) -> str:
 
 
 def latency_cdf_svg(results: list[LatencyResult], rate: float = 1000.0) -> str:
-    """Cumulative distribution of latency (log time axis) of the one-glove runs at ``rate``."""
-    series = [r for r in results if r.rate == rate and r.motes == 1 and not r.error and r.received]
+    """Cumulative distribution of latency (log time axis) of the one-glove runs at ``rate`` (normal
+    priority; the ``--rt`` rows are in the tables).  Floors and pointat's own relays are dashed."""
+    series = [
+        r
+        for r in results
+        if r.rate == rate and r.motes == 1 and not r.realtime and not r.error and r.received
+    ]
     W, H, L, R, T, B = 760, 420, 60, 250, 20, 50
     lo, hi = 30.0, 20000.0
     if series:
@@ -697,10 +705,11 @@ def latency_cdf_svg(results: list[LatencyResult], rate: float = 1000.0) -> str:
         idx = np.unique(np.linspace(0, n - 1, min(n, 400)).astype(int))
         pts = " ".join(f"{x(float(v[k])):.1f},{y((k + 1) / n):.1f}" for k in idx)
         c = _COLORS[i % len(_COLORS)]
-        parts.append(f'<polyline points="{pts}" fill="none" stroke="{c}" stroke-width="2"/>')
+        dash = ' stroke-dasharray="6 3"' if r.family == "floor" or r.chain == "relay" else ""
+        parts.append(f'<polyline points="{pts}" fill="none" stroke="{c}" stroke-width="2"{dash}/>')
         ly = T + 15 + 18 * i
         parts.append(
-            f'<line x1="{W - R + 10}" y1="{ly - 4}" x2="{W - R + 30}" y2="{ly - 4}" stroke="{c}" stroke-width="3"/>'
+            f'<line x1="{W - R + 10}" y1="{ly - 4}" x2="{W - R + 30}" y2="{ly - 4}" stroke="{c}" stroke-width="3"{dash}/>'
         )
         parts.append(f'<text x="{W - R + 35}" y="{ly}">{_esc(r.label)}</text>')
     parts.append("</svg>")

@@ -612,7 +612,9 @@ class OscIn(Node):
     ``zigsim`` (``/.../quaternion`` x y z w, ``/.../gyro`` rad/s, ``/.../gravity`` g), and ``map`` for
     anything else (``map=["/imu/acc=accel*9.80665", "/imu/gyro=gyro"]``: address, outlet, optional scale;
     ``*`` in an address matches anything).  Outputs are SI: gyro rad/s, accel m/s² (+g up at rest), mag
-    gauss; one message's outlets fire right to left (mag, accel, then gyro), as ``scaling`` does.
+    gauss; one message's outlets fire right to left (mag, accel, then gyro), as ``scaling`` does.  A
+    message a sensor rule matches but cannot read (too few arguments, a string) is counted in
+    ``malformed`` and, when no rule read it, leaves by ``any`` like any other message.
 
     Live control (``control=true``): ``/pointat/NODE/PARAM value`` sets a live parameter,
     ``/pointat/NODE/METHOD args`` sends a method (``/pointat/nulls/recalibrate``, ``/pointat/ref/set``),
@@ -751,9 +753,6 @@ phone.quat -> dir
             routes = self._routes.get(address)
             if routes is None:
                 routes = self._route(address)
-            if not routes:
-                self.out(4, method(address, *args))
-                continue
             outputs = []
             for outlet, rule in routes:
                 try:
@@ -762,19 +761,23 @@ phone.quat -> dir
                     self.malformed += 1
                     if self.malformed <= 3:
                         log.warning("osc_in '%s': %s dropped (%s)", self.name, address, exc)
+            if not outputs:  # no rule, or none could read it (a wildcard map meets /imu/battery)
+                self.out(4, method(address, *args))
             for outlet, values in outputs:
                 self.out(outlet, floats(tuple(values), self.time))
 
-    #: Addresses whose matching rules are remembered (a sensor sends the same few; a flood of new ones
-    #: is matched afresh each time instead of filling memory).
+    #: Addresses whose matching rules are remembered: a sensor sends the same few.  When a controller
+    #: or a flood of junk brings more, the memory starts over, so it stays small and the addresses that
+    #: keep coming are soon remembered again.
     ROUTES_KEPT = 256
 
     def _route(self, address: str) -> tuple[tuple[int, Rule], ...]:
         """The rules ``address`` matches, as (outlet, rule), right outlet first (Pd order)."""
         found = [(self._outlet[r.outlet], r) for r in self.rules if r.matches(address)]
         routes = tuple(sorted(found, key=lambda o: -o[0]))
-        if len(self._routes) < self.ROUTES_KEPT:
-            self._routes[address] = routes
+        if len(self._routes) >= self.ROUTES_KEPT:
+            self._routes.clear()
+        self._routes[address] = routes
         return routes
 
     def _control(self, address: str, args: list[Any]) -> bool:

@@ -322,7 +322,7 @@ class Rule:
         [0.9, 0.1, 0.2, 0.3]
         """
         idx = self.indices if self.indices is not None else _FIRST[self.outlet]
-        scale = self.scale
+        scale = float(self.scale)  # so that ints come out as floats
         try:
             values = [args[i] * scale for i in idx if type(args[i]) is float or type(args[i]) is int]
         except IndexError:
@@ -331,7 +331,7 @@ class Rule:
             ) from None
         if len(values) != len(idx):  # a string, a blob, True... (bool is not int here)
             raise ValueError(f"{self.pattern}: expected numbers, got {[args[i] for i in idx]!r}")
-        return [float(v) for v in values] if scale == 1 else values
+        return values
 
 
 #: The arguments an outlet takes when a rule names none: the first ones, as many as the outlet carries.

@@ -1,5 +1,6 @@
 # Latency benchmark, pointat's own mote relay: frames from a pseudo-terminal -> osc_out, no fusion.
-# The same frames as mote_torre_1.pat; the gyro x count goes out as a stand-in azimuth beside the tag.
+# The same frames as mote_torre_1.pat; the tag (mapped from the gyro x count) goes out as the spread
+# and, as a stand-in, as the azimuth.
 # Beside the python pty relay it shows what the engine adds on the mote path; beside mote_CHAIN_1.pat,
 # what the calibration and the fusion add.  The benchmark sets base.device, base.rate and g1/out.port.
 

@@ -8,7 +8,7 @@
 node src    osc_in port=9001 device=ngimu control=false
 node tagsel route /tag
 node tag    map 0 1000 0 100
-node gx     unpack 3
+node gx     unpack f
 node out    osc_out profile=generic host=127.0.0.1 port=9000 source=1 address="/bench/{n}" \
             fields=[n, spread, az, el, dist]
 

@@ -1,5 +1,7 @@
 """Tests for pointat.maths.fusion against seeded synthetic ground truth."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -379,3 +381,18 @@ def test_roll_distance_reset_and_errors():
         RollDistance(enter_deg=40, leave_deg=45)
     with pytest.raises(ValueError):
         rd.update(float("nan"), 0.0)
+
+
+def test_roll_distance_unwraps_as_unwrap_degrees_does_at_the_edges():
+    from pointat.maths.quaternion import unwrap_degrees
+
+    prev = 10.0
+    edges = [180.0, -180.0, math.nextafter(-180.0, -math.inf), math.nextafter(180.0, math.inf), 1e9, -1e9]
+    for d in [*edges, *np.random.default_rng(3).uniform(-720, 720, 200)]:
+        rd = RollDistance(gain=1.0, distance=45.0)
+        rd.update(prev, 80.0)  # rolled: the unwrapping starts at prev
+        az = prev + float(d)
+        rd.update(az, 80.0)
+        expected = float(unwrap_degrees(az, prev))
+        assert rd._unwrapped == expected, (d, rd._unwrapped, expected)
+        assert rd.distance == min(max(45.0 + (expected - prev), 0.0), 90.0)

@@ -508,17 +508,44 @@ def test_sensor_arguments_must_be_numbers_and_true_is_not_one(started):
 
 
 def test_routes_are_remembered_for_a_few_addresses_and_a_flood_still_routes(started):
-    rt, imu, addr = in_patch(started, 'map=["/imu/*/g=gyro"]', "node g collect\nimu.gyro -> g")
-    n = imu.ROUTES_KEPT + 50  # more distinct addresses than are remembered
+    rt, imu, addr = in_patch(
+        started,
+        'map=["/imu/*/g=gyro"]',
+        "node g collect\nnode other collect\nimu.gyro -> g\nimu.any -> other",
+    )
     with sender() as tx:
+        for _ in range(2):  # the second time from memory: the same outlets
+            tx.sendto(osc("/imu/0/g", -1.0, 0.0, 0.0).dgram, addr)
+            tx.sendto(osc("/cue", 1).dgram, addr)
+        assert wait_for(rt, lambda: len(rt.nodes["g"].messages) == 2 and len(rt.nodes["other"].messages) == 2)
+        assert set(imu._routes) == {"/imu/0/g", "/cue"}
+        n = imu.ROUTES_KEPT + 50  # more distinct addresses than are remembered
         for k in range(n):
             tx.sendto(osc(f"/imu/{k}/g", float(k), 0.0, 0.0).dgram, addr)
             if k % 50 == 49:  # do not overrun the socket's buffer
-                assert wait_for(rt, lambda k=k: len(rt.nodes["g"].messages) == k + 1)
-        tx.sendto(osc("/imu/0/g", -1.0, 0.0, 0.0).dgram, addr)  # remembered: the same route
-        assert wait_for(rt, lambda: len(rt.nodes["g"].messages) == n + 1)
-    assert [v[0] for v in rt.nodes["g"].values] == [*map(float, range(n)), -1.0]
-    assert len(imu._routes) == imu.ROUTES_KEPT
+                assert wait_for(rt, lambda k=k: len(rt.nodes["g"].messages) == k + 3)
+        tx.sendto(osc("/cue", 2).dgram, addr)
+        assert wait_for(
+            rt, lambda: len(rt.nodes["g"].messages) == n + 2 and len(rt.nodes["other"].messages) == 3
+        )
+    assert [v[0] for v in rt.nodes["g"].values] == [-1.0, -1.0, *map(float, range(n))]
+    assert [m.value for m in rt.nodes["other"].messages] == [(1,), (1,), (2,)]
+    assert len(imu._routes) <= imu.ROUTES_KEPT  # it started over instead of growing
+
+
+def test_a_matched_message_no_rule_can_read_leaves_by_any(started):
+    rt, imu, addr = in_patch(
+        started, 'map=["/imu/*=gyro"]', "node g collect\nnode other collect\nimu.gyro -> g\nimu.any -> other"
+    )
+    with sender() as tx:
+        tx.sendto(osc("/imu/battery", 0.8).dgram, addr)  # the wildcard matches; one number is no gyro
+        tx.sendto(osc("/imu/name", "left").dgram, addr)
+        tx.sendto(osc("/imu/gyro", 0.1, 0.2, 0.3).dgram, addr)
+        assert wait_for(rt, lambda: rt.nodes["g"].messages and len(rt.nodes["other"].messages) == 2)
+    assert [m.kind for m in rt.nodes["other"].messages] == ["/imu/battery", "/imu/name"]
+    [gyro] = rt.nodes["g"].values
+    assert values_match(list(gyro), [0.1, 0.2, 0.3])
+    assert imu.malformed == 2
 
 
 def test_other_messages_leave_by_any_for_route(started):
