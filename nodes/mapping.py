@@ -30,7 +30,7 @@ from pointat.maths.smoothing import (
     RangeMap,
     Schmitt,
 )
-from pointat.message import Message, as_float, as_vector, make, vector
+from pointat.message import Message, as_float, as_vector, floats, make, vector
 from pointat.node import REQUIRED, SKIP, Inlet, Node, Outlet, Param
 from pointat.registry import register
 
@@ -277,12 +277,15 @@ dir.azimuth -> calm -> show
             f.tau = self.p.time / 1000.0
 
     def on_in(self, msg: Message) -> None:
-        x = _numbers(msg)
         last = self._last_t
         dt = msg.time - last if last is not None and msg.time > last else 1.0 / self.p.rate
-        y = self._filter.update(x, dt)
+        f = self._filter
+        if isinstance(f, QuatSmoother) and msg.kind == "vector":  # per sample: floats in, floats out
+            y = floats(f.step(msg.value, dt), msg.time)
+        else:
+            y = _like(msg, f.update(_numbers(msg), dt))
         self._last_t = msg.time
-        self.out(0, _like(msg, y))
+        self.out(0, y)
 
     def do_reset(self) -> None:
         self._filter.reset()

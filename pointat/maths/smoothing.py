@@ -21,6 +21,7 @@ Conventions
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -543,7 +544,7 @@ class QuatSmoother:
 
     def __init__(self, tau: float) -> None:
         self.tau = tau
-        self._q: np.ndarray | None = None
+        self._q: tuple[float, float, float, float] | None = None
 
     @property
     def tau(self) -> float:
@@ -557,7 +558,7 @@ class QuatSmoother:
     @property
     def value(self) -> np.ndarray | None:
         """The current output quaternion (a copy), or ``None`` before the first sample."""
-        return None if self._q is None else self._q.copy()
+        return None if self._q is None else np.array(self._q)
 
     def reset(self) -> None:
         """Forget the state: the next quaternion passes through (normalised)."""
@@ -565,30 +566,49 @@ class QuatSmoother:
 
     def update(self, q: ArrayLike, dt: float) -> np.ndarray:
         """Filter one quaternion ``q`` (4 numbers) taken ``dt`` seconds after the previous one."""
-        q = _finite(q, "quaternion")
-        if q.shape != (4,):
-            raise ValueError(f"a quaternion is 4 numbers (w, x, y, z), got shape {q.shape}")
+        a = _finite(q, "quaternion")
+        if a.shape != (4,):
+            raise ValueError(f"a quaternion is 4 numbers (w, x, y, z), got shape {a.shape}")
+        return np.array(self.step(a.tolist(), dt))
+
+    def step(self, q: Sequence[float], dt: float) -> tuple[float, float, float, float]:
+        """:meth:`update` on four plain floats, returning four: the per-sample path, without arrays."""
+        if len(q) != 4:
+            raise ValueError(f"a quaternion is 4 numbers (w, x, y, z), got {len(q)}")
+        qw, qx, qy, qz = q
+        if not math.isfinite(qw + qx + qy + qz):  # NaN or infinity anywhere makes the sum so
+            raise ValueError(f"quaternion has NaN or infinite elements: {list(q)}")
         dt = _check_dt(dt)
-        n = math.sqrt(float(q @ q))
+        n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
         if n < 1e-9:
             raise ValueError("zero quaternion")
-        q = q / n
+        qw, qx, qy, qz = qw / n, qx / n, qy / n, qz / n
         p = self._q
         if p is None:
-            self._q = q
-            return q.copy()
-        if float(p @ q) < 0.0:
-            q = -q
+            self._q = (qw, qx, qy, qz)
+            return self._q
+        pw, px, py, pz = p
+        if pw * qw + px * qx + py * qy + pz * qz < 0.0:
+            qw, qx, qy, qz = -qw, -qx, -qy, -qz
         t = exp_alpha(dt, self._tau)
-        d, s = q - p, q + p
-        omega = 2.0 * math.atan2(math.sqrt(float(d @ d)), math.sqrt(float(s @ s)))
+        dw, dx, dy, dz = qw - pw, qx - px, qy - py, qz - pz
+        sw, sx, sy, sz = qw + pw, qx + px, qy + py, qz + pz
+        omega = 2.0 * math.atan2(
+            math.sqrt(dw * dw + dx * dx + dy * dy + dz * dz), math.sqrt(sw * sw + sx * sx + sy * sy + sz * sz)
+        )
         if omega < 1e-6:
-            out = p + t * d
+            ow, ox, oy, oz = pw + t * dw, px + t * dx, py + t * dy, pz + t * dz
         else:
-            out = (math.sin((1.0 - t) * omega) * p + math.sin(t * omega) * q) / math.sin(omega)
-        out = out / math.sqrt(float(out @ out))
-        self._q = out
-        return out.copy()
+            a, b, s = math.sin((1.0 - t) * omega), math.sin(t * omega), math.sin(omega)
+            ow, ox, oy, oz = (
+                (a * pw + b * qw) / s,
+                (a * px + b * qx) / s,
+                (a * py + b * qy) / s,
+                (a * pz + b * qz) / s,
+            )
+        n = math.sqrt(ow * ow + ox * ox + oy * oy + oz * oz)
+        self._q = (ow / n, ox / n, oy / n, oz / n)
+        return self._q
 
 
 class Schmitt:

@@ -229,6 +229,24 @@ def test_slerp_smoothing_stays_unit_and_converges():
         rt.nodes["x"].receive(0, make(1.0, time=1.02))
 
 
+def test_slerp_smoothing_of_vectors_equals_the_reference_update():
+    rng = np.random.default_rng(5)
+    qs = rng.normal(size=(80, 4))  # neither unit nor sign-continuous
+    vec, lst = one("smooth slerp 30"), one("smooth slerp 30")
+    for k, q in enumerate(qs):
+        t = 0.001 * k * (1 + k % 3)  # uneven steps
+        vec.nodes["x"].receive(0, make(q, time=t))  # a vector: the per-sample float path
+        lst.nodes["x"].receive(0, make(tuple(q.tolist()), time=t))  # a list: QuatSmoother.update
+    a, b = np.array(vec.nodes["out"].values), np.array(lst.nodes["out"].values)
+    assert a.shape == (80, 4) and [m.kind for m in out_of(vec)] == ["vector"] * 80
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="4 numbers"):
+        vec.nodes["x"].receive(0, make(np.array([1.0, 0.0, 0.0]), time=1.0))
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        vec.nodes["x"].receive(0, make(np.array([1.0, math.nan, 0.0, 0.0]), time=1.0))
+    assert np.array_equal(vec.nodes["x"]._filter.value, a[-1])  # a bad sample leaves the state as it was
+
+
 def test_smooth_parameter_errors_at_load():
     with pytest.raises(PatchError, match="wrap applies to exp and euro"):
         one("smooth slerp wrap=true")
