@@ -96,7 +96,6 @@ base.1 -> right
         self._reader: SerialMoteReader | None = None
         self._fd: int | None = None
         self._timer: Timer | None = None
-        self._delay = self.BACKOFF[0]
         self._failing = False
         self._unknown: set[int] = set()
         self.received = 0
@@ -122,12 +121,18 @@ base.1 -> right
                 lambda frame, t: self.post(self._on_frame, frame, t, block=False),
                 lambda event: self.post(self._event, event, block=False),
                 format=self.p.format,
+                backoff=self.BACKOFF,
             ).start()
             return
         self._reader = SerialMoteReader(
-            self.p.device, self.p.baud, self._on_frame, self._event, format=self.p.format
+            self.p.device,
+            self.p.baud,
+            self._on_frame,
+            self._event,
+            format=self.p.format,
+            backoff=self.BACKOFF,
         )
-        self._delay, self._failing = self.BACKOFF[0], False
+        self._failing = False
         self._try_open()
 
     def do_close(self) -> None:
@@ -163,8 +168,7 @@ base.1 -> right
                 self._failing = True
                 log.warning("mote '%s': cannot open %s: %s (retrying)", self.name, self.p.device, exc)
                 self._event(OpenFailed(self.p.device, str(exc)))
-            self._timer = self.call_later(self._delay, self._try_open)
-            self._delay = min(2.0 * self._delay, self.BACKOFF[1])
+            self._timer = self.call_later(reader.reopen.next(), self._try_open)
             return
         self._failing = False
         self._timer = self.call_later(self.CHECK_EVERY, self._check)
@@ -191,9 +195,8 @@ base.1 -> right
         if self._reader is None:
             return
         if self._reader.delivered:
-            self._delay = self.BACKOFF[0]
-        self._timer = self.call_later(self._delay, self._try_open)
-        self._delay = min(2.0 * self._delay, self.BACKOFF[1])
+            self._reader.reopen.reset()
+        self._timer = self.call_later(self._reader.reopen.next(), self._try_open)
 
     def _unwatch(self) -> None:
         if self._timer is not None:

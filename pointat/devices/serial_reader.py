@@ -106,6 +106,37 @@ FrameCallback = Callable[[Frame, float], Any]
 EventCallback = Callable[[Any], Any]
 
 
+class Backoff:
+    """Delays between attempts to reopen a lost device: ``first``, doubling up to ``largest``.
+
+    Whoever drives the reader (its own thread, or an event loop such as the ``mote`` node's) follows the
+    same policy: :meth:`reset` once the device has delivered data, so a device that comes back is tried
+    again at once, while one that fails right after opening backs off and cannot make the loop spin.
+
+    >>> b = Backoff(0.05, 0.15)
+    >>> [b.next() for _ in range(4)], b.reset(), b.next()
+    ([0.05, 0.1, 0.15, 0.15], None, 0.05)
+    """
+
+    def __init__(self, first: float, largest: float) -> None:
+        if not 0 < first <= largest:
+            raise ValueError(
+                f"backoff must be (first, largest) with 0 < first <= largest, got {(first, largest)}"
+            )
+        self.first, self.largest = float(first), float(largest)
+        self._delay = self.first
+
+    def next(self) -> float:
+        """The delay before the next attempt; the one after it doubles (up to ``largest``)."""
+        delay = self._delay
+        self._delay = min(2.0 * delay, self.largest)
+        return delay
+
+    def reset(self) -> None:
+        """Back to ``first``."""
+        self._delay = self.first
+
+
 class SerialMoteReader:
     """Background reader of mote frames from a serial device, reopening it when it comes back.
 
@@ -151,14 +182,14 @@ class SerialMoteReader:
     ) -> None:
         if read_timeout <= 0:
             raise ValueError(f"read_timeout must be > 0, got {read_timeout}")
-        if not 0 < backoff[0] <= backoff[1]:
-            raise ValueError(f"backoff must be (first, largest) with 0 < first <= largest, got {backoff}")
         self.port_path = os.fspath(port_path)
         self.baudrate = baudrate
         self.on_frame = on_frame
         self.on_event = on_event
         self.read_timeout = read_timeout
         self.backoff = (float(backoff[0]), float(backoff[1]))
+        #: The reopening policy, for the reader's thread and for an event loop that drives it.
+        self.reopen = Backoff(*self.backoff)
         self._parser = FrameParser(format, max_gap=max_gap)
         self._lock = threading.Lock()  # guards the parser stats against concurrent snapshots
         self._stop = threading.Event()
@@ -224,7 +255,7 @@ class SerialMoteReader:
     # -- thread -----------------------------------------------------------------------------------
 
     def _run(self) -> None:
-        delay = self.backoff[0]
+        self.reopen.reset()
         failed_since_open = False
         while not self._stop.is_set():
             if self._port is None:
@@ -235,18 +266,16 @@ class SerialMoteReader:
                         log.warning("cannot open mote port %s: %s (retrying)", self.port_path, exc)
                         self._emit(OpenFailed(self.port_path, str(exc)))
                         failed_since_open = True
-                    self._stop.wait(delay)
-                    delay = min(2.0 * delay, self.backoff[1])
+                    self._stop.wait(self.reopen.next())
                     continue
                 failed_since_open = False
             if not self.poll() and not self._stop.is_set():
                 # lost: a device that delivered data retries at once; one that fails right after
                 # opening backs off, so a broken but openable device cannot make the loop spin
                 if self._got_data:
-                    delay = self.backoff[0]
+                    self.reopen.reset()
                 else:
-                    self._stop.wait(delay)
-                    delay = min(2.0 * delay, self.backoff[1])
+                    self._stop.wait(self.reopen.next())
         self._close()
 
     # -- driven by an event loop ----------------------------------------------------------------
