@@ -417,6 +417,11 @@ class Phases:
     start_timeout: float = 20.0
     drain: float = 2.0
 
+    @property
+    def lifetime(self) -> float:
+        """How long a process under test may run (its ``--for``): every phase and 5 s of margin."""
+        return self.start_timeout + self.warmup + self.measure + self.drain + 5
+
 
 @dataclass
 class Drive:
@@ -623,8 +628,7 @@ def run_pointat_mote(
     port = sock.getsockname()[1]
     overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
     overrides += [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
-    total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
-    cmd = pointat_command(patch, overrides, total, realtime)
+    cmd = pointat_command(patch, overrides, phases.lifetime, realtime)
     label = f"pointat {chain} (mote, pty{', --rt' if realtime else ''})"
     res = LatencyResult(label, "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes), realtime=realtime)
     log = workdir / f"mote_{chain}_{motes}_{rate:g}{'_rt' if realtime else ''}.log"
@@ -660,8 +664,7 @@ def run_pointat_udp(
     in_port = free_udp_port()
     src = UdpSource(in_port, "bundle", sample)
     overrides = [f"src.port={in_port}", f"out.port={sock.getsockname()[1]}"]
-    total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
-    cmd = pointat_command(patch, overrides, total, realtime)
+    cmd = pointat_command(patch, overrides, phases.lifetime, realtime)
     label = f"pointat {chain} (osc_in, UDP{', --rt' if realtime else ''})"
     res = LatencyResult(label, "pointat-udp", chain, rate, 1, shown(cmd), realtime=realtime)
     log = workdir / f"oscin_{chain}_{rate:g}{'_rt' if realtime else ''}.log"
@@ -697,7 +700,7 @@ def run_floor(
     in_port = free_udp_port()
     out_port = sock.getsockname()[1]
     src = UdpSource(in_port, "arg", sample)
-    total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
+    total = phases.lifetime
     if kind == "python-osc":
         cmd = [
             sys.executable,
@@ -739,9 +742,8 @@ def run_floor_pty(rate: float, phases: Phases, sample: dict[str, np.ndarray], wo
     python-osc's client) sending one datagram per frame to our socket."""
     sock = receiver_socket()
     src = MoteSource(rate, 1)
-    total = phases.start_timeout + phases.warmup + phases.measure + phases.drain + 5
     cmd = [sys.executable, "-m", "benchmarks.relay", "--pty", src.device]
-    cmd += ["--out-port", str(sock.getsockname()[1]), "--for", f"{total:.0f}"]
+    cmd += ["--out-port", str(sock.getsockname()[1]), "--for", f"{phases.lifetime:.0f}"]
     res = LatencyResult(
         "python pty relay", "floor", "pty", rate, 1, shown(cmd).replace(src.device, "/dev/pts/N")
     )
