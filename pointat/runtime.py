@@ -26,6 +26,7 @@ import itertools
 import logging
 import os
 import queue
+import select
 import selectors
 import socket
 import threading
@@ -120,10 +121,73 @@ class _Reader:
     #: reading leaves its descriptor readable: the scheduler would spin on it).
     GIVE_UP = 100
 
-    __slots__ = ("node", "callback", "failures")
+    __slots__ = ("fileobj", "node", "callback", "failures", "watched")
 
-    def __init__(self, node: Node | None, callback: Callable[[], Any]) -> None:
-        self.node, self.callback, self.failures = node, callback, 0
+    def __init__(self, fileobj: Any, node: Node | None, callback: Callable[[], Any]) -> None:
+        self.fileobj, self.node, self.callback, self.failures = fileobj, node, callback, 0
+        self.watched = True  # False once removed: a reader earlier in the same wake-up may remove it
+
+
+class _Descriptors:
+    """The descriptors the scheduler sleeps on, each with its data: ``epoll`` itself where there is one.
+
+    :mod:`selectors` does the same in Python around the system call (a key object and an event mask per
+    ready descriptor, about a microsecond a wake-up); the scheduler needs only the data.  Elsewhere
+    (macOS, Windows) the :mod:`selectors` default does the work.
+    """
+
+    def __init__(self, epoll: bool = hasattr(select, "epoll")) -> None:
+        self._epoll = select.epoll() if epoll else None
+        self._fallback = None if self._epoll is not None else selectors.DefaultSelector()
+        self._data: dict[int, Any] = {}  # fd -> data
+        self._fds: dict[int, int] = {}  # id(fileobj) -> fd, for a file object closed before unregister
+
+    def register(self, fileobj: Any, data: Any) -> None:
+        fd = fileobj if isinstance(fileobj, int) else fileobj.fileno()
+        if fd in self._data:
+            raise KeyError(f"descriptor {fd} is watched already")
+        if self._epoll is not None:
+            self._epoll.register(fd, select.EPOLLIN)
+        else:
+            self._fallback.register(fd, selectors.EVENT_READ, data)
+        self._data[fd] = data
+        self._fds[id(fileobj)] = fd
+
+    def unregister(self, fileobj: Any) -> Any:
+        """Stop watching ``fileobj`` (a descriptor, or an object with ``fileno()``, closed or not)."""
+        fd = self._fds.pop(id(fileobj), None)
+        if fd is None:
+            fd = fileobj if isinstance(fileobj, int) else fileobj.fileno()
+        if fd not in self._data:
+            raise KeyError(f"descriptor {fd} is not watched")
+        data = self._data.pop(fd)
+        try:
+            if self._epoll is not None:
+                self._epoll.unregister(fd)
+            else:
+                self._fallback.unregister(fd)
+        except (KeyError, ValueError, OSError):  # closed already: the system forgot it by itself
+            pass
+        return data
+
+    def select(self, timeout: float) -> list[Any]:
+        """The data of the descriptors ready to read, waiting up to ``timeout`` seconds (0: do not wait)."""
+        if self._epoll is None:
+            return [key.data for key, _ in self._fallback.select(timeout)]
+        try:
+            ready = self._epoll.poll(timeout if timeout > 0.0 else 0.0)
+        except InterruptedError:
+            return []
+        data = self._data
+        return [data[fd] for fd, _ in ready if fd in data]
+
+    def close(self) -> None:
+        if self._epoll is not None:
+            self._epoll.close()
+        else:
+            self._fallback.close()
+        self._data.clear()
+        self._fds.clear()
 
 
 class Runtime:
@@ -146,7 +210,7 @@ class Runtime:
         self._scheduler: threading.Thread | None = None
         # Descriptors read on the scheduler thread, and a socket pair that wakes its select for posts
         # (made when first needed, closed at shutdown).
-        self._selector: selectors.BaseSelector | None = None
+        self._selector: _Descriptors | None = None
         self._wake_r: socket.socket | None = None
         self._wake_w: socket.socket | None = None
         self._sleeping = False
@@ -251,24 +315,25 @@ class Runtime:
         a timer, a handler).  A failure in the callback is logged with ``node``'s name and the patch goes
         on; the callback must read what is there (the descriptor stays readable until it does).
         """
-        self._io().register(fileobj, selectors.EVENT_READ, _Reader(node, callback))
+        self._io().register(fileobj, _Reader(fileobj, node, callback))
 
     def remove_reader(self, fileobj: Any) -> None:
         """Stop watching ``fileobj`` (idempotent: a descriptor that is not watched is ignored)."""
         if self._selector is None:
             return
         try:
-            self._selector.unregister(fileobj)
+            reader = self._selector.unregister(fileobj)
         except (KeyError, ValueError, OSError):
-            pass
+            return
+        reader.watched = False
 
-    def _io(self) -> selectors.BaseSelector:
+    def _io(self) -> _Descriptors:
         if self._selector is None:
-            self._selector = selectors.DefaultSelector()
+            self._selector = _Descriptors()
             self._wake_r, self._wake_w = socket.socketpair()
             self._wake_r.setblocking(False)
             self._wake_w.setblocking(False)
-            self._selector.register(self._wake_r, selectors.EVENT_READ, None)
+            self._selector.register(self._wake_r, None)
         return self._selector
 
     def spawn(self, node: Node, target: Callable[[], Any], what: str = "") -> threading.Thread:
@@ -344,12 +409,9 @@ class Runtime:
             self.call_at(self.clock.now() + duration, None, self.stop, daemon=True)
         try:
             while not self.stopping.is_set():
-                self._run_due()
+                timeout = self._run_due()
                 if self.stopping.is_set() or self._finished():
                     break
-                timeout = 0.25
-                if self._timers:
-                    timeout = min(timeout, max(0.0, self._timers[0].when - self.clock.now()))
                 self._poll(timeout)
         finally:
             self.shutdown()
@@ -410,14 +472,21 @@ class Runtime:
         return self._poll(timeout)
 
     # internals ---------------------------------------------------------------------
+    # The scheduler thread looks at the queue's length without its lock (``queue.Queue.queue``, a
+    # deque: its length is read atomically).  A post that lands just after the look wakes the select.
     def _finished(self) -> bool:
-        if not self._queue.empty() or any(n.active for n in self.nodes.values()):
+        if self._queue.queue or any(n.active for n in self.nodes.values()):
             return False
         return all(t.cancelled or t.daemon for t in self._timers)
 
-    def _run_due(self) -> None:
+    #: Longest sleep in select (seconds), so that a stop is noticed even if its wake-up were lost.
+    IDLE = 0.25
+
+    def _run_due(self) -> float:
+        """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`)."""
         timers = self._timers
-        now = self.clock.now()
+        clock = self.clock
+        now = clock.now()
         while timers and timers[0].when <= now:
             t = heapq.heappop(timers)
             if t.cancelled:
@@ -428,7 +497,8 @@ class Runtime:
             else:
                 t.fn(*t.args)
             if self.stopping.is_set():
-                return
+                return 0.0
+        return min(self.IDLE, max(0.0, timers[0].when - clock.now())) if timers else self.IDLE
 
     def _poll(self, timeout: float) -> int:
         """Sleep in select until a watched descriptor is readable, an event is posted or ``timeout``
@@ -437,22 +507,24 @@ class Runtime:
             return 0
         selector = self._io()
         self._sleeping = True
-        if not self._queue.empty():  # checked after _sleeping is set: a post from now on wakes us
+        waiting = self._queue.queue
+        if waiting:  # checked after _sleeping is set: a post from now on wakes us
             timeout = 0.0
         try:
             ready = selector.select(timeout)
         finally:
             self._sleeping = False
         n = 0
-        for key, _events in ready:
-            if key.data is None:  # the wake-up socket
+        for reader in ready:
+            if reader is None:  # the wake-up socket
                 try:
                     while self._wake_r.recv(4096):
                         pass
                 except (BlockingIOError, OSError):
                     pass
                 continue
-            reader = key.data
+            if not reader.watched:  # removed by a reader before it in this wake-up
+                continue
             if self._guard(reader.node, reader.callback):
                 reader.failures = 0
             else:
@@ -462,14 +534,15 @@ class Runtime:
                     log.error(
                         "%s failed %d times in a row: its input is no longer read", who, reader.failures
                     )
-                    self.remove_reader(key.fileobj)
+                    self.remove_reader(reader.fileobj)
             n += 1
-        try:  # what is queued now, not what keeps coming: timers get their turn between polls
-            for _ in range(self._queue.qsize()):
-                self._run_item(self._queue.get_nowait())
-                n += 1
-        except queue.Empty:
-            pass
+        if waiting:  # what is queued now, not what keeps coming: timers get their turn between polls
+            try:
+                for _ in range(len(waiting)):
+                    self._run_item(self._queue.get_nowait())
+                    n += 1
+            except queue.Empty:
+                pass
         return n
 
     def _run_item(self, item: tuple | None) -> None:

@@ -6,6 +6,8 @@ import sys
 import threading
 import time
 
+import pytest
+
 from pointat.message import make, vector
 from pointat.node import Node, Outlet, Param
 from pointat.runtime import Runtime
@@ -326,3 +328,68 @@ def test_a_reader_that_keeps_failing_is_dropped_and_the_patch_goes_on(caplog):
         rt.stop()
         th.join(timeout=5)
     assert not th.is_alive()
+
+
+def test_a_reader_removed_by_another_in_the_same_wake_up_is_not_called():
+    import socket
+
+    rt = Runtime()
+    a, b = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(2))
+    calls = []
+    try:
+        for s in (a, b):
+            s.bind(("127.0.0.1", 0))
+            s.setblocking(False)
+
+        def read(me, other):
+            calls.append(me)
+            me.recv(100)
+            rt.remove_reader(other)  # the other one's datagram waits too, but it is no longer watched
+
+        rt.add_reader(a, lambda: read(a, b))
+        rt.add_reader(b, lambda: read(b, a))
+        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        tx.sendto(b"1", a.getsockname())
+        tx.sendto(b"2", b.getsockname())
+        tx.close()
+        time.sleep(0.05)  # both readable before the one poll
+        assert rt.drain(1.0) == 1
+        assert len(calls) == 1
+        assert rt.drain(0.0) == 0  # nothing is watched any more
+    finally:
+        rt.shutdown()
+        a.close()
+        b.close()
+
+
+@pytest.mark.parametrize("epoll", [True, False], ids=["epoll", "selectors"])
+def test_descriptors_watched_by_number_or_object_and_forgotten_once_closed(epoll):
+    import os
+    import select
+    import socket
+
+    from pointat.runtime import _Descriptors
+
+    if epoll and not hasattr(select, "epoll"):
+        pytest.skip("no epoll on this system")
+    watch = _Descriptors(epoll=epoll)
+    r, w = os.pipe()
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        watch.register(r, "pipe")
+        watch.register(sock, "socket")
+        with pytest.raises(KeyError, match="watched already"):
+            watch.register(r, "again")
+        assert watch.select(0.0) == []
+        os.write(w, b"x")
+        assert watch.select(1.0) == ["pipe"]
+        sock.close()  # closed before it is unregistered: found by the object, the system forgot it
+        assert watch.unregister(sock) == "socket"
+        assert watch.unregister(r) == "pipe"
+        with pytest.raises(KeyError, match="not watched"):
+            watch.unregister(r)
+        assert watch.select(0.0) == []
+    finally:
+        watch.close()
+        os.close(r)
+        os.close(w)
