@@ -486,8 +486,8 @@ class Runtime:
         """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`)."""
         timers = self._timers
         clock = self.clock
-        now = clock.now()
-        while timers and timers[0].when <= now:
+        now = start = clock.now()
+        while timers and timers[0].when <= start:
             t = heapq.heappop(timers)
             if t.cancelled:
                 continue
@@ -498,7 +498,10 @@ class Runtime:
                 t.fn(*t.args)
             if self.stopping.is_set():
                 return 0.0
-        return min(self.IDLE, max(0.0, timers[0].when - clock.now())) if timers else self.IDLE
+            now = None  # time went on while it ran
+        if not timers:
+            return self.IDLE
+        return min(self.IDLE, max(0.0, timers[0].when - (clock.now() if now is None else now)))
 
     def _poll(self, timeout: float) -> int:
         """Sleep in select until a watched descriptor is readable, an event is posted or ``timeout``
