@@ -197,7 +197,8 @@ def main(argv: list[str] | None = None) -> int:
                 return latency.Phases(measure=3.0 if rate < 500 else 2.0)
             return latency.Phases(measure=30.0 if rate < 500 else 20.0)
 
-        run.latency = latency.run_all((100.0, 1000.0), phases, sample, progress)
+        rounds = 2 if args.quick else 3
+        run.latency = latency.run_all((100.0, 1000.0), phases, sample, progress, rounds)
         progress("latency: the engine's thread -> scheduler hand-off alone, 1 kHz")
         run.handoff = latency.handoff(1000.0, 3.0 if args.quick else 10.0)
     if "throughput" in parts:

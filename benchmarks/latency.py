@@ -26,6 +26,11 @@ before it, the run waits for the first output (process start-up, the ``offset`` 
 gyro averaging) and warms up for a while.  Inputs that never come out within the drain time count as
 lost; a pseudo-terminal that would not take a tick's bytes (the patch fell behind and its buffers are
 full) counts it as refused.
+
+**Rounds.**  The machine is shared, and its load drifts over minutes.  So that a floor and the pointat run
+it is compared with see the same machine, :func:`run_all` measures in rounds: every configuration in turn
+for a part of its time, then again, and pools each configuration's samples (:func:`pool`).  Each round's
+p50 and p99 are kept, so that a ratio can be given round by round as well as pooled.
 """
 
 from __future__ import annotations
@@ -46,7 +51,7 @@ import threading
 import time
 import tty
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -88,6 +93,8 @@ class LatencyResult:
     error: str = ""
     #: run at real-time priority (pointat ``--rt``; a floor under ``chrt -f``), as Pd runs by default as root
     realtime: bool = False
+    #: (p50, p99) of each round that was measured (:func:`pool`), in the order they ran
+    rounds: list[tuple[float, float]] = field(default_factory=list)
 
     @property
     def received(self) -> int:
@@ -791,18 +798,44 @@ def handoff(rate: float, seconds: float) -> np.ndarray:
     return np.array(delays[10:], dtype=float)
 
 
+def pool(runs: list[LatencyResult]) -> LatencyResult:
+    """One configuration's rounds as one result: the samples together, the counts summed, each round's
+    p50 and p99 kept.  A round that failed adds nothing; when every round failed, the first error stands."""
+    good = [r for r in runs if not r.error]
+    if not good:
+        return runs[0]
+    cpu = [r.cpu_fraction for r in good if r.cpu_fraction is not None]
+    rss = [r.rss_peak_kb for r in good if r.rss_peak_kb is not None]
+    failed = [f"round {i + 1}: {r.error}" for i, r in enumerate(runs) if r.error]
+    if failed:
+        log.warning("%s: %s", runs[0].label, "; ".join(failed))
+    return replace(
+        good[0],
+        latencies_us=np.concatenate([r.latencies_us for r in good]),
+        expected=sum(r.expected for r in good),
+        refused=sum(r.refused for r in good),
+        duplicates=sum(r.duplicates for r in good),
+        cpu_fraction=float(np.mean(cpu)) if cpu else None,
+        rss_peak_kb=max(rss) if rss else None,
+        rounds=[(r.p50, r.p99) for r in good],
+    )
+
+
 def run_all(
     rates: tuple[float, ...],
     phases_for: Callable[[float], Phases],
     sample: dict[str, np.ndarray],
     progress: Callable[[str], None],
+    rounds: int = 3,
 ) -> list[LatencyResult]:
-    """Every latency configuration, floors next to the pointat runs they are compared with."""
+    """Every latency configuration, floors next to the pointat runs they are compared with, in ``rounds``
+    rounds that share each configuration's measuring time (``phases_for(rate).measure`` in all)."""
     results: list[LatencyResult] = []
     with tempfile.TemporaryDirectory(prefix="pointat-bench-") as tmp:
         workdir = Path(tmp)
         for rate in rates:
-            ph = phases_for(rate)
+            whole = phases_for(rate)
+            ph = replace(whole, measure=whole.measure / rounds)
             plan: list[tuple[str, Callable[[], LatencyResult]]] = [
                 ("python-osc relay", partial(run_floor, "python-osc", rate, ph, sample, workdir)),
                 ("pointat relay osc_in", partial(run_pointat_udp, "relay", rate, ph, sample, workdir)),
@@ -843,15 +876,18 @@ def run_all(
                             partial(run_pointat_mote, chain, rate, motes, ph, sample, workdir),
                         )
                     )
-            for name, fn in plan:
-                progress(f"latency {rate:g} Hz: {name}")
-                r = fn()
-                if r.error:
-                    progress(f"  FAILED: {r.error}")
-                else:
-                    progress(
-                        f"  p50 {r.p50:.0f} us, p99 {r.p99:.0f} us, max {r.max:.0f} us, "
-                        f"{r.received}/{r.expected} received"
-                    )
-                results.append(r)
+            runs: dict[str, list[LatencyResult]] = {name: [] for name, _ in plan}
+            for k in range(rounds):
+                for name, fn in plan:
+                    progress(f"latency {rate:g} Hz, round {k + 1}/{rounds}: {name}")
+                    r = fn()
+                    if r.error:
+                        progress(f"  FAILED: {r.error}")
+                    else:
+                        progress(
+                            f"  p50 {r.p50:.0f} us, p99 {r.p99:.0f} us, max {r.max:.0f} us, "
+                            f"{r.received}/{r.expected} received"
+                        )
+                    runs[name].append(r)
+            results += [pool(rs) for rs in runs.values()]
     return results

@@ -1,0 +1,38 @@
+"""The benchmark harness's own bookkeeping: rounds pooled, ratios given round by round."""
+
+import numpy as np
+
+from benchmarks.latency import LatencyResult, pool
+from benchmarks.report import _by_round
+
+
+def _round(values, error="", cpu=0.1, rss=1000):
+    r = LatencyResult("torre", "pointat-udp", "torre", 1000.0, 1, "cmd", error=error)
+    r.latencies_us = np.array(values, dtype=float)
+    r.expected, r.refused, r.cpu_fraction, r.rss_peak_kb = len(values) + 1, 1, cpu, rss
+    return r
+
+
+def test_rounds_pool_their_samples_and_keep_each_rounds_figures():
+    a = _round(np.arange(1, 101), cpu=0.1, rss=1000)
+    b = _round(np.arange(101, 201), cpu=0.3, rss=3000)
+    p = pool([a, b])
+    assert p.received == 200 and p.expected == 202 and p.refused == 2
+    assert p.p50 == np.percentile(np.arange(1, 201), 50)
+    assert p.rounds == [(a.p50, a.p99), (b.p50, b.p99)]
+    assert p.cpu_fraction == 0.2 and p.rss_peak_kb == 3000
+
+
+def test_a_failed_round_adds_nothing_and_all_failed_keeps_the_error():
+    good = _round([10.0, 20.0])
+    p = pool([_round([], error="pd exited"), good])
+    assert p.received == 2 and not p.error and len(p.rounds) == 1
+    failed = pool([_round([], error="pd exited"), _round([], error="again")])
+    assert failed.error == "pd exited"
+
+
+def test_ratios_by_round_only_when_both_ran_the_same_rounds():
+    r = pool([_round([100.0] * 100), _round([300.0] * 100)])
+    floor = pool([_round([100.0] * 100), _round([200.0] * 100)])
+    assert _by_round(r, floor) == "; by round 1.00, 1.50"
+    assert _by_round(r, pool([_round([100.0] * 100)])) == ""
