@@ -93,8 +93,8 @@ class LatencyResult:
     error: str = ""
     #: run at real-time priority (pointat ``--rt``; a floor under ``chrt -f``), as Pd runs by default as root
     realtime: bool = False
-    #: (p50, p99) of each round that was measured (:func:`pool`), in the order they ran
-    rounds: list[tuple[float, float]] = field(default_factory=list)
+    #: (p50, p99) of each round (:func:`pool`) in the order they ran; ``None`` for a round that failed
+    rounds: list[tuple[float, float] | None] = field(default_factory=list)
 
     @property
     def received(self) -> int:
@@ -800,15 +800,19 @@ def handoff(rate: float, seconds: float) -> np.ndarray:
 
 def pool(runs: list[LatencyResult]) -> LatencyResult:
     """One configuration's rounds as one result: the samples together, the counts summed, each round's
-    p50 and p99 kept.  A round that failed adds nothing; when every round failed, the first error stands."""
+    p50 and p99 kept (``None`` for a round that failed or matched nothing: it adds nothing else).  When
+    every round failed, the result is failed, with every round's error."""
+    for r in runs:
+        if not r.error and not r.received:
+            r.error = "no output matched an input"
     good = [r for r in runs if not r.error]
-    if not good:
-        return runs[0]
-    cpu = [r.cpu_fraction for r in good if r.cpu_fraction is not None]
-    rss = [r.rss_peak_kb for r in good if r.rss_peak_kb is not None]
     failed = [f"round {i + 1}: {r.error}" for i, r in enumerate(runs) if r.error]
+    if not good:
+        return replace(runs[0], error="; ".join(failed) if len(runs) > 1 else runs[0].error)
     if failed:
         log.warning("%s: %s", runs[0].label, "; ".join(failed))
+    cpu = [r.cpu_fraction for r in good if r.cpu_fraction is not None]
+    rss = [r.rss_peak_kb for r in good if r.rss_peak_kb is not None]
     return replace(
         good[0],
         latencies_us=np.concatenate([r.latencies_us for r in good]),
@@ -817,7 +821,7 @@ def pool(runs: list[LatencyResult]) -> LatencyResult:
         duplicates=sum(r.duplicates for r in good),
         cpu_fraction=float(np.mean(cpu)) if cpu else None,
         rss_peak_kb=max(rss) if rss else None,
-        rounds=[(r.p50, r.p99) for r in good],
+        rounds=[None if r.error else (r.p50, r.p99) for r in runs],
     )
 
 

@@ -73,18 +73,25 @@ def _find(
     return None
 
 
-def _rounds(lat: list[LatencyResult]) -> str:
-    n = max((len(r.rounds) for r in lat), default=1)
-    return "one round" if n <= 1 else f"{n} rounds"
+def _rounds(lat: list[LatencyResult]) -> int:
+    return max((len(r.rounds) for r in lat), default=1) or 1
+
+
+def _round_tail(lat: list[LatencyResult]) -> str:
+    """How many samples the p99 of one round of the 1 kHz floor rests on (thin in ``--quick``)."""
+    floor = _find(lat, "floor", "python-osc", 1000.0)
+    if not floor or not floor.rounds:
+        return ""
+    per_round = floor.expected / (len(floor.rounds) - floor.rounds.count(None))
+    return f" (a round of the 1 kHz floor has {per_round:,.0f} samples: its p99 rests on the {per_round / 100:,.0f} slowest)"
 
 
 def _by_round(r: LatencyResult, floor: LatencyResult) -> str:
-    """``; by round 1.10, 1.25, 1.05``: the p99 ratio in each round, when both ran in the same rounds."""
+    """``; by round 1.10, 1.25, 1.05``: the p99 ratio in each round both measured (– where one failed)."""
     if len(r.rounds) < 2 or len(r.rounds) != len(floor.rounds):
         return ""
-    return "; by round " + ", ".join(
-        f"{a[1] / b[1]:.2f}" for a, b in zip(r.rounds, floor.rounds, strict=True)
-    )
+    ratios = [f"{a[1] / b[1]:.2f}" if a and b else "–" for a, b in zip(r.rounds, floor.rounds, strict=True)]
+    return "; by round " + ", ".join(ratios)
 
 
 def _latency_section(run: Run) -> list[str]:
@@ -98,9 +105,15 @@ def _latency_section(run: Run) -> list[str]:
         "delivers them) and run the whole chain to `osc_out`; *osc_in* rows send the same sample as one OSC "
         "datagram into `osc_in` (UDP in, UDP out, like the floors).  Jitter = p99 − p50.  Ratios are "
         "pointat's p50 and p99 over the python-osc relay's at the same rate.  The machine is shared and its "
-        f"load drifts, so every configuration was measured in {_rounds(lat)}: all of them in turn for a part "
-        "of their time, then again, and each row pools its rounds; the goals above also give the ratio "
-        "round by round.  The ratios are the figures to compare across machines.  Times in ms.",
+        "load drifts, so "
+        + (
+            f"every configuration was measured in {_rounds(lat)} rounds: all of them in turn for a part of "
+            "their time, then all again, and each row pools its rounds; the goals above also give the p99 "
+            f"ratio round by round{_round_tail(lat)}.  "
+            if _rounds(lat) > 1
+            else "the floors were measured next to the runs they are compared with.  "
+        )
+        + "The ratios are the figures to compare across machines.  Times in ms.",
         "",
     ]
     rates = sorted({r.rate for r in lat})
@@ -127,6 +140,8 @@ def _latency_section(run: Run) -> list[str]:
                 note.append("**overloaded**: does not keep up; the latency is its buffers filling")
             if r.duplicates:
                 note.append(f"{r.duplicates} ambiguous matches")
+            if None in r.rounds:
+                note.append(f"pooled {len(r.rounds) - r.rounds.count(None)} of {len(r.rounds)} rounds")
             pds = [_find(lat, "floor", kind, rate) for kind in ("pd", "pd-sg0.1")]
             if r.family.startswith("pointat") and all(pds):
                 note.append(

@@ -140,7 +140,10 @@ class _Descriptors:
         self._epoll = select.epoll() if epoll else None
         self._fallback = None if self._epoll is not None else selectors.DefaultSelector()
         self._data: dict[int, Any] = {}  # fd -> data
-        self._fds: dict[int, int] = {}  # id(fileobj) -> fd, for a file object closed before unregister
+        # fd -> the object registered, held so that its id stays its own while it is watched; and that
+        # id -> fd, to find the descriptor of an object closed before it is unregistered
+        self._objs: dict[int, Any] = {}
+        self._fds: dict[int, int] = {}
 
     def register(self, fileobj: Any, data: Any) -> None:
         fd = fileobj if isinstance(fileobj, int) else fileobj.fileno()
@@ -151,16 +154,19 @@ class _Descriptors:
         else:
             self._fallback.register(fd, selectors.EVENT_READ, data)
         self._data[fd] = data
+        self._objs[fd] = fileobj
         self._fds[id(fileobj)] = fd
 
     def unregister(self, fileobj: Any) -> Any:
-        """Stop watching ``fileobj`` (a descriptor, or an object with ``fileno()``, closed or not)."""
-        fd = self._fds.pop(id(fileobj), None)
-        if fd is None:
+        """Stop watching ``fileobj`` (a descriptor, or an object with ``fileno()``, closed or not); return
+        its data.  ``KeyError`` when it is not watched."""
+        fd = self._fds.get(id(fileobj))
+        if fd is None or self._objs[fd] is not fileobj:  # registered the other way (number / object)
             fd = fileobj if isinstance(fileobj, int) else fileobj.fileno()
         if fd not in self._data:
             raise KeyError(f"descriptor {fd} is not watched")
         data = self._data.pop(fd)
+        del self._fds[id(self._objs.pop(fd))]
         try:
             if self._epoll is not None:
                 self._epoll.unregister(fd)
@@ -174,10 +180,7 @@ class _Descriptors:
         """The data of the descriptors ready to read, waiting up to ``timeout`` seconds (0: do not wait)."""
         if self._epoll is None:
             return [key.data for key, _ in self._fallback.select(timeout)]
-        try:
-            ready = self._epoll.poll(timeout if timeout > 0.0 else 0.0)
-        except InterruptedError:
-            return []
+        ready = self._epoll.poll(timeout if timeout > 0.0 else 0.0)  # a signal: retried (PEP 475)
         data = self._data
         return [data[fd] for fd, _ in ready if fd in data]
 
@@ -187,6 +190,7 @@ class _Descriptors:
         else:
             self._fallback.close()
         self._data.clear()
+        self._objs.clear()
         self._fds.clear()
 
 
@@ -474,6 +478,8 @@ class Runtime:
     # internals ---------------------------------------------------------------------
     # The scheduler thread looks at the queue's length without its lock (``queue.Queue.queue``, a
     # deque: its length is read atomically).  A post that lands just after the look wakes the select.
+    # (Without the GIL, a free-threaded Python, the look has no memory barrier: a wake-up might be
+    # missed, and the post would then wait for the next wake-up, IDLE at the latest.)
     def _finished(self) -> bool:
         if self._queue.queue or any(n.active for n in self.nodes.values()):
             return False
@@ -483,7 +489,8 @@ class Runtime:
     IDLE = 0.25
 
     def _run_due(self) -> float:
-        """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`)."""
+        """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`; 0
+        once the runtime is stopping)."""
         timers = self._timers
         clock = self.clock
         now = start = clock.now()

@@ -23,16 +23,20 @@ def test_rounds_pool_their_samples_and_keep_each_rounds_figures():
     assert p.cpu_fraction == 0.2 and p.rss_peak_kb == 3000
 
 
-def test_a_failed_round_adds_nothing_and_all_failed_keeps_the_error():
+def test_a_failed_round_adds_nothing_and_all_failed_keeps_every_error():
     good = _round([10.0, 20.0])
-    p = pool([_round([], error="pd exited"), good])
-    assert p.received == 2 and not p.error and len(p.rounds) == 1
+    p = pool([_round([], error="pd exited"), good, _round([])])  # the last ran but matched nothing
+    assert p.received == 2 and not p.error
+    assert p.rounds == [None, (good.p50, good.p99), None]
     failed = pool([_round([], error="pd exited"), _round([], error="again")])
-    assert failed.error == "pd exited"
+    assert failed.error == "round 1: pd exited; round 2: again"
+    assert pool([_round([], error="pd exited")]).error == "pd exited"
 
 
-def test_ratios_by_round_only_when_both_ran_the_same_rounds():
-    r = pool([_round([100.0] * 100), _round([300.0] * 100)])
-    floor = pool([_round([100.0] * 100), _round([200.0] * 100)])
-    assert _by_round(r, floor) == "; by round 1.00, 1.50"
+def test_ratios_by_round_pair_the_same_rounds():
+    r = pool([_round([100.0] * 100), _round([300.0] * 100), _round([400.0] * 100)])
+    floor = pool([_round([100.0] * 100), _round([200.0] * 100), _round([], error="refused")])
+    assert _by_round(r, floor) == "; by round 1.00, 1.50, –"
+    late = pool([_round([], error="slow start"), _round([300.0] * 100), _round([400.0] * 100)])
+    assert _by_round(late, floor) == "; by round –, 1.50, –"
     assert _by_round(r, pool([_round([100.0] * 100)])) == ""

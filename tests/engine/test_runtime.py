@@ -330,9 +330,17 @@ def test_a_reader_that_keeps_failing_is_dropped_and_the_patch_goes_on(caplog):
     assert not th.is_alive()
 
 
-def test_a_reader_removed_by_another_in_the_same_wake_up_is_not_called():
+@pytest.mark.parametrize("epoll", [True, False], ids=["epoll", "selectors"])
+def test_a_reader_removed_by_another_in_the_same_wake_up_is_not_called(epoll, monkeypatch):
+    import functools
+    import select
     import socket
 
+    from pointat import runtime
+
+    if epoll and not hasattr(select, "epoll"):
+        pytest.skip("no epoll on this system")
+    monkeypatch.setattr(runtime, "_Descriptors", functools.partial(runtime._Descriptors, epoll=epoll))
     rt = Runtime()
     a, b = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(2))
     calls = []
@@ -355,7 +363,7 @@ def test_a_reader_removed_by_another_in_the_same_wake_up_is_not_called():
         time.sleep(0.05)  # both readable before the one poll
         assert rt.drain(1.0) == 1
         assert len(calls) == 1
-        assert rt.drain(0.0) == 0  # nothing is watched any more
+        assert rt.drain(0.0) == 0  # the other datagram is still there, but nobody watches for it
     finally:
         rt.shutdown()
         a.close()
@@ -389,7 +397,30 @@ def test_descriptors_watched_by_number_or_object_and_forgotten_once_closed(epoll
         with pytest.raises(KeyError, match="not watched"):
             watch.unregister(r)
         assert watch.select(0.0) == []
+        # watched as an object, forgotten by its number: the object is not watched any more either
+        again = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        watch.register(again, "again")
+        assert watch.unregister(again.fileno()) == "again"
+        with pytest.raises(KeyError, match="not watched"):
+            watch.unregister(again)
+        again.close()
     finally:
         watch.close()
         os.close(r)
         os.close(w)
+
+
+def test_the_scheduler_sleeps_until_the_next_timer_at_most_idle():
+    rt = Runtime(realtime=False)
+    rt.start()
+    assert rt._run_due() == Runtime.IDLE  # no timer
+    rt.call_at(0.1, None, lambda: None)
+    assert rt._run_due() == pytest.approx(0.1)
+    far = rt.call_at(5.0, None, lambda: None)
+    rt.clock.t = 0.1  # the first is due: it runs, the next is 4.9 s away
+    assert rt._run_due() == Runtime.IDLE
+    far.cancel()
+    rt.call_at(0.2, None, rt.stop)
+    rt.clock.t = 0.2
+    assert rt._run_due() == 0.0  # stopping
+    rt.shutdown()
