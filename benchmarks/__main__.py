@@ -15,6 +15,7 @@ import shlex
 import subprocess
 import sys
 import time
+import timeit
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -32,7 +33,7 @@ def _parser() -> argparse.ArgumentParser:
         description="pointat's benchmarks: latency and jitter (against a python-osc relay and Pure Data), "
         "throughput and cost per update (against ahrs, imufusion, vqf), accuracy on the BROAD recordings, "
         "and memory; writes a Markdown report with SVG figures.",
-        epilog="quick: about 6 minutes; full: about 28 minutes (2 cores).  Peers: pip install -e '.[bench]'; "
+        epilog="quick: about 5 minutes; full: about 28 minutes (2 cores).  Peers: pip install -e '.[bench]'; "
         "Pure Data: apt-get install puredata-core.",
     )
     ap.add_argument(
@@ -119,6 +120,25 @@ def _virtual() -> bool:
         return False
 
 
+def speed_probe() -> float:
+    """Nanoseconds per step of a fixed pure-Python float loop (best of 7): how fast this machine runs
+    Python code right now.  It uses nothing of pointat's, so from one run to the next it tells the
+    machine's drift from a change in pointat's code.
+
+    >>> 1.0 < speed_probe() < 10_000.0
+    True
+    """
+
+    def loop(n: int = 20_000) -> float:
+        x = 0.5
+        for i in range(n):
+            x = (x * x + 1.0) ** 0.5 * 0.5 + (i & 7) * 1e-3
+        return x
+
+    best = min(timeit.repeat(loop, number=1, repeat=7))
+    return best / 20_000 * 1e9
+
+
 def _load() -> str:
     try:
         return " ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -187,8 +207,8 @@ def main(argv: list[str] | None = None) -> int:
         data_note=data_note,
         started=datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z"),
     )
-    load_before = _load()
-    progress(f"machine: {info['CPU']}; load average {load_before}")
+    load_before, probe_before = _load(), speed_probe()
+    progress(f"machine: {info['CPU']}; load average {load_before}; speed probe {probe_before:.0f} ns")
 
     if "latency" in parts:
 
@@ -218,6 +238,10 @@ def main(argv: list[str] | None = None) -> int:
             run.memory = soak.finish()
     run.seconds = time.monotonic() - t_start
     run.machine["load average"] = f"{load_before} at the start, {_load()} at the end (1, 5, 15 min)"
+    run.machine["speed probe"] = (
+        f"{probe_before:.0f} ns at the start, {speed_probe():.0f} ns at the end (a step of a fixed "
+        "pure-Python float loop, best of 7: lower is faster; compare it between runs)"
+    )
     if args.quick:
         run.notes.append(
             "Quick run: latency windows of 2-3 s (a p99 of ~2,000 samples at 1 kHz, ~300 at 100 Hz), "
