@@ -15,7 +15,6 @@ import shlex
 import subprocess
 import sys
 import time
-import timeit
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -120,25 +119,6 @@ def _virtual() -> bool:
         return False
 
 
-def speed_probe() -> float:
-    """Nanoseconds per step of a fixed pure-Python float loop (best of 7): how fast this machine runs
-    Python code right now.  It uses nothing of pointat's, so from one run to the next it tells the
-    machine's drift from a change in pointat's code.
-
-    >>> 1.0 < speed_probe() < 10_000.0
-    True
-    """
-
-    def loop(n: int = 20_000) -> float:
-        x = 0.5
-        for i in range(n):
-            x = (x * x + 1.0) ** 0.5 * 0.5 + (i & 7) * 1e-3
-        return x
-
-    best = min(timeit.repeat(loop, number=1, repeat=7))
-    return best / 20_000 * 1e9
-
-
 def _load() -> str:
     try:
         return " ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -207,8 +187,8 @@ def main(argv: list[str] | None = None) -> int:
         data_note=data_note,
         started=datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z"),
     )
-    load_before, probe_before = _load(), speed_probe()
-    progress(f"machine: {info['CPU']}; load average {load_before}; speed probe {probe_before:.0f} ns")
+    load_before = _load()
+    progress(f"machine: {info['CPU']}; load average {load_before}")
 
     if "latency" in parts:
 
@@ -238,10 +218,6 @@ def main(argv: list[str] | None = None) -> int:
             run.memory = soak.finish()
     run.seconds = time.monotonic() - t_start
     run.machine["load average"] = f"{load_before} at the start, {_load()} at the end (1, 5, 15 min)"
-    run.machine["speed probe"] = (
-        f"{probe_before:.0f} ns at the start, {speed_probe():.0f} ns at the end (a step of a fixed "
-        "pure-Python float loop, best of 7: lower is faster; compare it between runs)"
-    )
     if args.quick:
         run.notes.append(
             "Quick run: latency windows of 2-3 s (a p99 of ~2,000 samples at 1 kHz, ~300 at 100 Hz), "

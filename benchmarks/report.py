@@ -638,8 +638,8 @@ def render(run: Run) -> str:
     out += _table(["", ""], [[k, v] for k, v in m.items()], "ll")
     out += [
         "The machine is shared: other work ran beside this benchmark (see the load averages), so absolute "
-        "times move from run to run (the speed probe, which runs nothing of pointat's, shows how far); "
-        "compare the ratios measured side by side in the same run.",
+        "times move from run to run (the peers' rows in section 2, code that is not pointat's, show how "
+        "far); compare the ratios measured side by side in the same run.",
         "",
     ]
     out += _summary(run)
