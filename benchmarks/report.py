@@ -192,7 +192,10 @@ def _latency_section(run: Run) -> list[str]:
         "frame parser and sent on by python-osc's client): a pseudo-terminal hands bytes on through the "
         "kernel's tty layer, which costs more than a UDP socket.  *matched* = outputs matched to inputs sent in the "
         "measurement window / inputs sent × motes.  *CPU* = CPU time of the process under test (all its "
-        "threads) over the window, per wall-clock second.",
+        "threads) over the window, per wall-clock second.  A real base station adds its USB-serial "
+        "adapter, which no pseudo-terminal has: an FTDI chip holds a short frame back for up to its "
+        "latency timer, 16 ms by default, more than all of the above; the `mote` node asks the driver for "
+        "its low-latency mode (1 ms) when it opens the port (`low_latency`, on by default).",
         "",
         "Published on this kind of machine at 1 kHz (brief): Pd default p50 5.2 / p99 7.5 ms; Pd "
         "-sleepgrain 0.1 p50 0.22 / p99 3.4 ms; python-osc relay p50 0.26-0.45 / p99 1.4-1.6 ms.",

@@ -64,6 +64,7 @@ __all__ = [
     "ReaderError",
     "ReaderEvent",
     "SerialMoteReader",
+    "request_low_latency",
 ]
 
 log = logging.getLogger(__name__)
@@ -97,6 +98,32 @@ class ReaderError(NamedTuple):
     path: str
     where: str
     reason: str
+
+
+def request_low_latency(port: serial.Serial) -> str:
+    """Ask the driver of an open port for its low-latency mode; ``"on"``, or ``"unsupported: REASON"``.
+
+    On Linux this sets ``ASYNC_LOW_LATENCY`` (``TIOCSSERIAL``, allowed without privileges).  The
+    ``ftdi_sio`` driver then sets the adapter's latency timer to 1 ms instead of 16 ms, so a 21-byte mote
+    frame leaves the adapter within a millisecond instead of waiting for 62 bytes or the timer.  The
+    setting lasts until the adapter is unplugged.  Elsewhere, and for devices without such a mode (a
+    pseudo-terminal), nothing changes.
+    """
+    setter = getattr(port, "set_low_latency_mode", None)
+    if setter is None:
+        return "unsupported: not on this system"
+    try:
+        setter(True)
+    except (ValueError, OSError) as exc:  # pyserial raises the ioctl's OSError as a ValueError
+        cause = exc if isinstance(exc, OSError) else exc.__context__
+        return f"unsupported: {getattr(cause, 'strerror', None) or exc}"
+    return "on"
+
+
+def _is_usb_serial(path: str) -> bool:
+    """Whether ``path`` is (a link to) a Linux USB-serial adapter, whose latency timer matters."""
+    name = os.path.basename(os.path.realpath(path))
+    return os.path.exists(f"/sys/bus/usb-serial/devices/{name}")
 
 
 ReaderEvent = DeviceOpened | DeviceLost | OpenFailed | ReaderError
@@ -162,6 +189,11 @@ class SerialMoteReader:
         ``(first, largest)`` delay in seconds between attempts to reopen; doubles up to ``largest``.
     max_gap : int
         Passed to the parser (largest counter gap counted as lost packets).
+    low_latency : bool
+        Ask the serial driver for its low-latency mode at every open (Linux: ``ASYNC_LOW_LATENCY``, see
+        :func:`request_low_latency`).  A USB-serial adapter otherwise holds a short frame back: an FTDI
+        chip sends what it has every 16 ms by default, 1 ms in this mode.  Devices without the mode (a
+        pseudo-terminal, many adapters) open as they are; :attr:`low_latency` says what happened.
 
     Notes
     -----
@@ -179,6 +211,7 @@ class SerialMoteReader:
         read_timeout: float = 0.05,
         backoff: tuple[float, float] = (0.05, 1.0),
         max_gap: int = 0x7FFF,
+        low_latency: bool = True,
     ) -> None:
         if read_timeout <= 0:
             raise ValueError(f"read_timeout must be > 0, got {read_timeout}")
@@ -200,6 +233,10 @@ class SerialMoteReader:
         self._open_count = 0
         self._got_data = False
         self._nonblocking = False
+        self._want_low_latency = low_latency
+        #: After an open: ``"on"`` (the driver took the low-latency mode), ``"off"`` (not asked for), or
+        #: ``"unsupported: REASON"`` (the device has no such mode; it runs as it is).
+        self.low_latency = "off"
 
     # -- public -----------------------------------------------------------------------------------
 
@@ -339,8 +376,18 @@ class SerialMoteReader:
         self._port = port
         self._got_data = False
         self._open_count += 1
+        self.low_latency = request_low_latency(port) if self._want_low_latency else "off"
         self._opened.set()
-        log.info("opened mote port %s", self.port_path)
+        log.info("opened mote port %s (low-latency mode %s)", self.port_path, self.low_latency)
+        if self.low_latency != "on" and self._want_low_latency and _is_usb_serial(self.port_path):
+            log.warning(
+                "mote port %s: the driver refused the low-latency mode (%s); the adapter may hold frames"
+                " back for up to its latency timer (FTDI: 16 ms). As root: echo 1 >"
+                " /sys/bus/usb-serial/devices/%s/latency_timer",
+                self.port_path,
+                self.low_latency,
+                os.path.basename(os.path.realpath(self.port_path)),
+            )
 
     def _poll(self) -> None:
         port = self._port

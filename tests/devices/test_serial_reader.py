@@ -17,6 +17,7 @@ from pointat.devices.serial_reader import (
     OpenFailed,
     ReaderError,
     SerialMoteReader,
+    request_low_latency,
 )
 from pointat.testing import wait_until
 
@@ -278,3 +279,30 @@ def test_constructor_validates():
         SerialMoteReader("/dev/null", backoff=(1.0, 0.5))
     with pytest.raises(ValueError):
         SerialMoteReader("/dev/null", format="csv")  # type: ignore[arg-type]
+
+
+def test_low_latency_mode_is_asked_for_and_a_device_without_it_still_runs(pty, caplog):
+    col = Collector()
+    with caplog.at_level("INFO", logger="pointat.devices.serial_reader"):
+        with make_reader(pty.path, col) as reader:
+            assert reader.wait_open(WAIT)
+            pty.write(encode_frame(frame(1)))
+            assert wait_until(lambda: col.got() == [frame(1)])
+            # a pseudo-terminal has no serial_struct: the driver says so and the port runs as it is
+            assert reader.low_latency == "unsupported: Inappropriate ioctl for device"
+    assert "low-latency mode unsupported" in caplog.text
+    assert not [r for r in caplog.records if r.levelname == "WARNING"]  # not a USB adapter: no advice
+
+
+def test_low_latency_mode_not_asked_for(pty):
+    col = Collector()
+    with make_reader(pty.path, col, low_latency=False) as reader:
+        assert reader.wait_open(WAIT)
+        assert reader.low_latency == "off"
+
+
+def test_request_low_latency_where_pyserial_has_no_such_call():
+    class PortElsewhere:  # pyserial's Serial on macOS and Windows has no set_low_latency_mode
+        pass
+
+    assert request_low_latency(PortElsewhere()) == "unsupported: not on this system"

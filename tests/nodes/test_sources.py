@@ -34,6 +34,8 @@ base.events -> ev
     th = rt.run_in_thread()
     try:
         assert wait_until(lambda: any(m.value[0] == "opened" for m in rt.nodes["ev"].messages))
+        # low_latency is on by default; a pseudo-terminal has no such mode and runs as it is
+        assert rt.nodes["base"]._reader.low_latency.startswith("unsupported: ")
         data = b"garbage\xa5\x5a\x00" + encode_frame(Frame(1, 10, (2048,) * 9))
         data += encode_text(Frame(2, 7, (1,) * 9))
         data += encode_frame(Frame(1, 11, (2049,) * 9))
