@@ -100,12 +100,11 @@ class ManualClock:
 class Timer:
     """A scheduled call; :meth:`cancel` it to drop it."""
 
-    __slots__ = ("when", "seq", "node", "fn", "args", "cancelled", "daemon")
+    __slots__ = ("when", "seq", "node", "fn", "args", "cancelled")
 
-    def __init__(self, when: float, seq: int, node: Node | None, fn: Callable, args: tuple, daemon: bool):
+    def __init__(self, when: float, seq: int, node: Node | None, fn: Callable, args: tuple):
         self.when, self.seq, self.node, self.fn, self.args = when, seq, node, fn, args
         self.cancelled = False
-        self.daemon = daemon
 
     def __lt__(self, other: Timer) -> bool:
         return (self.when, self.seq) < (other.when, other.seq)
@@ -268,14 +267,9 @@ class Runtime:
         return idle
 
     # scheduling --------------------------------------------------------------------
-    def call_at(
-        self, when: float, node: Node | None, fn: Callable, *args: Any, daemon: bool = False
-    ) -> Timer:
-        """Schedule ``fn(*args)`` at logical time ``when`` (scheduler thread only).
-
-        A ``daemon`` timer (the ``--for`` limit) does not keep an otherwise finished patch alive.
-        """
-        t = Timer(when, next(self._seq), node, fn, args, daemon)
+    def call_at(self, when: float, node: Node | None, fn: Callable, *args: Any) -> Timer:
+        """Schedule ``fn(*args)`` at logical time ``when`` (scheduler thread only)."""
+        t = Timer(when, next(self._seq), node, fn, args)
         heapq.heappush(self._timers, t)
         return t
 
@@ -406,16 +400,24 @@ class Runtime:
             self._guard(node, node.loadbang)
 
     def run(self, duration: float | None = None) -> None:
-        """Run on this thread until stopped, ``duration`` seconds pass, or nothing is left to happen."""
+        """Run on this thread until stopped, ``duration`` seconds pass, or nothing is left to happen.
+
+        ``duration`` is wall-clock time: a patch that falls behind its timers (a machine too slow for
+        them) still stops when it is up.
+        """
         self._scheduler = threading.current_thread()
         self.start()
-        if duration is not None:
-            self.call_at(self.clock.now() + duration, None, self.stop, daemon=True)
+        deadline = None if duration is None else self.clock.now() + duration
         try:
             while not self.stopping.is_set():
                 timeout = self._run_due()
                 if self.stopping.is_set() or self._finished():
                     break
+                if deadline is not None:
+                    left = deadline - self.clock.now()
+                    if left <= 0.0:
+                        break
+                    timeout = min(timeout, left)
                 self._poll(timeout)
         finally:
             self.shutdown()
@@ -483,18 +485,25 @@ class Runtime:
     def _finished(self) -> bool:
         if self._queue.queue or any(n.active for n in self.nodes.values()):
             return False
-        return all(t.cancelled or t.daemon for t in self._timers)
+        return all(t.cancelled for t in self._timers)
 
     #: Longest sleep in select (seconds), so that a stop is noticed even if its wake-up were lost.
     IDLE = 0.25
 
     def _run_due(self) -> float:
         """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`; 0
-        once the runtime is stopping)."""
+        once the runtime is stopping).
+
+        One pass runs the timers that were due when it began; those they schedule wait for the next
+        pass, after the descriptors are read.  So a periodic timer that costs more than its period (a
+        machine too slow for the patch) falls behind, as Pd's clocks do, but cannot keep the serial
+        ports and sockets from being read.
+        """
         timers = self._timers
         clock = self.clock
         now = start = clock.now()
-        while timers and timers[0].when <= start:
+        newer = next(self._seq)  # timers scheduled from here on have a larger number
+        while timers and timers[0].when <= start and timers[0].seq < newer:
             t = heapq.heappop(timers)
             if t.cancelled:
                 continue

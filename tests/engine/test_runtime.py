@@ -424,3 +424,42 @@ def test_the_scheduler_sleeps_until_the_next_timer_at_most_idle():
     rt.clock.t = 0.2
     assert rt._run_due() == 0.0  # stopping
     rt.shutdown()
+
+
+def test_a_timer_that_costs_more_than_its_period_cannot_starve_the_readers_nor_the_time_limit():
+    """A machine too slow for a patch: a 1 ms tick that takes 3 ms falls behind (as Pd's clocks do), but
+    the sockets are still read between ticks and ``run(duration)`` ends on time (wall clock)."""
+    import socket
+
+    rt = Runtime()
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.setblocking(False)
+    got: list[float] = []
+    ticks = []
+
+    def tick(when: float) -> None:
+        ticks.append(when)
+        time.sleep(0.003)  # the work (sleeping, not spinning: the test's thread needs the GIL too)
+        rt.call_at(when + 0.001, None, tick, when + 0.001)  # a deadline schedule: the backlog grows
+
+    rt.call_at(0.0, None, tick, 0.0)
+    rt.add_reader(rx, lambda: (rx.recv(100), got.append(time.monotonic())))
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    th = threading.Thread(target=rt.run, args=(0.5,))
+    try:
+        t0 = time.monotonic()
+        th.start()
+        time.sleep(0.2)  # the ticks are 100 ms behind by now
+        sent = time.monotonic()
+        tx.sendto(b"x", rx.getsockname())
+        th.join(5.0)
+        assert not th.is_alive()
+        assert time.monotonic() - t0 < 1.0  # the 0.5 s limit, not the ticks' logical time (1.5 s)
+        assert got and got[0] - sent < 0.05  # read within a tick or two
+        assert ticks[-1] < 0.3  # the ticks did fall behind: about one per 3 ms in 0.5 s
+    finally:
+        rt.stop()
+        th.join(5.0)
+        rx.close()
+        tx.close()
