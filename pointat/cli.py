@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import functools
 import logging
+import math
 import os
 import signal
 import sys
@@ -38,6 +39,17 @@ def _registry(plugins: list[str]) -> Registry:
     return reg
 
 
+def _seconds(text: str) -> float:
+    """``--for``: a finite number of seconds, 0 or more."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"expected a finite number of seconds >= 0, got {text!r}")
+    return value
+
+
 def _add_patch_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("patch", help="a patch file (.pat native, or .pd Pure Data)")
     p.add_argument(
@@ -68,7 +80,7 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run a patch until Ctrl-C, --for SECONDS, or its sources end")
     _add_patch_args(p)
     p.add_argument(
-        "--for", dest="duration", type=float, metavar="SECONDS", help="stop after this many seconds"
+        "--for", dest="duration", type=_seconds, metavar="SECONDS", help="stop after this many seconds"
     )
     p.add_argument(
         "--rt",

@@ -12,9 +12,13 @@
   (:meth:`Node.spawn <pointat.node.Node.spawn>`) and hand results to the scheduler with
   :meth:`Node.post <pointat.node.Node.post>`, which wakes the ``select``.  The queue is bounded: a fast
   file replay waits for the graph instead of filling memory.
-* **Ending.**  :meth:`Runtime.run` returns when :meth:`stop` is called (Ctrl-C, SIGTERM, ``--for``), or by
-  itself when nothing can happen any more: no active source, no pending timer, nothing queued.  Every
-  node's ``close()`` runs and every thread is joined.
+* **Ending.**  :meth:`Runtime.run` returns when :meth:`stop` is called (Ctrl-C, SIGTERM), when its
+  ``duration`` (``--for``) is up, or by itself when nothing can happen any more: no active source, no
+  pending timer, nothing queued.  Every node's ``close()`` runs and every thread is joined.
+* **Falling behind.**  A timer that costs more than its period (a machine too slow for the patch) falls
+  behind in logical time, as Pd's clocks do, and the timers due after it wait with it; but each pass over
+  the timers ends at the first timer scheduled during it, so the descriptors and the queue are still
+  served between passes, and ``duration`` is wall-clock time.
 * **Live control.**  :meth:`set_param` and :meth:`send` may be called from any thread (the OSC bridge
   uses them); they are carried out on the scheduler thread.
 """
@@ -24,6 +28,7 @@ from __future__ import annotations
 import heapq
 import itertools
 import logging
+import math
 import os
 import queue
 import select
@@ -402,9 +407,11 @@ class Runtime:
     def run(self, duration: float | None = None) -> None:
         """Run on this thread until stopped, ``duration`` seconds pass, or nothing is left to happen.
 
-        ``duration`` is wall-clock time: a patch that falls behind its timers (a machine too slow for
-        them) still stops when it is up.
+        ``duration`` is the clock's time: wall-clock time for a real-time runtime, so a patch that falls
+        behind its timers (a machine too slow for them) still stops when it is up.
         """
+        if duration is not None and not (math.isfinite(duration) and duration >= 0.0):
+            raise ValueError(f"duration must be a finite number of seconds >= 0, got {duration}")
         self._scheduler = threading.current_thread()
         self.start()
         deadline = None if duration is None else self.clock.now() + duration
@@ -494,15 +501,17 @@ class Runtime:
         """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`; 0
         once the runtime is stopping).
 
-        One pass runs the timers that were due when it began; those they schedule wait for the next
-        pass, after the descriptors are read.  So a periodic timer that costs more than its period (a
-        machine too slow for the patch) falls behind, as Pd's clocks do, but cannot keep the serial
-        ports and sockets from being read.
+        In time order, a pass runs the timers that were due when it began, and ends at the first timer
+        scheduled during it (real time only): that one waits for the next pass, after the descriptors
+        and the queue are served.  So a periodic timer that costs more than its period falls behind, as
+        Pd's clocks do (the timers due after it wait with it), but cannot keep the serial ports and
+        sockets from being read.  On a manual clock a pass runs what its timers schedule for the same
+        time too, as a Pd tick runs the clocks set during it.
         """
         timers = self._timers
         clock = self.clock
         now = start = clock.now()
-        newer = next(self._seq)  # timers scheduled from here on have a larger number
+        newer = next(self._seq) if self.realtime else math.inf  # scheduled from here on: larger numbers
         while timers and timers[0].when <= start and timers[0].seq < newer:
             t = heapq.heappop(timers)
             if t.cancelled:

@@ -170,3 +170,12 @@ def test_a_node_that_cannot_start_is_an_error_exit_not_a_traceback(tmp_path):
     out = pointat("run", bad)
     assert out.returncode == 2 and "Traceback" not in out.stderr
     assert "node 'src' (replay): cannot start" in out.stderr and "missing.csv" in out.stderr
+
+
+@pytest.mark.parametrize("value", ["nan", "-1", "inf", "soon"])
+def test_for_takes_a_finite_number_of_seconds(value, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "patches/glove_tqt.pat", "--for", value])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --for: expected a" in err and repr(value) in err

@@ -100,30 +100,34 @@ class ReaderError(NamedTuple):
     reason: str
 
 
-def request_low_latency(port: serial.Serial) -> str:
-    """Ask the driver of an open port for its low-latency mode; ``"on"``, or ``"unsupported: REASON"``.
+def request_low_latency(port: Any) -> str:
+    """Ask the driver of an open port for its low-latency mode: ``"on"`` when the driver accepted the
+    request, else ``"unsupported: REASON"``.  Never raises: a port without the mode runs as it is.
 
     On Linux this sets ``ASYNC_LOW_LATENCY`` (``TIOCSSERIAL``, allowed without privileges).  The
     ``ftdi_sio`` driver then sets the adapter's latency timer to 1 ms instead of 16 ms, so a 21-byte mote
-    frame leaves the adapter within a millisecond instead of waiting for 62 bytes or the timer.  The
-    setting lasts until the adapter is unplugged.  Elsewhere, and for devices without such a mode (a
-    pseudo-terminal), nothing changes.
+    frame leaves the adapter within a millisecond instead of waiting for 62 bytes or the timer; the
+    setting lasts until the adapter is unplugged.  Some drivers accept the request and ignore it.
+    Pseudo-terminals refuse it, and pyserial has it on Linux only.
     """
     setter = getattr(port, "set_low_latency_mode", None)
-    if setter is None:
+    if setter is None:  # Windows
         return "unsupported: not on this system"
     try:
         setter(True)
-    except (ValueError, OSError) as exc:  # pyserial raises the ioctl's OSError as a ValueError
+    except NotImplementedError:  # pyserial on macOS and the BSDs
+        return "unsupported: not on this system"
+    except Exception as exc:  # pyserial raises the ioctl's OSError as a ValueError
         cause = exc if isinstance(exc, OSError) else exc.__context__
         return f"unsupported: {getattr(cause, 'strerror', None) or exc}"
     return "on"
 
 
-def _is_usb_serial(path: str) -> bool:
-    """Whether ``path`` is (a link to) a Linux USB-serial adapter, whose latency timer matters."""
+def _latency_timer(path: str) -> str | None:
+    """The ``latency_timer`` file of the Linux USB-serial adapter at ``path`` (FTDI), or ``None``."""
     name = os.path.basename(os.path.realpath(path))
-    return os.path.exists(f"/sys/bus/usb-serial/devices/{name}")
+    timer = f"/sys/bus/usb-serial/devices/{name}/latency_timer"
+    return timer if os.path.exists(timer) else None
 
 
 ReaderEvent = DeviceOpened | DeviceLost | OpenFailed | ReaderError
@@ -234,9 +238,10 @@ class SerialMoteReader:
         self._got_data = False
         self._nonblocking = False
         self._want_low_latency = low_latency
-        #: After an open: ``"on"`` (the driver took the low-latency mode), ``"off"`` (not asked for), or
-        #: ``"unsupported: REASON"`` (the device has no such mode; it runs as it is).
+        #: After an open: ``"on"`` (the driver accepted the low-latency request), ``"off"`` (not asked
+        #: for), or ``"unsupported: REASON"`` (the device has no such mode; it runs as it is).
         self.low_latency = "off"
+        self._latency_warned = False
 
     # -- public -----------------------------------------------------------------------------------
 
@@ -379,14 +384,15 @@ class SerialMoteReader:
         self.low_latency = request_low_latency(port) if self._want_low_latency else "off"
         self._opened.set()
         log.info("opened mote port %s (low-latency mode %s)", self.port_path, self.low_latency)
-        if self.low_latency != "on" and self._want_low_latency and _is_usb_serial(self.port_path):
+        timer = _latency_timer(self.port_path) if self.low_latency.startswith("unsupported") else None
+        if timer is not None and not self._latency_warned:
+            self._latency_warned = True  # once, not at every reconnection
             log.warning(
                 "mote port %s: the driver refused the low-latency mode (%s); the adapter may hold frames"
-                " back for up to its latency timer (FTDI: 16 ms). As root: echo 1 >"
-                " /sys/bus/usb-serial/devices/%s/latency_timer",
+                " back for up to its latency timer (FTDI: 16 ms). As root: echo 1 > %s",
                 self.port_path,
                 self.low_latency,
-                os.path.basename(os.path.realpath(self.port_path)),
+                timer,
             )
 
     def _poll(self) -> None:
