@@ -201,6 +201,8 @@ def main(argv: list[str] | None = None) -> int:
         run.latency = latency.run_all((100.0, 1000.0), phases, sample, progress, rounds)
         progress("latency: the engine's thread -> scheduler hand-off alone, 1 kHz")
         run.handoff = latency.handoff(1000.0, 3.0 if args.quick else 10.0)
+        progress("latency: Python calls per sample on the osc_in path")
+        run.calls = latency.python_calls(sample)
     if "throughput" in parts:
         run.throughput = throughput.run_all(sample, first, args.quick, progress)
     soak = None

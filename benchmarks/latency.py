@@ -798,6 +798,79 @@ def handoff(rate: float, seconds: float) -> np.ndarray:
     return np.array(delays[10:], dtype=float)
 
 
+@dataclass
+class CallCount:
+    """How much Python one sample runs on the osc_in path, from the datagram's arrival to the one sent."""
+
+    path: str  # "python-osc" (the relay), "relay" (pointat's, no filter), "torre", "tqt"
+    calls: float  # Python function calls per sample (C functions not counted)
+    distinct: int  # different Python functions among them
+
+
+def python_calls(sample: dict[str, np.ndarray], samples: int = 50, warmup: int = 200) -> list[CallCount]:
+    """Count, with :func:`sys.setprofile`, the Python function calls a sample makes through the
+    python-osc relay (its own server and client, as ``benchmarks.relay`` runs them) and through
+    pointat's ``oscin_*.pat`` patches, in this process: select, receive, parse, the chain, encode, send.
+    """
+    from pythonosc.dispatcher import Dispatcher
+    from pythonosc.osc_server import BlockingOSCUDPServer
+    from pythonosc.udp_client import SimpleUDPClient
+
+    from pointat.loader import load
+
+    hole = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    hole.bind(("127.0.0.1", 0))
+    hole.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
+    hole.setblocking(False)
+    out_port = hole.getsockname()[1]
+    counts = []
+    try:
+        for path in ("python-osc", "relay", "torre", "tqt"):
+            in_port = free_udp_port()
+            if path == "python-osc":
+                client = SimpleUDPClient("127.0.0.1", out_port)
+                dispatcher = Dispatcher()
+                dispatcher.set_default_handler(lambda a, *v, c=client: c.send_message(a, list(v)))
+                server = BlockingOSCUDPServer(("127.0.0.1", in_port), dispatcher)
+                src, step, done = (
+                    UdpSource(in_port, "arg", sample),
+                    server.handle_request,
+                    server.server_close,
+                )
+            else:
+                rt = load(
+                    PATCHES / f"oscin_{path}.pat", overrides=[f"src.port={in_port}", f"out.port={out_port}"]
+                )
+                rt.console = lambda line: None
+                rt.start()
+                src, step, done = UdpSource(in_port, "bundle", sample), partial(rt._poll, 1.0), rt.shutdown
+            seen: dict[Any, int] = {}
+
+            def profile(frame: Any, event: str, arg: Any, seen: dict[Any, int] = seen) -> None:
+                if event == "call":
+                    seen[frame.f_code] = seen.get(frame.f_code, 0) + 1
+
+            try:
+                for k in range(warmup + samples):
+                    src.tick(k)
+                    time.sleep(0.0005)  # arrived: the step below reads it without waiting
+                    if k >= warmup:
+                        sys.setprofile(profile)
+                    try:
+                        step()
+                    finally:
+                        sys.setprofile(None)
+                    if k % 50 == 0:
+                        _drain(hole, [])
+            finally:
+                done()
+                src.close()
+            counts.append(CallCount(path, sum(seen.values()) / samples, len(seen)))
+    finally:
+        hole.close()
+    return counts
+
+
 def pool(runs: list[LatencyResult]) -> LatencyResult:
     """One configuration's rounds as one result: the samples together, the counts summed, each round's
     p50 and p99 kept (``None`` for a round that failed or matched nothing: it adds nothing else).  When

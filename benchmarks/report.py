@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .accuracy import PUBLISHED_MEAN, PUBLISHED_ORDER, PUBLISHED_TRIALS, AccuracyResults
-from .latency import LatencyResult
+from .latency import CallCount, LatencyResult
 from .memory import MemoryResult
 from .throughput import CHAINS, PUSHED, ThroughputResults
 
@@ -28,6 +28,7 @@ class Run:
     seconds: float = 0.0
     latency: list[LatencyResult] = field(default_factory=list)
     handoff: np.ndarray | None = None
+    calls: list[CallCount] = field(default_factory=list)
     throughput: ThroughputResults | None = None
     accuracy: AccuracyResults | None = None
     memory: MemoryResult | None = None
@@ -201,7 +202,7 @@ def _latency_section(run: Run) -> list[str]:
         "-sleepgrain 0.1 p50 0.22 / p99 3.4 ms; python-osc relay p50 0.26-0.45 / p99 1.4-1.6 ms.",
         "",
     ]
-    out += _where_the_time_goes(lat, per_node=bool(run.throughput and run.throughput.nodes))
+    out += _where_the_time_goes(lat, per_node=bool(run.throughput and run.throughput.nodes), calls=run.calls)
     if run.handoff is not None and run.handoff.size:
         h = run.handoff
         out += [
@@ -218,7 +219,7 @@ def _latency_section(run: Run) -> list[str]:
     return out
 
 
-def _where_the_time_goes(lat: list[LatencyResult], per_node: bool) -> list[str]:
+def _where_the_time_goes(lat: list[LatencyResult], per_node: bool, calls: list[CallCount] = ()) -> list[str]:
     """The one-glove rows at 1 kHz split into the transport, the engine and the chain."""
     paths = (
         ("osc_in path", "pointat-udp", ("floor", "python-osc"), "python-osc relay's", "`oscin_relay.pat`: "
@@ -247,13 +248,24 @@ def _where_the_time_goes(lat: list[LatencyResult], per_node: bool) -> list[str]:
         out.append(f"*{title}*: " + "; ".join(parts) + ".")
     if not out:
         return []
+    names = {"python-osc": "the python-osc relay", "relay": "pointat's relay"} | {
+        c: f"{CHAINS[c]}" for c in CHAINS
+    }
+    counted = "; ".join(f"{names[c.path]} {c.calls:.0f} ({c.distinct} different functions)" for c in calls)
     return [
         "**Where the time goes (1 kHz, one glove).**  "
         + "  ".join(out)
-        + "  The chains are Python arithmetic on every sample"
+        + "  The chains are Python work on every sample"
         + (" (section 2 has their cost per node, measured back to back)" if per_node else "")
         + ".  A sample that arrives at a process which slept for a millisecond finds its caches cold, "
-        "and on this virtual machine the same Python work then takes more time than it does back to back.",
+        "and on this virtual machine the same Python work then takes more time than it does back to back; "
+        "the more code and data a sample touches, the more it pays."
+        + (
+            f"  Python function calls per sample on the osc_in path (select, receive, parse, chain, encode, "
+            f"send; counted with `sys.setprofile`): {counted}."
+            if calls
+            else ""
+        ),
         "",
     ]
 

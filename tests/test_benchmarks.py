@@ -40,3 +40,22 @@ def test_ratios_by_round_pair_the_same_rounds():
     late = pool([_round([], error="slow start"), _round([300.0] * 100), _round([400.0] * 100)])
     assert _by_round(late, floor) == "; by round –, 1.50, –"
     assert _by_round(r, pool([_round([100.0] * 100)])) == ""
+
+
+def test_python_calls_per_sample_are_counted_on_each_osc_in_path():
+    from benchmarks.latency import python_calls
+    from benchmarks.report import _where_the_time_goes
+    from pointat.maths.evaluation import BROAD_SAMPLE, load_broad
+
+    counts = {c.path: c for c in python_calls(load_broad(BROAD_SAMPLE), samples=5, warmup=20)}
+    assert set(counts) == {"python-osc", "relay", "torre", "tqt"}
+    for c in counts.values():
+        assert 0 < c.distinct <= c.calls
+    # the chains run the relay's path and the fusion on top of it
+    assert counts["torre"].calls > counts["relay"].calls + 30 and counts["tqt"].calls > counts["relay"].calls + 30
+    relay = _round([60.0] * 100)
+    relay.family, relay.chain = "pointat-udp", "relay"
+    floor = _round([50.0] * 100)
+    floor.family, floor.chain = "floor", "python-osc"
+    text = "".join(_where_the_time_goes([relay, floor], per_node=False, calls=list(counts.values())))
+    assert f"pointat's relay {counts['relay'].calls:.0f} ({counts['relay'].distinct} different" in text
