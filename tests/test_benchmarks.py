@@ -52,7 +52,10 @@ def test_python_calls_per_sample_are_counted_on_each_osc_in_path():
     for c in counts.values():
         assert 0 < c.distinct <= c.calls
     # the chains run the relay's path and the fusion on top of it
-    assert counts["torre"].calls > counts["relay"].calls + 30 and counts["tqt"].calls > counts["relay"].calls + 30
+    assert (
+        counts["torre"].calls > counts["relay"].calls + 30
+        and counts["tqt"].calls > counts["relay"].calls + 30
+    )
     relay = _round([60.0] * 100)
     relay.family, relay.chain = "pointat-udp", "relay"
     floor = _round([50.0] * 100)
