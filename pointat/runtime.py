@@ -18,7 +18,8 @@
 * **Falling behind.**  A timer that costs more than its period (a machine too slow for the patch) falls
   behind in logical time, as Pd's clocks do, and the timers due after it wait with it; but each pass over
   the timers ends at the first timer scheduled during it, so the descriptors and the queue are still
-  served between passes, and ``duration`` is wall-clock time.
+  served between passes, ``duration`` is wall-clock time, and the log says that the machine cannot keep
+  up (a timer more than :attr:`Runtime.LATE` late; at most every :attr:`Runtime.LATE_EVERY` seconds).
 * **Live control.**  :meth:`set_param` and :meth:`send` may be called from any thread (the OSC bridge
   uses them); they are carried out on the scheduler thread.
 """
@@ -496,6 +497,11 @@ class Runtime:
 
     #: Longest sleep in select (seconds), so that a stop is noticed even if its wake-up were lost.
     IDLE = 0.25
+    #: A timer run this many seconds after its time says the machine cannot keep up: a warning, at most
+    #: once every :attr:`LATE_EVERY` seconds.
+    LATE = 0.1
+    LATE_EVERY = 10.0
+    _late_warned = -math.inf
 
     def _run_due(self) -> float:
         """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`; 0
@@ -516,6 +522,8 @@ class Runtime:
             t = heapq.heappop(timers)
             if t.cancelled:
                 continue
+            if start - t.when > self.LATE and self.realtime:
+                self._late(t, start - t.when)
             if t.node is not None:
                 t.node.time = t.when
                 self._guard(t.node, t.fn, *t.args)
@@ -527,6 +535,19 @@ class Runtime:
         if not timers:
             return self.IDLE
         return min(self.IDLE, max(0.0, timers[0].when - (clock.now() if now is None else now)))
+
+    def _late(self, timer: Timer, late: float) -> None:
+        now = time.monotonic()
+        if now - self._late_warned < self.LATE_EVERY:
+            return
+        self._late_warned = now
+        who = f" (node '{timer.node.name}')" if timer.node is not None else ""
+        log.warning(
+            "the scheduler is %.0f ms behind its timers%s: this machine cannot keep up with the patch, and its "
+            "timing and latency suffer (a lighter patch, a lower rate, or pointat run --rt)",
+            late * 1000.0,
+            who,
+        )
 
     def _poll(self, timeout: float) -> int:
         """Sleep in select until a watched descriptor is readable, an event is posted or ``timeout``
