@@ -809,14 +809,12 @@ class CallCount:
 
 def python_calls(sample: dict[str, np.ndarray], samples: int = 50, warmup: int = 200) -> list[CallCount]:
     """Count, with :func:`sys.setprofile`, the Python function calls a sample makes through the
-    python-osc relay (its own server and client, as ``benchmarks.relay`` runs them) and through
-    pointat's ``oscin_*.pat`` patches, in this process: select, receive, parse, the chain, encode, send.
+    python-osc relay (:func:`benchmarks.relay.osc_relay`, the floor's own code) and through pointat's
+    ``oscin_*.pat`` patches, in this process: select, receive, parse, the chain, encode, send.
     """
-    from pythonosc.dispatcher import Dispatcher
-    from pythonosc.osc_server import BlockingOSCUDPServer
-    from pythonosc.udp_client import SimpleUDPClient
-
     from pointat.loader import load
+
+    from .relay import osc_relay
 
     hole = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     hole.bind(("127.0.0.1", 0))
@@ -828,10 +826,7 @@ def python_calls(sample: dict[str, np.ndarray], samples: int = 50, warmup: int =
         for path in ("python-osc", "relay", "torre", "tqt"):
             in_port = free_udp_port()
             if path == "python-osc":
-                client = SimpleUDPClient("127.0.0.1", out_port)
-                dispatcher = Dispatcher()
-                dispatcher.set_default_handler(lambda a, *v, c=client: c.send_message(a, list(v)))
-                server = BlockingOSCUDPServer(("127.0.0.1", in_port), dispatcher)
+                server = osc_relay(in_port, out_port)
                 src, step, done = (
                     UdpSource(in_port, "arg", sample),
                     server.handle_request,

@@ -40,10 +40,7 @@ def main(argv: list[str] | None = None) -> int:
         return _pty_relay(args.pty, args.out_port, deadline)
     if args.out_port == 0:
         return _sink(args.in_port, deadline)
-    client = SimpleUDPClient("127.0.0.1", args.out_port)
-    dispatcher = Dispatcher()
-    dispatcher.set_default_handler(lambda address, *values: client.send_message(address, list(values)))
-    server = BlockingOSCUDPServer(("127.0.0.1", args.in_port), dispatcher)
+    server = osc_relay(args.in_port, args.out_port)
     server.timeout = 0.2
     try:
         while time.monotonic() < deadline:
@@ -51,6 +48,15 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         server.server_close()
     return 0
+
+
+def osc_relay(in_port: int, out_port: int) -> BlockingOSCUDPServer:
+    """python-osc's server on 127.0.0.1:``in_port``, every message it parses sent on by python-osc's client
+    to ``out_port``; ``handle_request()`` relays one datagram."""
+    client = SimpleUDPClient("127.0.0.1", out_port)
+    dispatcher = Dispatcher()
+    dispatcher.set_default_handler(lambda address, *values: client.send_message(address, list(values)))
+    return BlockingOSCUDPServer(("127.0.0.1", in_port), dispatcher)
 
 
 #: The benchmark's mote patches: gyro x count = TAG_BASE + tag (see benchmarks.latency).

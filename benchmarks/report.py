@@ -248,9 +248,7 @@ def _where_the_time_goes(lat: list[LatencyResult], per_node: bool, calls: list[C
         out.append(f"*{title}*: " + "; ".join(parts) + ".")
     if not out:
         return []
-    names = {"python-osc": "the python-osc relay", "relay": "pointat's relay"} | {
-        c: f"{CHAINS[c]}" for c in CHAINS
-    }
+    names = {"python-osc": "the python-osc relay", "relay": "pointat's relay", **CHAINS}
     counted = "; ".join(f"{names[c.path]} {c.calls:.0f} ({c.distinct} different functions)" for c in calls)
     return [
         "**Where the time goes (1 kHz, one glove).**  "
