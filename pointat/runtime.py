@@ -223,6 +223,7 @@ class Runtime:
         self._wake_r: socket.socket | None = None
         self._wake_w: socket.socket | None = None
         self._sleeping = False
+        self._late_warned = -math.inf  # when the log last said that timers run late (time.monotonic)
         #: Where ``print`` nodes write; the CLI points it at the terminal, tests at a list.
         self.console: Callable[[str], None] = logging.getLogger("pointat.console").info
         for node in nodes:
@@ -501,7 +502,6 @@ class Runtime:
     #: once every :attr:`LATE_EVERY` seconds.
     LATE = 0.1
     LATE_EVERY = 10.0
-    _late_warned = -math.inf
 
     def _run_due(self) -> float:
         """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`; 0
