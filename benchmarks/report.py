@@ -219,7 +219,9 @@ def _latency_section(run: Run) -> list[str]:
     return out
 
 
-def _where_the_time_goes(lat: list[LatencyResult], per_node: bool, calls: list[CallCount] = ()) -> list[str]:
+def _where_the_time_goes(
+    lat: list[LatencyResult], per_node: bool, calls: Sequence[CallCount] = ()
+) -> list[str]:
     """The one-glove rows at 1 kHz split into the transport, the engine and the chain."""
     paths = (
         ("osc_in path", "pointat-udp", ("floor", "python-osc"), "python-osc relay's", "`oscin_relay.pat`: "

@@ -127,27 +127,24 @@ base.1 -> right
         self.do_close()
         self.p.device = str(path)
         if self.READ_IN_THREAD:  # the reader's own thread, handing each frame and event to the scheduler
-            self._reader = SerialMoteReader(
-                self.p.device,
-                self.p.baud,
-                lambda frame, t: self.post(self._on_frame, frame, t, block=False),
-                lambda event: self.post(self._event, event, block=False),
-                format=self.p.format,
-                backoff=self.BACKOFF,
-                low_latency=self.p.low_latency,
-            ).start()
-            return
+            on_frame = lambda frame, t: self.post(self._on_frame, frame, t, block=False)  # noqa: E731
+            on_event = lambda event: self.post(self._event, event, block=False)  # noqa: E731
+        else:  # read on the scheduler thread itself: the callbacks run there
+            on_frame, on_event = self._on_frame, self._event
         self._reader = SerialMoteReader(
             self.p.device,
             self.p.baud,
-            self._on_frame,
-            self._event,
+            on_frame,
+            on_event,
             format=self.p.format,
             backoff=self.BACKOFF,
             low_latency=self.p.low_latency,
         )
-        self._failing = False
-        self._try_open()
+        if self.READ_IN_THREAD:
+            self._reader.start()  # it opens, reads and reopens by itself
+        else:
+            self._failing = False
+            self._try_open()
 
     def do_close(self) -> None:
         self._unwatch()
