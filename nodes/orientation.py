@@ -266,7 +266,7 @@ am -> fuse.accmag
         self._prev_gyro = g
         if am is not None:
             tau = 1.0 / (2.0 * math.pi * self.p.crossover)
-            self.q = sq.normalize(sq.slerp(self.q, am, dt / (tau + dt)))  # slerp takes the shorter arc
+            self.q = sq.slerp(self.q, am, dt / (tau + dt))  # unit, along the shorter arc
             self.report("ok")
         else:
             self.report("gyro_only")
@@ -340,6 +340,7 @@ cal.mag -> fuse.mag
             dip=dip,
             k_heading=self.p.k_heading,
         )
+        self._bits = 0  # the flags last reported ("ok" until a flag is up)
         self.reset_clock()
 
     def param_changed(self, name: str) -> None:
@@ -356,14 +357,24 @@ cal.mag -> fuse.mag
             as_floats(mag, 3) if mag is not None else nan3,
             self.step(msg.time),
         )
-        flags = self.filter.flags & ~(TQTFlags.REST)
-        self.report("ok" if not flags else str(flags.name or flags).lower().replace("|", ","))
+        bits = self.filter.flag_bits & _NOT_REST
+        if bits != self._bits:  # the status text only when it changes
+            self._bits = bits
+            self.report("ok" if not bits else _status(TQTFlags(bits)))
         if self.filter.initialised:
             self.out(0, floats(q, msg.time))
 
     def do_reset(self) -> None:
         self.filter.reset()
         self.reset_clock()
+
+
+_NOT_REST = ~int(TQTFlags.REST)  # resting is normal, not a status to report
+
+
+def _status(flags: TQTFlags) -> str:
+    """``mag_disturbed,uninitialised``: the flags that are up, as the ``flags`` outlet reports them."""
+    return str(flags.name or flags).lower().replace("|", ",")
 
 
 @register("reference")
@@ -431,8 +442,10 @@ class Matrix2Quat(Node):
     outlets = (Outlet("quat", "vector", "quaternion (w, x, y, z)"),)
 
     def on_matrix(self, msg: Message) -> None:
-        as_floats(msg, 9)  # raises for anything but a matrix: a quaternion here is a wiring mistake
-        self.out(0, floats(_as_quat(msg), msg.time))
+        m = as_floats(msg, 9)  # raises for anything but a matrix: a quaternion here is a wiring mistake
+        if not math.isfinite(sum(m)):
+            raise ValueError("orientation has NaN or infinite values")
+        self.out(0, floats(sq.matrix_quat(m), msg.time))
 
 
 @register("quat2matrix")

@@ -712,6 +712,11 @@ class TQTFilter(_TQTParams):
         return TQTFlags(self._flags)
 
     @property
+    def flag_bits(self) -> int:
+        """:attr:`flags` as a plain ``int``, for a caller on every sample (an enum flag costs ~0.5 µs)."""
+        return self._flags
+
+    @property
     def initialised(self) -> bool:
         """Whether the orientation has been set (first valid acc / mag pair, or :meth:`reset` with ``q``)."""
         return self._initialised
