@@ -338,7 +338,9 @@ class OscOut(Node):
     bundle (``bundle=true``) time-tagged "immediately", or now + ``delay`` ms for receivers that
     schedule.  ``rate`` caps updates per second (the latest held one follows, so the receiver always
     ends where the hand stopped); ``change=true`` or a ``deadband`` skips updates that moved no more
-    than ``deadband`` degrees.  ``to`` adds destinations.  Sending never blocks and never stops the
+    than ``deadband`` degrees.  ``to`` adds destinations.  Datagrams leave when the scheduler has run
+    everything that arrived together: at once after a glove's sample, in one burst for all the gloves of
+    a base station's delivery (one wake-up of the receiver).  Sending never blocks and never stops the
     patch: an absent receiver (ECONNREFUSED on loopback) is logged (once, then every 1000th) and
     counted (``refused``); datagrams the system would not take are counted in ``failed``.
     """
@@ -416,6 +418,7 @@ dir.azimuth -> out.azimuth
         self._last_time = -math.inf
         self._held: tuple[float, ...] | None = None
         self._timer: Timer | None = None
+        self._outbox: list[bytes] = []  # encoded this pass, sent at its end
         self.updates = 0
         self.sent = 0
         self.failed = 0
@@ -523,10 +526,28 @@ dir.azimuth -> out.azimuth
 
     # sending -------------------------------------------------------------------
     def send(self, datagrams: list[bytes]) -> None:
-        """Send encoded OSC messages, as they are or as one bundle, to every destination."""
+        """Send encoded OSC messages, as they are or as one bundle, to every destination.
+
+        They leave when the scheduler's pass is done (:meth:`Runtime.at_pass_end
+        <pointat.runtime.Runtime.at_pass_end>`): right after this sample's chain when one sensor woke
+        the scheduler, together with the other sensors' when a base station delivered several frames at
+        once (one wake-up of the receiver, not one per sensor).
+        """
         if self.p.bundle:
             when = time.time() + self.p.delay / 1000.0 if self.p.delay > 0 else None
             datagrams = [encode_bundle(datagrams, when)]
+        if self._outbox:
+            self._outbox += datagrams
+            return
+        self._outbox = list(datagrams)
+        rt = self.rt
+        if rt is None:
+            self._send_queued()
+        else:
+            rt.at_pass_end(self, self._send_queued)
+
+    def _send_queued(self) -> None:
+        datagrams, self._outbox = self._outbox, []
         for d in self.dests:
             for dgram in datagrams:
                 self._send_one(d, dgram)
@@ -574,6 +595,8 @@ dir.azimuth -> out.azimuth
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
+        if self._outbox and all(d.sock is not None for d in self.dests):
+            self._send_queued()  # a pass cut short: what was encoded still goes
         for d in self.dests:
             if d.sock is not None:
                 d.sock.close()

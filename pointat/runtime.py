@@ -20,6 +20,10 @@
   the timers ends at the first timer scheduled during it, so the descriptors and the queue are still
   served between passes, ``duration`` is wall-clock time, and the log says that the machine cannot keep
   up (a timer more than :attr:`Runtime.LATE` late; at most every :attr:`Runtime.LATE_EVERY` seconds).
+* **Passes.**  The scheduler handles what is ready in passes: the timers that are due, or the readers
+  that woke it and the queue.  :meth:`Runtime.at_pass_end` runs a callback when the current pass is done,
+  before the scheduler sleeps again; ``osc_out`` sends that way, so the datagrams of every sensor read in
+  one wake-up leave together.
 * **Live control.**  :meth:`set_param` and :meth:`send` may be called from any thread (the OSC bridge
   uses them); they are carried out on the scheduler thread.
 """
@@ -223,6 +227,8 @@ class Runtime:
         self._wake_r: socket.socket | None = None
         self._wake_w: socket.socket | None = None
         self._sleeping = False
+        self._passing = False  # a pass (timers due, or readers and queue) is being handled
+        self._at_end: list[tuple[Node | None, Callable[[], Any]]] = []
         self._late_warned = -math.inf  # when the log last said that timers run late (time.monotonic)
         #: Where ``print`` nodes write; the CLI points it at the terminal, tests at a list.
         self.console: Callable[[str], None] = logging.getLogger("pointat.console").info
@@ -279,6 +285,21 @@ class Runtime:
         t = Timer(when, next(self._seq), node, fn, args)
         heapq.heappush(self._timers, t)
         return t
+
+    def at_pass_end(self, node: Node | None, fn: Callable[[], Any]) -> None:
+        """Run ``fn()`` on the scheduler thread when the pass being handled is done: after the readers
+        that woke the scheduler and the queue, or after the timers that are due, before it sleeps again.
+        Outside a pass (a node fed by hand, a loadbang) it runs at once.  Call it on the scheduler thread.
+
+        ``osc_out`` sends this way.  A base station's frames arrive together, one per sensor: their
+        datagrams then leave in one burst after all the chains ran, instead of one between every two
+        chains.  A burst wakes the receiver once; on a virtual machine a ``send`` that wakes a sleeping
+        receiver costs tens of microseconds, the ones right after it a few.
+        """
+        if self._passing:
+            self._at_end.append((node, fn))
+        else:
+            fn()
 
     def post(self, node: Node | None, fn: Callable, *args: Any, block: bool = True) -> bool:
         """Queue ``fn(*args)`` for the scheduler thread; safe from any thread.
@@ -518,20 +539,25 @@ class Runtime:
         clock = self.clock
         now = start = clock.now()
         newer = next(self._seq) if self.realtime else math.inf  # scheduled from here on: larger numbers
-        while timers and timers[0].when <= start and timers[0].seq < newer:
-            t = heapq.heappop(timers)
-            if t.cancelled:
-                continue
-            if start - t.when > self.LATE and self.realtime:
-                self._late(t, start - t.when)
-            if t.node is not None:
-                t.node.time = t.when
-                self._guard(t.node, t.fn, *t.args)
-            else:
-                t.fn(*t.args)
-            if self.stopping.is_set():
-                return 0.0
-            now = None  # time went on while it ran
+        if timers and timers[0].when <= start:
+            self._passing = True
+            try:
+                while timers and timers[0].when <= start and timers[0].seq < newer:
+                    t = heapq.heappop(timers)
+                    if t.cancelled:
+                        continue
+                    if start - t.when > self.LATE and self.realtime:
+                        self._late(t, start - t.when)
+                    if t.node is not None:
+                        t.node.time = t.when
+                        self._guard(t.node, t.fn, *t.args)
+                    else:
+                        t.fn(*t.args)
+                    if self.stopping.is_set():
+                        return 0.0
+                    now = None  # time went on while it ran
+            finally:
+                self._end_pass()
         if not timers:
             return self.IDLE
         return min(self.IDLE, max(0.0, timers[0].when - (clock.now() if now is None else now)))
@@ -563,6 +589,14 @@ class Runtime:
             ready = selector.select(timeout)
         finally:
             self._sleeping = False
+        self._passing = True
+        try:
+            return self._serve(ready, waiting)
+        finally:
+            self._end_pass()
+
+    def _serve(self, ready: list, waiting: Any) -> int:
+        """One pass: the readers in ``ready``, then what is in the queue now."""
         n = 0
         for reader in ready:
             if reader is None:  # the wake-up socket
@@ -593,6 +627,19 @@ class Runtime:
             except queue.Empty:
                 pass
         return n
+
+    def _end_pass(self) -> None:
+        """Run what :meth:`at_pass_end` collected during the pass (and what those calls add), in order."""
+        pending = self._at_end
+        i = 0
+        try:
+            while i < len(pending):
+                node, fn = pending[i]
+                i += 1
+                self._guard(node, fn)
+        finally:
+            del pending[:i]  # all of them, unless one was interrupted: the rest then run after the next pass
+            self._passing = False
 
     def _run_item(self, item: tuple | None) -> None:
         if item is None:

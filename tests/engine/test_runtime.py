@@ -465,3 +465,64 @@ def test_a_timer_that_costs_more_than_its_period_cannot_starve_the_readers_nor_t
         th.join(5.0)
         rx.close()
         tx.close()
+
+
+def test_what_runs_at_the_end_of_a_pass_runs_after_everything_due_in_it(caplog):
+    """at_pass_end: after every timer of the pass, in the order asked, including what those calls ask
+    for; a failing one is logged with its node and the others still run; outside a pass, at once."""
+    rt = Runtime(realtime=False)
+    who = rt.add(Collect("who"))
+    log = []
+
+    def failing():
+        log.append("end2")
+        rt.at_pass_end(None, lambda: log.append("end3"))
+        raise RuntimeError("a flush that fails")
+
+    def first():
+        log.append("timer1")
+        rt.at_pass_end(None, lambda: log.append("end1"))
+        rt.at_pass_end(who, failing)
+
+    rt.call_at(0.1, None, first)
+    rt.call_at(0.1, None, lambda: log.append("timer2"))
+    rt.call_at(0.2, None, lambda: log.append("timer3"))
+    rt.advance(0.15)
+    assert log == ["timer1", "timer2", "end1", "end2", "end3"]
+    assert "node 'who'" in caplog.text and "a flush that fails" in caplog.text
+    rt.advance(0.1)
+    assert log[-1] == "timer3"
+    rt.at_pass_end(None, lambda: log.append("now"))
+    assert log[-1] == "now"
+    rt.shutdown()
+
+
+def test_readers_woken_together_share_one_pass_end():
+    """Two sockets readable in one wake-up: what their callbacks leave for the end runs after both."""
+    import socket
+
+    rt = Runtime()
+    log = []
+    socks = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(2)]
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        for i, s in enumerate(socks):
+            s.bind(("127.0.0.1", 0))
+            s.setblocking(False)
+
+            def readable(s=s, i=i):
+                s.recv(64)
+                log.append(f"read{i}")
+                rt.at_pass_end(None, lambda: log.append(f"end{i}"))
+
+            rt.add_reader(s, readable)
+        for s in socks:
+            tx.sendto(b"x", s.getsockname())
+        time.sleep(0.05)  # both are readable before the scheduler looks
+        rt.drain(0.5)
+        assert sorted(log[:2]) == ["read0", "read1"] and sorted(log[2:]) == ["end0", "end1"]
+    finally:
+        rt.shutdown()
+        tx.close()
+        for s in socks:
+            s.close()

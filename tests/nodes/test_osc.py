@@ -348,6 +348,30 @@ def test_multiple_destinations_each_get_every_update(started, receivers):
     assert out.sent == 6 and out.failed == 0
 
 
+def test_what_one_pass_encodes_leaves_together_at_its_end(started, receivers):
+    """Two sources updated in one scheduler pass (as a base station's frames for two gloves are): neither
+    datagram leaves before both chains ran; then both have, and each went to its own receiver."""
+    rx_a, rx_b = receivers(), receivers()
+    rt = started(patch(f"node a osc_out port={rx_a.port}\nnode b osc_out port={rx_b.port} source=2"))
+    a, b = rt.nodes["a"], rt.nodes["b"]
+    seen = []
+
+    def both_gloves():
+        push(a, 10.0)
+        seen.append((a.sent, rx_a.packets(timeout=0.05)))  # encoded, not sent yet
+        push(b, 20.0)
+        seen.append((b.sent, rx_b.packets(timeout=0.05)))
+
+    rt.call_at(0.01, None, both_gloves)
+    rt.advance(0.02)
+    assert seen == [(0, []), (0, [])]
+    assert a.sent == b.sent == 1
+    assert azimuths(rx_a) == [10.0] and azimuths(rx_b) == [20.0]
+    assert rx_b.messages(None) == [] and rx_a.messages(None) == []
+    push(a, 11.0)  # outside a pass (fed by hand): at once
+    assert a.sent == 2 and azimuths(rx_a) == [11.0]
+
+
 def test_bad_destinations_are_load_errors():
     with pytest.raises(PatchError, match="host:port"):
         patch('node out osc_out to=["nohostport"]')
