@@ -179,6 +179,31 @@ def test_tqt_gains_are_live():
         f.receive(0, method("mode", "paper"))
 
 
+def test_tqt_steps_of_a_packet_counter_clock_are_the_nominal_step(monkeypatch):
+    """Sensor time t0 + n / rate differs from 1 / rate by rounding from sample to sample; the node takes
+    the nominal step then, and a real gap as it is (the filter's coefficients follow the step)."""
+    from pointat.maths.tqt import TQTFilter
+    from pointat.message import floats
+
+    steps = []
+    original = TQTFilter.update
+    monkeypatch.setattr(
+        TQTFilter, "update", lambda self, g, a, m, dt: steps.append(dt) or original(self, g, a, m, dt)
+    )
+    rt = patch("node fuse tqt rate=1000\n")
+    f = rt.nodes["fuse"]
+    rt.start()
+    t0 = 12345.678901  # a host time stamp, as the mote node anchors its clock
+    times = [t0 + n / 1000.0 for n in range(300)] + [t0 + 0.3005]  # then one and a half periods
+    assert len({b - a for a, b in zip(times[:-1], times[1:], strict=True)}) > 1  # the rounding is there
+    for t in times:
+        f.receive(2, floats((0.2, 0.0, -0.4), t))
+        f.receive(1, floats((0.0, 0.0, 9.81), t))
+        f.receive(0, floats((0.01, 0.0, 0.0), t))
+    assert set(steps[:-1]) == {0.001}
+    assert steps[-1] == pytest.approx(0.0015, abs=1e-9)
+
+
 FRAME_FUNCTIONS = {
     ("nwu", "enu"): ["nwu_to_enu"],
     ("enu", "nwu"): ["enu_to_nwu"],
