@@ -62,3 +62,15 @@ def test_python_calls_per_sample_are_counted_on_each_osc_in_path():
     floor.family, floor.chain = "floor", "python-osc"
     text = "".join(_where_the_time_goes([relay, floor], per_node=False, calls=list(counts.values())))
     assert f"pointat's relay {counts['relay'].calls:.0f} ({counts['relay'].distinct} different" in text
+
+
+def test_a_send_to_a_sleeping_receiver_and_a_burst_of_sends_are_measured_and_reported():
+    """The report's 'waking the receiver': three real costs from real sockets, and the sentence on bursts."""
+    from benchmarks.report import _throughput_section
+    from benchmarks.throughput import ThroughputResults, udp_hole, udp_sink, wake_cost
+
+    with udp_sink(seconds=60) as port, udp_hole() as hole:
+        asleep, nobody, burst = wake_cost(port, hole, n=160)
+    assert 0 < nobody and 0 < burst and 0 < asleep
+    text = "\n".join(_throughput_section(ThroughputResults(wake=(asleep, nobody, burst))))
+    assert f"costs {asleep:.1f} µs" in text and f"Sixteen sends back to back cost {burst:.1f} µs each" in text
