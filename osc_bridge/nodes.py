@@ -339,8 +339,9 @@ class OscOut(Node):
     schedule.  ``rate`` caps updates per second (the latest held one follows, so the receiver always
     ends where the hand stopped); ``change=true`` or a ``deadband`` skips updates that moved no more
     than ``deadband`` degrees.  ``to`` adds destinations.  Datagrams leave when the scheduler has run
-    everything that arrived together: at once after a glove's sample, in one burst for all the gloves of
-    a base station's delivery (one wake-up of the receiver).  Sending never blocks and never stops the
+    everything that arrived together: right after a glove's sample, in one burst for all the gloves of
+    a base station's delivery (a receiver they share is woken once); an ``osc_out`` holds one update
+    back at most.  Sending never blocks and never stops the
     patch: an absent receiver (ECONNREFUSED on loopback) is logged (once, then every 1000th) and
     counted (``refused``); datagrams the system would not take are counted in ``failed``.
     """
@@ -531,19 +532,19 @@ dir.azimuth -> out.azimuth
         They leave when the scheduler's pass is done (:meth:`Runtime.at_pass_end
         <pointat.runtime.Runtime.at_pass_end>`): right after this sample's chain when one sensor woke
         the scheduler, together with the other sensors' when a base station delivered several frames at
-        once (one wake-up of the receiver, not one per sensor).
+        once (a receiver they share is woken once, not once per sensor).  One update waits at most: a
+        second one in the same pass (a backlog being worked off) sends both at once, so a long pass
+        never piles datagrams up into one burst that would overflow the receiver's buffer.
         """
         if self.p.bundle:
             when = time.time() + self.p.delay / 1000.0 if self.p.delay > 0 else None
             datagrams = [encode_bundle(datagrams, when)]
-        if self._outbox:
-            self._outbox += datagrams
-            return
-        self._outbox = list(datagrams)
         rt = self.rt
-        if rt is None:
+        if self._outbox or rt is None:
+            self._outbox += datagrams
             self._send_queued()
         else:
+            self._outbox = list(datagrams)
             rt.at_pass_end(self, self._send_queued)
 
     def _send_queued(self) -> None:

@@ -629,16 +629,22 @@ class Runtime:
         return n
 
     def _end_pass(self) -> None:
-        """Run what :meth:`at_pass_end` collected during the pass (and what those calls add), in order."""
-        pending = self._at_end
-        i = 0
+        """Run what :meth:`at_pass_end` collected during the pass (and what those calls add), in order.
+
+        The list is taken before it runs, so a pass started inside one of the calls (a ``drain``) runs
+        only what was collected since; if a call is interrupted (KeyboardInterrupt), the ones after it
+        stay first in line for the end of the next pass.
+        """
         try:
-            while i < len(pending):
-                node, fn = pending[i]
-                i += 1
-                self._guard(node, fn)
+            while self._at_end:
+                pending, self._at_end = self._at_end, []
+                for i, (node, fn) in enumerate(pending):
+                    try:
+                        self._guard(node, fn)
+                    except BaseException:
+                        self._at_end[:0] = pending[i + 1 :]
+                        raise
         finally:
-            del pending[:i]  # all of them, unless one was interrupted: the rest then run after the next pass
             self._passing = False
 
     def _run_item(self, item: tuple | None) -> None:

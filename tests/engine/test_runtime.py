@@ -497,6 +497,24 @@ def test_what_runs_at_the_end_of_a_pass_runs_after_everything_due_in_it(caplog):
     rt.shutdown()
 
 
+def test_a_pass_inside_a_pass_end_call_runs_each_call_once():
+    """A pass-end call that drains (a pass of its own): every call runs once, none is lost."""
+    rt = Runtime(realtime=False)
+    log = []
+
+    def draining():
+        log.append("draining")
+        rt.at_pass_end(None, lambda: log.append("added"))
+        rt.drain()
+
+    rt.call_at(
+        0.1, None, lambda: [rt.at_pass_end(None, draining), rt.at_pass_end(None, lambda: log.append("next"))]
+    )
+    rt.advance(0.2)
+    assert sorted(log) == ["added", "draining", "next"] and log[0] == "draining"
+    rt.shutdown()
+
+
 def test_readers_woken_together_share_one_pass_end():
     """Two sockets readable in one wake-up: what their callbacks leave for the end runs after both."""
     import socket
