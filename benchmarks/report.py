@@ -13,7 +13,7 @@ import numpy as np
 from .accuracy import PUBLISHED_MEAN, PUBLISHED_ORDER, PUBLISHED_TRIALS, AccuracyResults
 from .latency import CallCount, LatencyResult
 from .memory import MemoryResult
-from .throughput import CHAINS, PUSHED, ThroughputResults
+from .throughput import CHAINS, PUSHED, WAKE_BURST, ThroughputResults
 
 
 @dataclass
@@ -311,8 +311,13 @@ def _throughput_section(tp: ThroughputResults) -> list[str]:
             f"to a receiver process asleep in `recv` (the system wakes it inside the sender's call) and "
             f"{nobody:.1f} µs to a socket nobody waits on: about {asleep - nobody:.0f} µs of every sample in "
             "(b) is that wake-up, paid by any sender (a python-osc relay, Pd) on this virtual machine.  "
-            f"Sixteen sends back to back cost {burst:.1f} µs each: the first wakes the receiver, the others "
-            "find it awake.  So `osc_out` sends what a scheduler pass encoded at the end of the pass "
+            f"{WAKE_BURST} sends back to back cost {burst:.1f} µs each"
+            + (
+                ": the first wakes the receiver, the others find it awake."
+                if burst < 0.5 * asleep
+                else " (on this machine a burst saves little)."
+            )
+            + "  `osc_out` sends what a scheduler pass encoded at the end of the pass "
             "(`Runtime.at_pass_end`): when a base station delivers 16 motes' frames in one read, their "
             "datagrams leave in one burst (the 16-mote rows of section 1).",
             "",

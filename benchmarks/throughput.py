@@ -111,8 +111,12 @@ def _empty(sock: socket.socket) -> None:
             pass
 
 
+#: Sends back to back in :func:`wake_cost`'s burst (a base station's delivery for 16 motes).
+WAKE_BURST = 16
+
+
 def wake_cost(
-    sink_port: int, hole: socket.socket, n: int = 2000, gap: float = 50e-6, burst: int = 16
+    sink_port: int, hole: socket.socket, n: int = 2000, gap: float = 50e-6, burst: int = WAKE_BURST
 ) -> tuple[float, float, float]:
     """Microseconds one ``send`` of a 40-byte datagram takes: ``gap`` seconds after the previous one, to the
     sink process (asleep between datagrams, as a receiver is) and to the hole (nobody to wake); and each
@@ -125,7 +129,8 @@ def wake_cost(
         best = math.inf
         for _ in range(3):
             total = 0.0
-            for _ in range(n // size):
+            rounds = max(1, n // size)
+            for _ in range(rounds):
                 t0 = time.perf_counter()
                 while time.perf_counter() - t0 < gap * size:
                     pass
@@ -133,7 +138,7 @@ def wake_cost(
                 for _ in range(size):
                     sock.send(b"x" * 40)
                 total += time.perf_counter() - t
-            best = min(best, 1e6 * total / (n // size * size))
+            best = min(best, 1e6 * total / (rounds * size))
         sock.close()
         _empty(hole)
         result.append(best)

@@ -58,9 +58,9 @@ class SampleClock:
         if last is None:
             return nominal
         dt = t - last
-        if abs(dt - nominal) <= 1e-6 * nominal:
-            # sensor time from a packet counter (t0 + n / rate) differs from 1/rate by rounding only (a
-            # crystal is off by ~1e-5): the nominal step keeps a filter's per-step coefficients cached
+        if abs(dt - nominal) <= max(1e-6 * nominal, 4.0 * math.ulp(t)):
+            # sensor time from a packet counter (t0 + n / rate) differs from 1/rate by the stamps' rounding
+            # only: the nominal step keeps a filter's per-step coefficients cached, not recomputed
             return nominal
         return dt if 0.0 < dt <= self.MAX_GAP else nominal
 

@@ -73,4 +73,4 @@ def test_a_send_to_a_sleeping_receiver_and_a_burst_of_sends_are_measured_and_rep
         asleep, nobody, burst = wake_cost(port, hole, n=160)
     assert 0 < nobody and 0 < burst and 0 < asleep
     text = "\n".join(_throughput_section(ThroughputResults(wake=(asleep, nobody, burst))))
-    assert f"costs {asleep:.1f} µs" in text and f"Sixteen sends back to back cost {burst:.1f} µs each" in text
+    assert f"costs {asleep:.1f} µs" in text and f"16 sends back to back cost {burst:.1f} µs each" in text
