@@ -61,7 +61,7 @@ import numpy as np
 from pointat.devices.glove_sim import GloveSimulator
 from pointat.devices.mote_frame import Frame, encode_frame
 from pointat.node import Node
-from pointat.runtime import Runtime
+from pointat.runtime import Runtime, keep_cpus_awake
 
 log = logging.getLogger("benchmarks.latency")
 
@@ -701,7 +701,8 @@ def run_floor(
 ) -> LatencyResult:
     """A transport floor: ``python-osc`` relay, ``pd`` (default flags) or ``pd-sg0.1`` (-sleepgrain 0.1).
 
-    ``realtime`` runs the python-osc relay under ``chrt -f 10`` (Pd takes real-time priority itself).
+    ``realtime`` runs the python-osc relay under ``chrt -f 10`` (Pd takes real-time priority itself) with
+    the CPUs kept out of deep idle states while it is measured, as ``pointat run --rt`` keeps them.
     """
     sock = receiver_socket()
     in_port = free_udp_port()
@@ -741,7 +742,15 @@ def run_floor(
         sock.close()
         res.error = "Pure Data (pd) is not installed"
         return res
-    return _measure(res, cmd, workdir / f"{kind}_{rate:g}.log", src, sock, rate, phases, _floor_key, None, 1)
+    # as pointat run --rt does for itself; where it cannot be had, neither run has it
+    awake, _why = keep_cpus_awake() if realtime else (None, None)
+    try:
+        return _measure(
+            res, cmd, workdir / f"{kind}_{rate:g}.log", src, sock, rate, phases, _floor_key, None, 1
+        )
+    finally:
+        if awake is not None:
+            os.close(awake)
 
 
 def run_floor_pty(rate: float, phases: Phases, sample: dict[str, np.ndarray], workdir: Path) -> LatencyResult:

@@ -187,8 +187,10 @@ def _latency_section(run: Run) -> list[str]:
             "lrrrrrrrrrl",
         )
     out += [
-        "*floor* = the python-osc relay at the same rate (for the `--rt` rows, the relay under `chrt -f 10`: "
-        "both at real-time priority, as Pd takes it by itself when it may, here as root); the *python pty relay* is the mote path's own floor "
+        "*floor* = the python-osc relay at the same rate (for the `--rt` rows, the relay under `chrt -f 10` "
+        "with the CPUs kept out of deep idle states (`/dev/cpu_dma_latency` held at 0) while it is measured: "
+        "both at real-time priority, as Pd takes it by itself when it may, here as root, and both with the "
+        "CPUs awake, as `pointat run --rt` keeps them); the *python pty relay* is the mote path's own floor "
         "(the same frames through the same pseudo-terminal, read by a bare Python process with pointat's "
         "frame parser and sent on by python-osc's client): a pseudo-terminal hands bytes on through the "
         "kernel's tty layer, which costs more than a UDP socket.  *matched* = outputs matched to inputs sent in the "

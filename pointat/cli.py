@@ -15,7 +15,7 @@ from . import __version__
 from .errors import PatchError, PointatError
 from .loader import build, check, parse_overrides, read_spec
 from .registry import Registry, default_registry
-from .runtime import realtime_priority
+from .runtime import CPU_DMA_LATENCY, keep_cpus_awake, realtime_priority
 
 log = logging.getLogger("pointat")
 
@@ -85,8 +85,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--rt",
         action="store_true",
-        help="real-time priority (SCHED_FIFO), as Pd's -rt: steadier latency on a busy machine; needs root "
-        "or an rtprio limit",
+        help="real-time priority (SCHED_FIFO), as Pd's -rt, and the CPUs kept out of deep idle states "
+        "(Linux /dev/cpu_dma_latency): steadier, shorter latency; needs root or an rtprio limit and write "
+        "access to /dev/cpu_dma_latency",
     )
 
     p = sub.add_parser("check", help="validate a patch without running it")
@@ -164,14 +165,24 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    awake = None
     if args.rt:
         refused = realtime_priority()
         if refused:
             log.warning("--rt: real-time priority %s; running at normal priority", refused)
         else:
             log.info("running at real-time priority (SCHED_FIFO)")
+        awake, why = keep_cpus_awake()
+        if why:
+            log.warning("--rt: the CPUs may sleep deeply between samples: %s", why)
+        else:
+            log.info("the CPUs are kept out of deep idle states while the patch runs (%s)", CPU_DMA_LATENCY)
     log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
-    rt.run(args.duration)
+    try:
+        rt.run(args.duration)
+    finally:
+        if awake is not None:
+            os.close(awake)
     return 0
 
 

@@ -39,6 +39,7 @@ import queue
 import select
 import selectors
 import socket
+import struct
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -48,7 +49,15 @@ from .errors import FeedbackError, PointatError
 from .message import make, method
 from .node import Node
 
-__all__ = ["ManualClock", "RealClock", "Runtime", "StartError", "Timer", "realtime_priority"]
+__all__ = [
+    "ManualClock",
+    "RealClock",
+    "Runtime",
+    "StartError",
+    "Timer",
+    "keep_cpus_awake",
+    "realtime_priority",
+]
 
 log = logging.getLogger("pointat.runtime")
 
@@ -68,6 +77,36 @@ def realtime_priority(priority: int = 10) -> str | None:
     except OSError as exc:
         return str(exc)
     return None
+
+
+#: Linux's PM QoS request for CPU wake-up latency: while a process holds it open with a number of
+#: microseconds written, no CPU enters an idle state that takes longer than that to leave.
+CPU_DMA_LATENCY = "/dev/cpu_dma_latency"
+
+
+def keep_cpus_awake(max_wake_us: int = 0) -> tuple[int | None, str | None]:
+    """Keep every CPU out of idle states slower to leave than ``max_wake_us`` µs, for as long as the
+    returned descriptor stays open (Linux PM QoS, ``/dev/cpu_dma_latency``, as ``cyclictest`` and tuned's
+    latency-performance profile do).  A sample that arrives at a CPU in a deep sleep state waits for it to
+    wake (tens to hundreds of µs on a laptop); the price is power and heat while the patch runs.
+
+    Returns ``(descriptor, None)``; close it to end the request (the system ends it when the process
+    does).  Else ``(None, why not)``.
+    """
+    try:
+        fd = os.open(CPU_DMA_LATENCY, os.O_WRONLY)
+    except FileNotFoundError:
+        return None, f"not available on this system (no {CPU_DMA_LATENCY})"
+    except PermissionError:
+        return None, f"not permitted: run as root, or give write access to {CPU_DMA_LATENCY} (a udev rule)"
+    except OSError as exc:
+        return None, str(exc)
+    try:
+        os.write(fd, struct.pack("=i", max_wake_us))
+    except OSError as exc:
+        os.close(fd)
+        return None, str(exc)
+    return fd, None
 
 
 class StartError(PointatError):

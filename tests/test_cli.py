@@ -86,6 +86,44 @@ def test_rt_runs_at_real_time_priority_or_says_why_not(tmp_path):
     assert "policy: symbol normal" in plain.stdout, plain.stdout
 
 
+def test_rt_keeps_the_cpus_out_of_deep_idle_while_it_runs_or_says_why_not(tmp_path):
+    """``--rt`` holds a PM QoS request of 0 µs (/dev/cpu_dma_latency) while the patch runs, and lets go
+    when it ends; where it may not, it says why and the patch runs all the same."""
+    import struct
+
+    from pointat.runtime import CPU_DMA_LATENCY
+
+    def current() -> int | None:  # the system's wake-up latency target now, when we may read it
+        try:
+            with open(CPU_DMA_LATENCY, "rb") as f:
+                return struct.unpack("=i", f.read(4))[0]
+        except OSError:
+            return None
+
+    probe = tmp_path / "qos.py"
+    probe.write_text(
+        "import struct\nfrom pointat import Node, Outlet, register\n"
+        "@register('qos_probe')\nclass Probe(Node):\n"
+        "    outlets = (Outlet('out', 'int'),)\n"
+        "    def loadbang(self):\n"
+        "        try:\n"
+        f"            with open({CPU_DMA_LATENCY!r}, 'rb') as f:\n"
+        "                self.out(0, struct.unpack('=i', f.read(4))[0])\n"
+        "        except OSError:\n"
+        "            self.out(0, -1)\n"
+    )
+    patch = tmp_path / "qos.pat"
+    patch.write_text("node p qos_probe\nnode show print qos\np -> show\n")
+    before = current()
+    out = pointat("run", "--rt", "--plugins", tmp_path, patch, "--for", "0.5")
+    assert out.returncode == 0, out.stderr
+    if "the CPUs may sleep deeply" in out.stderr:
+        assert "not permitted" in out.stderr or "not available" in out.stderr, out.stderr
+    else:
+        assert out.stdout.strip() == "qos: 0", (out.stdout, out.stderr)
+        assert current() == before != 0  # let go when the patch ended
+
+
 def test_a_bad_patch_gives_located_errors_and_no_traceback(tmp_path):
     bad = tmp_path / "bad.pat"
     bad.write_text("node a metr 100\nnode b print\nnode c tqt k=fast\na -> b.3\n")
