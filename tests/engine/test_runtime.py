@@ -544,3 +544,29 @@ def test_readers_woken_together_share_one_pass_end():
         tx.close()
         for s in socks:
             s.close()
+
+
+def test_keeping_the_cpus_awake_writes_the_request_or_says_why_not(monkeypatch, tmp_path):
+    """keep_cpus_awake: the PM QoS request is a native 32-bit int of microseconds, held by an open
+    descriptor; a missing device or a refusal comes back as a reason, never as an exception."""
+    import os
+    import struct
+
+    from pointat import runtime
+
+    monkeypatch.setattr(runtime, "CPU_DMA_LATENCY", str(tmp_path / "absent"))
+    assert runtime.keep_cpus_awake() == (None, f"not available on this system (no {tmp_path / 'absent'})")
+    stand_in = tmp_path / "cpu_dma_latency"
+    stand_in.write_bytes(b"")
+    monkeypatch.setattr(runtime, "CPU_DMA_LATENCY", str(stand_in))
+    fd, why = runtime.keep_cpus_awake(5)
+    assert why is None and fd is not None
+    os.close(fd)
+    assert stand_in.read_bytes() == struct.pack("=i", 5)
+
+    def refused(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(runtime.os, "open", refused)
+    fd, why = runtime.keep_cpus_awake()
+    assert fd is None and why.startswith("not permitted: run as root, or give write access to")
