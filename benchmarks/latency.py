@@ -193,6 +193,22 @@ def receiver_socket() -> socket.socket:
     return sock
 
 
+@contextlib.contextmanager
+def udp_hole() -> Iterator[socket.socket]:
+    """A UDP socket in this process that nobody waits on: sending to it wakes no receiver.
+
+    Yields the socket; the caller drops what arrives, between runs.
+    """
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 24)
+        sock.bind(("127.0.0.1", 0))
+        sock.setblocking(False)
+        yield sock
+    finally:
+        sock.close()
+
+
 _ANC = socket.CMSG_SPACE(16)
 
 
@@ -825,13 +841,9 @@ def python_calls(sample: dict[str, np.ndarray], samples: int = 50, warmup: int =
 
     from .relay import osc_relay
 
-    hole = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    hole.bind(("127.0.0.1", 0))
-    hole.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
-    hole.setblocking(False)
-    out_port = hole.getsockname()[1]
     counts = []
-    try:
+    with udp_hole() as hole:
+        out_port = hole.getsockname()[1]
         for path in ("python-osc", "relay", "torre", "tqt"):
             in_port = free_udp_port()
             if path == "python-osc":
@@ -870,8 +882,6 @@ def python_calls(sample: dict[str, np.ndarray], samples: int = 50, warmup: int =
                 done()
                 src.close()
             counts.append(CallCount(path, sum(seen.values()) / samples, len(seen)))
-    finally:
-        hole.close()
     return counts
 
 

@@ -46,7 +46,7 @@ from pointat.message import Message, vector
 from pointat.node import Inlet, Node
 from pointat.runtime import Runtime
 
-from .latency import free_udp_port, stop_process
+from .latency import free_udp_port, stop_process, udp_hole
 
 log = logging.getLogger("benchmarks.throughput")
 
@@ -87,22 +87,6 @@ def udp_sink(seconds: float = 900.0) -> Iterator[int]:
         yield port
     finally:
         stop_process(proc)
-
-
-@contextlib.contextmanager
-def udp_hole() -> Iterator[socket.socket]:
-    """A UDP socket in this process that nobody waits on: sending to it wakes no receiver.
-
-    Yields the socket; :func:`_empty` drops what arrived, between runs.
-    """
-    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    try:
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 24)
-        sock.bind(("127.0.0.1", 0))
-        sock.setblocking(False)
-        yield sock
-    finally:
-        sock.close()
 
 
 def _empty(sock: socket.socket) -> None:
