@@ -12,7 +12,7 @@ inlet  accel -> accmag.accel
 inlet  mag -> accmag.mag
 outlet quat <- quat.quat
 outlet axis <- axis.axis
-outlet azimuth <- dir.azimuth
+outlet azimuth <- roll.azimuth
 outlet elevation <- dir.elevation
 outlet distance <- roll.distance
 

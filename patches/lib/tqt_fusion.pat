@@ -10,7 +10,7 @@ inlet  accel -> fuse.accel
 inlet  mag -> fuse.mag
 inlet  reference -> ref.capture
 outlet quat <- ref.quat
-outlet azimuth <- dir.azimuth
+outlet azimuth <- roll.azimuth
 outlet elevation <- dir.elevation
 outlet distance <- roll.distance
 outlet flags <- fuse.flags

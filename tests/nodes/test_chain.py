@@ -1,5 +1,7 @@
 """The Pointing-at chain on the simulated glove, against its ground truth."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -143,6 +145,33 @@ roll.mode -> mode
     assert dist[32.0] == pytest.approx(20.0, abs=3.0)
     assert az[29.5] == pytest.approx(0.0, abs=2.0)  # the azimuth holds while rolled
 
+
+
+@pytest.mark.parametrize("fusion", ["tqt_fusion", "torre_fusion"])
+def test_the_shipped_fusion_halves_hold_the_azimuth_while_the_roll_sets_the_distance(fusion):
+    # Torre §5.2: rolled 90 deg, the azimuth is *read as* distance: the source stays where it was
+    lib = Path(__file__).resolve().parents[2] / "patches" / "lib" / f"{fusion}.pat"
+    rt = patch(
+        FRONT_END.format(seed=5)
+        + f"""
+node f {lib} rate=100
+node az collect
+node dist collect
+units.mag -> f.mag
+units.accel -> f.accel
+units.gyro -> f.gyro
+f.azimuth -> az
+f.distance -> dist
+"""
+    )
+    rt.advance(40.0)
+    az = {round(m.time, 2): m.value for m in rt.nodes["az"].messages}
+    dist = {round(m.time, 2): m.value for m in rt.nodes["dist"].messages}
+    # rolled (25-26 s), the hand sweeps 0 -> 60 deg left: the distance follows, the azimuth does not
+    assert dist[29.5] == pytest.approx(60.0, abs=5.0)
+    assert az[29.5] == az[27.0]  # held, to the bit
+    assert abs(az[29.5]) < 5.0
+    assert az[34.0] == pytest.approx(20.0, abs=5.0)  # unrolled, the azimuth follows the hand again
 
 def test_bad_samples_never_reach_downstream_as_nan():
     from pointat.message import vector
