@@ -61,7 +61,8 @@ class Mote(Node):
     A USB-serial adapter holds short frames back: an FTDI chip passes on what it has every 16 ms by
     default, which would be most of a sample's latency.  ``low_latency`` (on by default) asks the
     driver for its low-latency mode at every open; on Linux the FTDI driver then sends within 1 ms.
-    The log says whether the driver accepted the request; where an FTDI adapter's driver refuses it, the
+    The mode is turned off again when the port closes, unless it was on already (the adapter is left
+    as it was found).  The log says whether the driver accepted the request; where an FTDI adapter's driver refuses it, the
     log names the ``latency_timer`` file to set instead.
     """
 

@@ -64,6 +64,8 @@ __all__ = [
     "ReaderError",
     "ReaderEvent",
     "SerialMoteReader",
+    "driver_low_latency",
+    "release_low_latency",
     "request_low_latency",
 ]
 
@@ -100,19 +102,27 @@ class ReaderError(NamedTuple):
     reason: str
 
 
+#: The ``serial_struct`` flag of the driver's low-latency mode (``linux/tty_flags.h``).
+ASYNC_LOW_LATENCY = 0x2000
+
+
 def request_low_latency(port: Any) -> str:
     """Ask the driver of an open port for its low-latency mode: ``"on"`` when the driver accepted the
-    request, else ``"unsupported: REASON"``.  Never raises: a port without the mode runs as it is.
+    request, ``"already on"`` when the port was in that mode (left as it is), else
+    ``"unsupported: REASON"``.  Never raises: a port without the mode runs as it is.
 
     On Linux this sets ``ASYNC_LOW_LATENCY`` (``TIOCSSERIAL``, allowed without privileges).  The
     ``ftdi_sio`` driver then sets the adapter's latency timer to 1 ms instead of 16 ms, so a 21-byte mote
-    frame leaves the adapter within a millisecond instead of waiting for 62 bytes or the timer; the
-    setting lasts until the adapter is unplugged.  Some drivers accept the request and ignore it.
-    Pseudo-terminals refuse it, and pyserial has it on Linux only.
+    frame leaves the adapter within a millisecond instead of waiting for 62 bytes or the timer.  The
+    driver keeps the setting after the port closes, so whoever turned it on turns it off again
+    (:func:`release_low_latency`; the reader does when it closes a port it set).  Some drivers accept the
+    request and ignore it.  Pseudo-terminals refuse it, and pyserial has it on Linux only.
     """
     setter = getattr(port, "set_low_latency_mode", None)
     if setter is None:  # Windows
         return "unsupported: not on this system"
+    if driver_low_latency(port):
+        return "already on"
     try:
         setter(True)
     except NotImplementedError:  # pyserial on macOS and the BSDs
@@ -121,6 +131,30 @@ def request_low_latency(port: Any) -> str:
         cause = exc if isinstance(exc, OSError) else exc.__context__
         return f"unsupported: {getattr(cause, 'strerror', None) or exc}"
     return "on"
+
+
+def release_low_latency(port: Any) -> None:
+    """Turn the low-latency mode that :func:`request_low_latency` turned on off again (before closing the
+    port).  Never raises: an adapter already unplugged has nothing to restore."""
+    try:
+        port.set_low_latency_mode(False)
+    except Exception as exc:  # the device vanished, or the driver changed its mind
+        log.debug("low-latency mode of %s not restored: %s", getattr(port, "port", port), exc)
+
+
+def driver_low_latency(port: Any) -> bool | None:
+    """Whether the driver of an open port is in its low-latency mode (Linux ``TIOCGSERIAL``), ``None``
+    when the port cannot say (a pseudo-terminal, another system)."""
+    try:
+        import array
+        import fcntl
+        import termios
+
+        buf = array.array("i", [0] * 32)  # struct serial_struct, as pyserial reads it; flags at [4]
+        fcntl.ioctl(port.fileno(), termios.TIOCGSERIAL, buf)
+    except (ImportError, AttributeError, OSError, ValueError):
+        return None
+    return bool(buf[4] & ASYNC_LOW_LATENCY)
 
 
 def _latency_timer(path: str) -> str | None:
@@ -238,8 +272,9 @@ class SerialMoteReader:
         self._got_data = False
         self._nonblocking = False
         self._want_low_latency = low_latency
-        #: After an open: ``"on"`` (the driver accepted the low-latency request), ``"off"`` (not asked
-        #: for), or ``"unsupported: REASON"`` (the device has no such mode; it runs as it is).
+        #: After an open: ``"on"`` (the driver accepted the low-latency request; turned off again when
+        #: the reader closes the port), ``"already on"`` (left as it was), ``"off"`` (not asked for), or
+        #: ``"unsupported: REASON"`` (the device has no such mode; it runs as it is).
         self.low_latency = "off"
         self._latency_warned = False
 
@@ -452,6 +487,8 @@ class SerialMoteReader:
         port, self._port = self._port, None
         self._opened.clear()
         if port is not None:
+            if self.low_latency == "on":  # what this reader turned on, it turns off
+                release_low_latency(port)
             try:
                 port.close()
             except (serial.SerialException, OSError) as exc:

@@ -17,6 +17,7 @@ from pointat.devices.serial_reader import (
     OpenFailed,
     ReaderError,
     SerialMoteReader,
+    driver_low_latency,
     request_low_latency,
 )
 from pointat.testing import wait_until
@@ -299,6 +300,46 @@ def test_low_latency_mode_not_asked_for(pty):
     with make_reader(pty.path, col, low_latency=False) as reader:
         assert reader.wait_open(WAIT)
         assert reader.low_latency == "off"
+
+
+class _FtdiDriver:
+    """The ``serial_struct`` flag of an adapter whose driver has the low-latency mode (a pty has none)."""
+
+    def __init__(self, monkeypatch, on: bool):
+        self.on, self.calls = on, []
+        monkeypatch.setattr("pointat.devices.serial_reader.driver_low_latency", lambda port: self.on)
+        monkeypatch.setattr("serial.Serial.set_low_latency_mode", self.set, raising=False)
+
+    def set(self, on: bool) -> None:  # bound to this driver, called by the port
+        self.calls.append(on)
+        self.on = on
+
+
+def test_a_low_latency_mode_it_turned_on_is_turned_off_when_the_port_closes(pty, monkeypatch):
+    driver = _FtdiDriver(monkeypatch, on=False)
+    with make_reader(pty.path, Collector()) as reader:
+        assert reader.wait_open(WAIT)
+        assert reader.low_latency == "on" and driver.calls == [True]
+    assert driver.calls == [True, False] and not driver.on  # the adapter is left as it was found
+
+
+def test_a_low_latency_mode_already_on_is_left_as_it_was(pty, monkeypatch):
+    driver = _FtdiDriver(monkeypatch, on=True)  # a udev rule, or setserial, turned it on for good
+    with make_reader(pty.path, Collector()) as reader:
+        assert reader.wait_open(WAIT)
+        assert reader.low_latency == "already on"
+    assert driver.calls == [] and driver.on
+
+
+def test_driver_low_latency_says_none_where_the_port_cannot_say(pty):
+    import serial
+
+    port = serial.Serial(pty.path)
+    try:
+        assert driver_low_latency(port) is None  # a pseudo-terminal has no serial_struct
+    finally:
+        port.close()
+    assert driver_low_latency(object()) is None
 
 
 def test_request_low_latency_on_systems_without_the_mode():

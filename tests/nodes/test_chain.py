@@ -146,7 +146,6 @@ roll.mode -> mode
     assert az[29.5] == pytest.approx(0.0, abs=2.0)  # the azimuth holds while rolled
 
 
-
 @pytest.mark.parametrize("fusion", ["tqt_fusion", "torre_fusion"])
 def test_the_shipped_fusion_halves_hold_the_azimuth_while_the_roll_sets_the_distance(fusion):
     # Torre §5.2: rolled 90 deg, the azimuth is *read as* distance: the source stays where it was
@@ -172,6 +171,7 @@ f.distance -> dist
     assert az[29.5] == az[27.0]  # held, to the bit
     assert abs(az[29.5]) < 5.0
     assert az[34.0] == pytest.approx(20.0, abs=5.0)  # unrolled, the azimuth follows the hand again
+
 
 def test_bad_samples_never_reach_downstream_as_nan():
     from pointat.message import vector
