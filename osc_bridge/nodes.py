@@ -405,6 +405,10 @@ dir.azimuth -> out.azimuth
                 raise ValueError(f"{name} must be a finite number >= 0, got {values[name]}")
         if values["delay"] > 0 and not values["bundle"]:
             raise ValueError("delay only applies to bundles: add bundle=true")
+        if values["delay"] > 0 and not profile.time_tags:
+            raise ValueError(
+                f"delay does nothing for profile {profile.name}: the receiver ignores bundle time tags"
+            )
 
     def setup(self) -> None:
         self.profile = PROFILES[self.p.profile]

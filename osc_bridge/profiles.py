@@ -205,6 +205,8 @@ class Profile:
     first: int
     messages: tuple[tuple[str, tuple[str | int | float, ...]], ...]
     doc: str = ""
+    #: False for a receiver known to ignore a bundle's time tag (``osc_out``'s ``delay`` would do nothing).
+    time_tags: bool = True
 
     def render(
         self, source: Source, messages: Sequence[tuple[str, Sequence[str | int | float]]] | None = None
@@ -269,6 +271,7 @@ PROFILES: dict[str, Profile] = {
             1,
             (("/StereoEncoder/azimuth", ("az",)), ("/StereoEncoder/elevation", ("el",))),
             "IEM StereoEncoder (one plug-in per port)",
+            time_tags=False,
         ),
         Profile(
             "iem_multi",
@@ -276,6 +279,7 @@ PROFILES: dict[str, Profile] = {
             0,
             (("/MultiEncoder/azimuth{n}", ("az",)), ("/MultiEncoder/elevation{n}", ("el",))),
             "IEM MultiEncoder (inputs from 0)",
+            time_tags=False,
         ),
         Profile(
             "spat", 9000, 1, (("/source/{n}/aed", ("az_right", "el", "dist_m")),), "SPAT Revolution (+ right)"

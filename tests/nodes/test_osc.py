@@ -285,6 +285,15 @@ def test_delay_without_bundle_is_a_load_error():
         patch("node out osc_out delay=20")
 
 
+@pytest.mark.parametrize("profile", ["iem_stereo", "iem_multi"])
+def test_delay_for_a_receiver_that_ignores_time_tags_is_a_load_error(profile):
+    with pytest.raises(
+        PatchError, match=f"delay does nothing for profile {profile}.*ignores bundle time tags"
+    ):
+        patch(f"node out osc_out profile={profile} bundle=true delay=20")
+    patch(f"node out osc_out profile={profile} bundle=true")  # a bundle alone is fine: sent at once
+
+
 # --------------------------------------------------------------------------- osc_out: pacing
 def azimuths(rx):
     return [round(args[0], 4) for *_, args in rx.messages(None)]
