@@ -18,6 +18,17 @@ glove.adc -> nulls -> units
 """
 
 
+def glove_into(fusion, seed, text):
+    """The simulated glove's front end into node ``fusion``'s mag, accel and gyro inlets, plus ``text``."""
+    wires = "".join(f"units.{s} -> {fusion}.{s}\n" for s in ("mag", "accel", "gyro"))
+    return patch(FRONT_END.format(seed=seed) + text + wires)
+
+
+def by_time(rt, name):
+    """What a collect node received, by its time stamp to 10 ms."""
+    return {round(m.time, 2): m.value for m in rt.nodes[name].messages}
+
+
 def _errors(rt, est_name, t_from=3.0):
     est = {round(m.time, 6): m.value for m in rt.nodes[est_name].messages}
     pairs = [
@@ -34,16 +45,14 @@ def _errors(rt, est_name, t_from=3.0):
 
 @pytest.mark.parametrize("mode, mean_bound, max_bound", [("robust", 1.5, 4.0), ("paper", 3.0, 8.0)])
 def test_tqt_tracks_the_simulated_glove(mode, mean_bound, max_bound):
-    rt = patch(
-        FRONT_END.format(seed=1)
-        + f"""
+    rt = glove_into(
+        "fuse",
+        1,
+        f"""
 node fuse tqt mode={mode}
 node est collect
-units.mag -> fuse.mag
-units.accel -> fuse.accel
-units.gyro -> fuse.gyro
 fuse.quat -> est
-"""
+""",
     )
     rt.advance(45.0)  # the whole demo script: sweeps, holds, raise, the roll gesture
     err = _errors(rt, "est")
@@ -90,24 +99,22 @@ units.gyro -> gyro -> est
 
 
 def test_azimuth_elevation_follow_the_script():
-    rt = patch(
-        FRONT_END.format(seed=4)
-        + """
+    rt = glove_into(
+        "fuse",
+        4,
+        """
 node fuse tqt
 node dir azi_ele
 node az collect
 node el collect
-units.mag -> fuse.mag
-units.accel -> fuse.accel
-units.gyro -> fuse.gyro
 fuse.quat -> dir
 dir.azimuth -> az
 dir.elevation -> el
-"""
+""",
     )
     rt.advance(25.0)
-    az = {round(m.time, 2): m.value for m in rt.nodes["az"].messages}
-    el = {round(m.time, 2): m.value for m in rt.nodes["el"].messages}
+    az = by_time(rt, "az")
+    el = by_time(rt, "el")
     # the script holds at +30 (3.5-4.5 s), +110 (6.5-7.5 s), -110 (11.5-12.5 s), up 45 (18.5-19.5 s)
     assert az[4.0] == pytest.approx(30.0, abs=2.0)
     assert az[7.0] == pytest.approx(110.0, abs=2.0)
@@ -116,30 +123,28 @@ dir.elevation -> el
 
 
 def test_roll_gesture_switches_azimuth_to_distance():
-    rt = patch(
-        FRONT_END.format(seed=5)
-        + """
+    rt = glove_into(
+        "fuse",
+        5,
+        """
 node fuse tqt
 node roll roll_distance
 node az collect
 node dist collect
 node mode collect
-units.mag -> fuse.mag
-units.accel -> fuse.accel
-units.gyro -> fuse.gyro
 fuse.quat -> roll
 roll.azimuth -> az
 roll.distance -> dist
 roll.mode -> mode
-"""
+""",
     )
     rt.advance(40.0)
     modes = [(round(m.time, 1), m.value) for m in rt.nodes["mode"].messages]
     assert [m for _, m in modes] == ["distance", "azimuth"]  # once in, once out: no flicker
     t_in, t_out = modes[0][0], modes[1][0]
     assert 25.0 < t_in < 26.0 and 32.5 < t_out < 33.5  # roll 25-26 s, roll back 32.5-33.5 s
-    dist = {round(m.time, 2): m.value for m in rt.nodes["dist"].messages}
-    az = {round(m.time, 2): m.value for m in rt.nodes["az"].messages}
+    dist = by_time(rt, "dist")
+    az = by_time(rt, "az")
     # rolled, the hand sweeps 0 -> 60 deg left (distance rises by ~60), then back to 20
     assert dist[29.5] == pytest.approx(60.0, abs=3.0)
     assert dist[32.0] == pytest.approx(20.0, abs=3.0)
@@ -150,22 +155,20 @@ roll.mode -> mode
 def test_the_shipped_fusion_halves_hold_the_azimuth_while_the_roll_sets_the_distance(fusion):
     # Torre §5.2: rolled 90 deg, the azimuth is *read as* distance: the source stays where it was
     lib = Path(__file__).resolve().parents[2] / "patches" / "lib" / f"{fusion}.pat"
-    rt = patch(
-        FRONT_END.format(seed=5)
-        + f"""
+    rt = glove_into(
+        "f",
+        5,
+        f"""
 node f {lib} rate=100
 node az collect
 node dist collect
-units.mag -> f.mag
-units.accel -> f.accel
-units.gyro -> f.gyro
 f.azimuth -> az
 f.distance -> dist
-"""
+""",
     )
     rt.advance(40.0)
-    az = {round(m.time, 2): m.value for m in rt.nodes["az"].messages}
-    dist = {round(m.time, 2): m.value for m in rt.nodes["dist"].messages}
+    az = by_time(rt, "az")
+    dist = by_time(rt, "dist")
     # rolled (25-26 s), the hand sweeps 0 -> 60 deg left: the distance follows, the azimuth does not
     assert dist[29.5] == pytest.approx(60.0, abs=5.0)
     assert az[29.5] == az[27.0]  # held, to the bit
