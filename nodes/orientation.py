@@ -12,6 +12,8 @@ state as it was and is reported on its ``flags`` outlet; nothing downstream ever
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -531,7 +533,11 @@ class RollDistanceNode(Node):
     """Torre §5.2: roll the hand 90 deg and the azimuth becomes a distance, 0 (far) .. 90 (near).
 
     Hysteresis: distance mode starts at |roll| >= ``enter`` and ends below ``leave``.  In distance mode
-    the azimuth output holds, and sweeping the rolled hand left brings the source closer.
+    the azimuth output holds, and sweeping the rolled hand left brings the source closer.  When the
+    hand unrolls, the azimuth goes to where the hand points in one step; for a receiver that does not
+    glide, put a ``smooth`` (it wraps at +-180) between this node and it.  The roll is only read while
+    the hand points within ``max_elevation`` of the horizon: pointing (nearly) straight up or down, its
+    roll is its heading and jitters wildly, so the mode stays as it is.
     """
 
     pure = True
@@ -547,20 +553,44 @@ class RollDistanceNode(Node):
         Param("leave", "float", 45.0, "|roll| below which it ends", unit="deg", live=True),
         Param("gain", "float", 1.0, "distance per degree of azimuth", live=True),
         Param("distance", "float", 0.0, "initial distance, 0..90"),
+        Param(
+            "max_elevation",
+            "float",
+            75.0,
+            "above this |elevation| the roll is not read (the mode holds)",
+            unit="deg",
+            live=True,
+        ),
+        Param("pole", "float", 1.0, "within this angle of straight up/down the azimuth holds", unit="deg"),
     )
 
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        """What a live change must keep too: leave below enter, angles in their ranges."""
+        if not 0.0 <= values["leave"] < values["enter"] <= 180.0:
+            raise ValueError(
+                f"need 0 <= leave < enter <= 180, got leave={values['leave']} enter={values['enter']}"
+            )
+        if not 0.0 <= values["max_elevation"] <= 90.0:
+            raise ValueError(f"max_elevation must be 0..90 deg, got {values['max_elevation']}")
+        if not 0.0 <= values["pole"] < 90.0:
+            raise ValueError(f"pole must be 0..90 deg, got {values['pole']}")
+
     def setup(self) -> None:
-        self.state = RollDistance(self.p.enter, self.p.leave, self.p.gain, self.p.distance)
+        self.state = RollDistance(
+            self.p.enter, self.p.leave, self.p.gain, self.p.distance, self.p.max_elevation
+        )
         self._mode = self.state.mode
         self._az: float | None = None
 
     def param_changed(self, name: str) -> None:
         self.state.enter_deg, self.state.leave_deg, self.state.gain = self.p.enter, self.p.leave, self.p.gain
+        self.state.max_elevation_deg = self.p.max_elevation
 
     def on_quat(self, msg: Message) -> None:
         q = _as_quat(msg)
-        self._az, _el = sq.azimuth_elevation(q, previous=self._az)
-        mode, az_out, dist = self.state.update(self._az, math.degrees(sq.euler(q)[2]))
+        self._az, el = sq.azimuth_elevation(q, previous=self._az, pole_deg=self.p.pole)
+        mode, az_out, dist = self.state.update(self._az, math.degrees(sq.euler(q)[2]), el)
         if mode != self._mode:
             self._mode = mode
             self.out(2, mode)

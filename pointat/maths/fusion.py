@@ -614,6 +614,11 @@ class RollDistance:
 
     .. math:: d = \mathrm{clip}(d_0 + g\,\Delta a,\ 0,\ 90), \qquad \Delta a = a - a_0
 
+    The roll is read only while the hand points within ``max_elevation_deg`` (75°) of the horizon: a
+    hand pointing (nearly) straight up or down has no roll of its own (its roll and its heading are
+    the same turn, and the Euler roll there swings wildly with the slightest jitter), so there the
+    mode stays as it is.
+
     0 = farthest, 90 = closest (Torre's range).  With the default gain :math:`g = 1`, sweeping the
     rolled hand 1° to the **left** brings the source 1° (of the 0..90 range) **closer**.  Because the
     value is :math:`d_0 + g\Delta a` clipped, overshooting an end and coming back returns along the same
@@ -629,6 +634,8 @@ class RollDistance:
         Distance units per degree of azimuth change (negative flips the direction).
     distance : float
         Initial distance, 0..90.
+    max_elevation_deg : float
+        :math:`|\text{elevation}|` (degrees) above which the roll is not read and the mode holds.
 
     >>> rd = RollDistance()
     >>> rd.update(30.0, 0.0)
@@ -641,13 +648,23 @@ class RollDistance:
     ('distance', 30.0, 29.0)
     >>> rd.update(60.0, 10.0)
     ('azimuth', 60.0, 29.0)
+    >>> rd.update(60.0, 85.0, elevation_deg=89.5)   # pointing at the zenith: no roll to read
+    ('azimuth', 60.0, 29.0)
     """
 
     def __init__(
-        self, enter_deg: float = 70.0, leave_deg: float = 45.0, gain: float = 1.0, distance: float = 0.0
+        self,
+        enter_deg: float = 70.0,
+        leave_deg: float = 45.0,
+        gain: float = 1.0,
+        distance: float = 0.0,
+        max_elevation_deg: float = 75.0,
     ) -> None:
         if not 0.0 <= leave_deg < enter_deg <= 180.0:
             raise ValueError(f"need 0 <= leave_deg < enter_deg <= 180, got {leave_deg!r}, {enter_deg!r}")
+        if not 0.0 <= max_elevation_deg <= 90.0:
+            raise ValueError(f"need 0 <= max_elevation_deg <= 90, got {max_elevation_deg!r}")
+        self.max_elevation_deg = float(max_elevation_deg)
         self.enter_deg = float(enter_deg)
         self.leave_deg = float(leave_deg)
         self.gain = float(gain)
@@ -663,7 +680,9 @@ class RollDistance:
         self._anchor_distance = self.distance
         self._unwrapped = 0.0
 
-    def update(self, azimuth_deg: float, roll_deg: float) -> tuple[str, float, float]:
+    def update(
+        self, azimuth_deg: float, roll_deg: float, elevation_deg: float = 0.0
+    ) -> tuple[str, float, float]:
         """Process one (azimuth, roll) sample, degrees.
 
         Parameters
@@ -672,6 +691,8 @@ class RollDistance:
             Pointing azimuth, degrees (ADM-OSC: positive left).
         roll_deg : float
             Roll about the pointing axis, degrees.
+        elevation_deg : float
+            Pointing elevation, degrees: beyond ``max_elevation_deg`` the roll is not read.
 
         Returns
         -------
@@ -685,8 +706,9 @@ class RollDistance:
         az, roll = float(azimuth_deg), float(roll_deg)
         if not (math.isfinite(az) and math.isfinite(roll)):
             raise ValueError(f"azimuth and roll must be finite, got {az}, {roll}")
+        steep = abs(elevation_deg) > self.max_elevation_deg  # no roll of its own to read: the mode holds
         if self.mode == "azimuth":
-            if abs(roll) >= self.enter_deg:
+            if abs(roll) >= self.enter_deg and not steep:
                 self.mode = "distance"
                 if self.azimuth is None:
                     self.azimuth = az
@@ -695,7 +717,7 @@ class RollDistance:
                 self._unwrapped = az
             else:
                 self.azimuth = az
-        elif abs(roll) < self.leave_deg:
+        elif abs(roll) < self.leave_deg and not steep:
             self.mode = "azimuth"
             self.azimuth = az
         if self.mode == "distance":

@@ -1,0 +1,68 @@
+"""Orientation nodes on hand-made orientations: what the glove chain cannot easily put them through."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pointat.errors import PatchError
+from pointat.maths import scalar as sq
+from pointat.message import floats
+from pointat.testing import patch
+
+ROLL = """
+node roll roll_distance {params}
+node az collect
+node mode collect
+roll.azimuth -> az
+roll.mode -> mode
+"""
+
+
+def pointing(elevation_deg, roll_deg=0.0, azimuth_deg=0.0):
+    """The hand's orientation (NWU): heading, then pitch up by the elevation, then roll about itself."""
+    yaw = sq.axis_angle_quat(0.0, 0.0, 1.0, math.radians(azimuth_deg))
+    pitch = sq.axis_angle_quat(0.0, 1.0, 0.0, -math.radians(elevation_deg))  # +y is west: x turns up
+    roll = sq.axis_angle_quat(1.0, 0.0, 0.0, math.radians(roll_deg))
+    return sq.multiply(sq.multiply(yaw, pitch), roll)
+
+
+def jittered(q, deg, rng):
+    """``q`` turned by ``deg`` about a random axis (sensor noise, a hand that is never quite still)."""
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    return sq.multiply(q, sq.axis_angle_quat(*axis, math.radians(deg)))
+
+
+def feed(rt, quats):
+    node = rt.nodes["roll"]
+    for k, q in enumerate(quats):
+        node.receive(0, floats(tuple(q), k / 100.0))
+    return [m.value for m in rt.nodes["mode"].messages]
+
+
+@pytest.mark.parametrize("max_elevation, expected", [(75.0, []), (90.0, ["distance"])])
+def test_a_hand_pointing_at_the_zenith_does_not_switch_to_distance(max_elevation, expected):
+    # 0.5 deg of jitter at 89.5 deg up swings the Euler roll past 70 deg on some samples: the roll of a
+    # hand pointing straight up is its heading, not a gesture
+    rng = np.random.default_rng(3)
+    up = pointing(89.5)
+    rt = patch(ROLL.format(params=f"max_elevation={max_elevation}"))
+    modes = feed(rt, [jittered(up, 0.5, rng) for _ in range(2000)])
+    assert modes[:1] == expected
+
+
+def test_the_roll_gesture_still_works_with_the_hand_raised():
+    rt = patch(ROLL.format(params=""))
+    ramp = [pointing(40.0, r, azimuth_deg=30.0) for r in np.linspace(0.0, 90.0, 50)]
+    assert feed(rt, ramp + [pointing(40.0, 90.0, azimuth_deg=50.0)] * 5) == ["distance"]
+    assert rt.nodes["az"].messages[-1].value == pytest.approx(30.0, abs=0.5)  # held while rolled
+
+
+def test_leave_above_enter_is_refused_at_load_and_live():
+    with pytest.raises(PatchError, match="leave=45.0 enter=30.0"):
+        patch(ROLL.format(params="enter=30"))
+    rt = patch(ROLL.format(params=""))
+    with pytest.raises(ValueError, match="leave < enter"):
+        rt.nodes["roll"].set_param("leave", 80.0)
+    assert rt.nodes["roll"].p.leave == 45.0  # nothing changed
