@@ -1,8 +1,12 @@
 # Pan a sound by pointing at it, over MIDI: the simulated glove -> the Pointing-at chain -> CC10.
 #
 #   glove -> nulls -> units -> gyro ------\
-#                          \-> accmag -----> fuse -> quat -> dir.azimuth -> pan (midi_out CC10)
-#                                                                       \-> slow -> show
+#                          \-> accmag -----> fuse -> quat -> ref -> dir.azimuth -> pan (midi_out CC10)
+#                                                                              \-> slow -> show
+#
+# Azimuth 0 (CC 64, centre) is where the glove points when the patch starts (ref captures it): point at
+# the centre of the stereo image first.  To capture it again live, add an osc_in as patches/glove_tqt.pat
+# does and send /pointat/ref/set.
 #
 # DAW pan on CC10 is 0 = hard left, 64 = centre, 127 = hard right, while pointat's azimuth is
 # POSITIVE LEFT (0 front, -180..180).  So the input range is reversed: range=[90, -90] sends
@@ -25,6 +29,7 @@ node gyro   gyro_integrator mode=torre
 node accmag accmag_matrix
 node fuse   complementary crossover=0.2
 node quat   matrix2quat
+node ref    reference mode=heading capture_first=true
 node dir    azi_ele
 node pan    midi_out kind=cc channel=1 number=10 range=[90, -90] file=midi_pan.mid
 node slow   speedlim 500
@@ -36,6 +41,6 @@ units.accel -> accmag.accel
 units.gyro -> gyro
 accmag -> fuse.accmag
 gyro -> fuse.gyro_orientation
-fuse -> quat -> dir
+fuse -> quat -> ref -> dir
 dir.azimuth -> pan
 dir.azimuth -> slow -> show
