@@ -190,7 +190,7 @@ def cmd_check(args: argparse.Namespace, registry: Registry) -> int:
     checked = _checked(args, registry)
     print(
         f"{args.patch}: ok ({len(checked.nodes)} nodes, {len(checked.wires)} wires"
-        f"{f', {len(checked.warnings)} warnings' if checked.warnings else ''})"
+        f"{f', {len(checked.warnings)} warning' + 's' * (len(checked.warnings) > 1) if checked.warnings else ''})"
     )
     return 0
 

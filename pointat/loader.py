@@ -320,11 +320,34 @@ def check(
                     "warning",
                 )
             )
+    result.warnings += _never_triggered(result)
     if not problems:
         problems += _cycles(result)
     if problems:
         raise PatchError(problems)
     return result
+
+
+def _never_triggered(result: Checked) -> list[Problem]:
+    """Nodes that only compute from their inputs, fed on cold inlets only: they store what comes and
+    never output (the wire to the hot inlet is missing, or went to a cold one by mistake)."""
+    fed: dict[str, set[int]] = {}
+    for _src, _o, dst, i in result.wires:
+        fed.setdefault(dst, set()).add(i)
+    found = []
+    for name, r in result.nodes.items():
+        hot = {i for i, inlet in enumerate(r.inlets) if inlet.is_hot(i)}
+        if r.cls.pure and name in fed and hot and not fed[name] & hot:
+            inlets = " or ".join(f"'{r.inlets[i].name}'" for i in sorted(hot))
+            found.append(
+                Problem(
+                    r.decl.where,
+                    f"node '{name}' ({r.decl.type}) is fed on cold inlets only: nothing reaches its hot "
+                    f"inlet {inlets}, so it never outputs",
+                    "warning",
+                )
+            )
+    return found
 
 
 def _anchor_paths(
@@ -368,9 +391,7 @@ def _cycles(result: Checked) -> list[Problem]:
     edges: dict[str, list[str]] = {n: [] for n in result.nodes}
     for src, _o, dst, i in result.wires:
         s, d = result.nodes[src], result.nodes[dst]
-        inlet = d.inlets[i]
-        hot = inlet.hot if inlet.hot is not None else i == 0
-        if hot and not s.cls.defers:
+        if d.inlets[i].is_hot(i) and not s.cls.defers:
             edges[src].append(dst)
     # send -> receive by bus name
     buses: dict[str, list[str]] = {}

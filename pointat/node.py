@@ -154,6 +154,10 @@ class Inlet:
     hot: bool | None = None
     param: str | None = None
 
+    def is_hot(self, index: int) -> bool:
+        """Whether a message here computes and outputs, this being inlet ``index`` of its node."""
+        return self.hot if self.hot is not None else index == 0
+
 
 @dataclass(frozen=True)
 class Outlet:
@@ -462,7 +466,7 @@ class Node:
             ins, outs = cls.inlets, cls.outlets
         lines.append("inlets:")
         for i, inlet in enumerate(ins):
-            hot = inlet.hot if inlet.hot is not None else i == 0
+            hot = inlet.is_hot(i)
             lines.append(
                 f"  {i} {inlet.name:<10} {'hot ' if hot else 'cold'} {'|'.join(inlet.accepts):<14} {inlet.doc}"
             )

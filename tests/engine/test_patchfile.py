@@ -128,6 +128,17 @@ def test_fan_out_into_one_node_is_a_warning():
     assert w.severity == "warning" and w.where.line == 4 and "in wire order" in w.message
 
 
+def test_a_node_fed_on_cold_inlets_only_is_a_warning():
+    # the gyro wire forgotten (or sent to a cold inlet by mistake): the filter would store and stay silent
+    text = "node src msg 1 2 3\nnode u unpack 0 0 0\nnode f tqt\nsrc -> u\nu.0 -> f.accel\nu.1 -> f.mag\n"
+    [w] = check(parse_patch(text, "c.pat"), REG).warnings
+    assert w.severity == "warning" and w.where.line == 3
+    assert "node 'f' (tqt) is fed on cold inlets only" in w.message and "hot inlet 'gyro'" in w.message
+    # wired to the hot inlet, or not wired at all (driven by live control): nothing to say
+    assert not check(parse_patch(text + "u.2 -> f.gyro\n", "c.pat"), REG).warnings
+    assert not check(parse_patch("node f tqt\nnode p print\nf -> p\n", "c.pat"), REG).warnings
+
+
 def test_all_errors_are_reported_at_once():
     problems = errors_of("node a metr\nnode b prnt\nnode c metro x=1\n")
     assert [line for line, _ in problems] == [1, 2, 3]

@@ -176,7 +176,6 @@ f.distance -> dist
     assert az[34.0] == pytest.approx(20.0, abs=5.0)  # unrolled, the azimuth follows the hand again
 
 
-
 @pytest.mark.parametrize("fusion", ["tqt_fusion", "torre_fusion"])
 def test_a_bang_at_the_fusion_halves_reference_inlet_makes_where_the_hand_points_azimuth_0(fusion):
     lib = Path(__file__).resolve().parents[2] / "patches" / "lib" / f"{fusion}.pat"
@@ -201,6 +200,7 @@ f.elevation -> el
     assert az[4.2] == pytest.approx(0.0, abs=1.0)  # where it pointed is the front now
     assert az[7.0] == pytest.approx(80.0, abs=3.0)  # the +110 speaker, 80 to the left of it
     assert el[7.0] == pytest.approx(0.0, abs=3.0)  # heading only: the horizon stays the horizon
+
 
 def test_bad_samples_never_reach_downstream_as_nan():
     from pointat.message import vector
