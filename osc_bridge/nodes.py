@@ -327,8 +327,9 @@ class _Destination:
 class OscOut(Node):
     """Send a source's direction over OSC (UDP) in the convention of the chosen receiver ``profile``.
 
-    Profiles (``osc_bridge.profiles``): ``pointat`` (/pointat/N/aed), ``vbap`` (Pd/Max: /vbap/N az el
-    spread), ``adm`` (ADM-OSC /adm/obj/N/aed, port 4001, objects from 1), ``iem_stereo`` and
+    Profiles (``osc_bridge.profiles``): ``pointat`` (/pointat/N/aed: az el and distance 0..1, 1 far, 0
+    near, as ADM-OSC's), ``vbap`` (Pd/Max: /vbap/N az el spread), ``adm`` (ADM-OSC /adm/obj/N/aed,
+    port 4001, objects from 1), ``iem_stereo`` and
     ``iem_multi`` (IEM encoders; MultiEncoder inputs from 0), ``spat`` (SPAT Revolution, + right,
     metres), ``icst`` (AmbiEncoder xyz), ``reaper`` (track pan 0..1), ``generic`` (``address`` and
     ``fields``).  Switching receivers is one parameter; ``port=0`` takes the profile's usual port.

@@ -7,9 +7,11 @@
 # built-in simulated glove writing real mote frames into a pseudo-terminal, read by the mote node.
 # For a real base station:  --set glove.output=direct --set base.device=/dev/ttyUSB0
 # Point at the front loudspeaker and send /pointat/press/bang (OSC to port 9001) to make it azimuth 0.
-# Directions go to 127.0.0.1:9000 as /pointat/1/aed azimuth elevation distance.  Live control on 9001:
-# /pointat/NODE/PARAM value or /pointat/NODE/METHOD, e.g. /pointat/tqt/fuse/k_heading 0.05 (a node inside
-# an abstraction is named INSTANCE/NODE) or /pointat/nulls/recalibrate (new gyro nulls: hold still).
+# Directions go to 127.0.0.1:9000 as /pointat/1/aed azimuth elevation distance, three float32: degrees
+# (+ left, + up) and ADM-OSC's distance 0..1 (1 far, 0 near; the console shows the gesture's 0..90).
+# Live control on 9001: /pointat/NODE/PARAM value or /pointat/NODE/METHOD, e.g.
+# /pointat/tqt/fuse/k_heading 0.05 (a node inside an abstraction is named INSTANCE/NODE) or
+# /pointat/nulls/recalibrate (new gyro nulls: hold still).
 
 node glove  simulate rate=100 output=pty
 node base   mote ids=[1] rate=100

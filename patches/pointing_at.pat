@@ -11,8 +11,10 @@
 #     pointat run patches/pointing_at.pat --set glove.output=direct --set base.device=/dev/ttyUSB0
 # Point at the front loudspeaker and send /pointat/press/bang (OSC to port 9001) to make it azimuth 0
 # (until then azimuth 0 is magnetic north, as in the paper).
-# Directions go to 127.0.0.1:9000 as /pointat/1/aed azimuth elevation distance.  Live control on 9001:
-# /pointat/NODE/PARAM value or /pointat/NODE/METHOD, e.g. /pointat/torre/fuse/crossover 0.1.
+# Directions go to 127.0.0.1:9000 as /pointat/1/aed azimuth elevation distance, three float32: degrees
+# (+ left, + up) and ADM-OSC's distance 0..1 (1 far, 0 near; the console shows the gesture's 0..90).
+# Live control on 9001: /pointat/NODE/PARAM value or /pointat/NODE/METHOD, e.g.
+# /pointat/torre/fuse/crossover 0.1 or /pointat/nulls/recalibrate (new gyro nulls: hold still).
 
 node glove  simulate rate=100 output=pty
 node base   mote ids=[1] rate=100
