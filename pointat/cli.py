@@ -57,7 +57,8 @@ def _add_patch_args(p: argparse.ArgumentParser) -> None:
         metavar="NODE.PARAM=VALUE",
         action="append",
         default=[],
-        help="override a node parameter (repeatable)",
+        help="override a node parameter (repeatable); INSTANCE.ARG sets an abstraction instance's argument, "
+        "INSTANCE/NODE.PARAM a node inside it",
     )
 
 

@@ -217,8 +217,9 @@ def check(
     ``overrides`` are ``(node, param, value)`` triples (``--set node.param=value``).
     """
     registry = registry or default_registry
-    flat = expand(spec)
     problems: list[Problem] = []
+    spec, overrides = _set_arguments(spec, overrides, problems)
+    flat = expand(spec)
     result = Checked(flat)
     names: dict[str, NodeDecl] = {}
     for decl in flat.nodes:
@@ -326,6 +327,42 @@ def check(
     if problems:
         raise PatchError(problems)
     return result
+
+
+def _set_arguments(
+    spec: PatchSpec, overrides: Sequence[tuple[str, str, Any]], problems: list[Problem]
+) -> tuple[PatchSpec, list[tuple[str, str, Any]]]:
+    """``--set INSTANCE.ARG=value`` on an abstraction instance of ``spec`` gives the instance that
+    argument (``--set tqt.mode=paper``); the other overrides are returned for the nodes."""
+    instances = {d.name: d for d in spec.nodes if _is_abstraction(d.type)}
+    rest = [o for o in overrides if o[0] not in instances]
+    if len(rest) == len(overrides):
+        return spec, rest
+    given: dict[str, dict[str, Any]] = {}
+    for node, arg, value in overrides:
+        if node not in instances:
+            continue
+        decl = instances[node]
+        path = (Path(spec.path).parent / decl.type).resolve()
+        known = read_spec(path).args if path.exists() else None  # a missing file is reported by expand
+        if known is not None and arg not in known:
+            problems.append(
+                Problem(
+                    None,
+                    f"--set {node}.{arg}: abstraction instance '{node}' ({decl.type}) has no argument "
+                    f"'{arg}' (arguments: {', '.join(known) or 'none'}; its nodes are set as {node}/NODE.PARAM)",
+                )
+            )
+        else:
+            given.setdefault(node, {})[arg] = value
+    nodes = [
+        NodeDecl(d.name, d.type, d.args, {**d.params, **given[d.name]}, d.where) if d.name in given else d
+        for d in spec.nodes
+    ]
+    out = PatchSpec(
+        spec.path, nodes, spec.wires, spec.args, spec.inlets, spec.outlets, spec.doc, spec.args_where
+    )
+    return out, rest
 
 
 def _never_triggered(result: Checked) -> list[Problem]:

@@ -152,6 +152,22 @@ def test_overrides(tmp_path):
         check(spec, REG, [("mm", "interval", 20)])
 
 
+def test_overrides_reach_an_abstraction_instances_arguments(tmp_path):
+    (tmp_path / "voice.pat").write_text("args rate=100\ninlet go -> m.0\nnode m metro $rate\n")
+    (tmp_path / "main.pat").write_text("node left voice.pat rate=50\nnode right voice.pat\n")
+    spec = read_spec(tmp_path / "main.pat")
+    # --set left.rate=20: the instance's argument, as if written on its line; inner nodes by their path
+    checked = check(spec, REG, [("left", "rate", 20), ("right/m", "interval", 30)])
+    assert checked.nodes["left/m"].values["interval"] == 20.0
+    assert checked.nodes["right/m"].values["interval"] == 30.0
+    with pytest.raises(
+        PatchError,
+        match=r"--set left.rte: abstraction instance 'left' \(voice.pat\) has no "
+        r"argument 'rte' \(arguments: rate; its nodes are set as left/NODE.PARAM\)",
+    ):
+        check(spec, REG, [("left", "rte", 20)])
+
+
 def test_abstraction_instantiated_twice_with_arguments(tmp_path):
     (tmp_path / "voice.pat").write_text(
         "# one voice\nargs rate=100 bus=x\ninlet go -> m.0\noutlet tick <- m.0\n"
