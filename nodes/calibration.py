@@ -62,7 +62,7 @@ class Offset(Node):
         Param(
             "null", "float", 2048.0, "null of channels without a calibration (ADC mid-scale)", unit="counts"
         ),
-        Param("calibration", "path", "", "calibration file with accel/mag (and gyro) nulls"),
+        Param("calibration", "path", "", "calibration file with accel/mag (and gyro) nulls", reads=True),
     )
 
     def setup(self) -> None:
@@ -120,7 +120,11 @@ class Scaling(Node):
         ),
         Param("mag", "float", DEFAULT_RESOLUTION["mag"], "magnetometer resolution", unit="gauss per count"),
         Param(
-            "calibration", "path", "", "calibration file (per-axis scales, soft iron); overrides the above"
+            "calibration",
+            "path",
+            "",
+            "calibration file (per-axis scales, soft iron); overrides the above",
+            reads=True,
         ),
     )
 

@@ -162,7 +162,7 @@ class Replay(Node):
         Outlet("done", "bang", "at the end of the file"),
     )
     params = (
-        Param("file", "path", doc="the recording (.csv, .csv.gz, .ndjson)"),
+        Param("file", "path", doc="the recording (.csv, .csv.gz, .ndjson)", reads=True),
         Param("speed", "float", 1.0, "1 real time, 2 twice as fast, 0 as fast as possible"),
         Param("loop", "bool", False, "start again at the end"),
         FORMAT,

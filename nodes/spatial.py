@@ -62,7 +62,13 @@ class Vbap(Node):
             live=True,
         ),
         Param("dim", "int", 0, "2 or 3 (0: 3 when any elevation is not 0)"),
-        Param("file", "path", "", "layout file (.json or define_loudspeakers text), instead of layout"),
+        Param(
+            "file",
+            "path",
+            "",
+            "layout file (.json or define_loudspeakers text), instead of layout",
+            reads=True,
+        ),
         Param("spread", "float", 0.0, "source spread, 0 (a point) .. 100 (all loudspeakers)", live=True),
     )
     example = """

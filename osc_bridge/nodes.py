@@ -708,11 +708,16 @@ phone.quat -> dir
 
     def start(self) -> None:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        host = "127.0.0.1" if self.p.host == "localhost" else self.p.host
         try:
-            sock.bind(("127.0.0.1" if self.p.host == "localhost" else self.p.host, self.p.port))
-        except OSError:
+            sock.bind((host, self.p.port))
+        except OSError as exc:
             sock.close()
-            raise
+            hint = ": another program listens there (a second pointat? Pd?); stop it or set port=..."
+            raise OSError(
+                f"cannot listen on UDP {host}:{self.p.port}: {exc.strerror}"
+                + (hint if exc.errno == errno.EADDRINUSE else "")
+            ) from exc
         sock.setblocking(False)
         self._sock = sock
         self.active = True

@@ -264,6 +264,16 @@ def check(
             problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}"))
             continue
         result.nodes[decl.name] = Resolved(decl, cls, values, ins, outs)
+        for p in cls.params:
+            if p.reads and values.get(p.name) and not Path(values[p.name]).exists():
+                result.warnings.append(
+                    Problem(
+                        decl.where,
+                        f"{label} ({decl.type}): parameter '{p.name}': no file {values[p.name]!r} "
+                        "(it cannot start without it)",
+                        "warning",
+                    )
+                )
     fan: dict[tuple[str, int, str], list[Wire]] = {}
     for w in flat.wires:
         ok = True

@@ -71,7 +71,8 @@ class Param:
     ``type`` is one of ``float``, ``int``, ``bool``, ``symbol``, ``path``, ``list`` (numbers and symbols)
     and ``vector`` (numbers, ``size`` of them when given).  ``choices`` restricts a symbol.  ``variadic``
     collects every remaining positional creation argument (``trigger b b f``).  ``live`` parameters can be
-    set while the patch runs (by a message to the node, or from outside by name).
+    set while the patch runs (by a message to the node, or from outside by name).  ``reads`` marks a
+    ``path`` the node reads when it starts: ``pointat check`` warns when nothing is there.
     """
 
     name: str
@@ -83,6 +84,7 @@ class Param:
     choices: tuple[str, ...] = ()
     variadic: bool = False
     size: int | None = None
+    reads: bool = False
 
     def coerce(self, value: Any) -> Any:
         """The value converted to the declared type; :class:`ParamError` says expected and got."""

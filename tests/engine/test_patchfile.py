@@ -139,6 +139,16 @@ def test_a_node_fed_on_cold_inlets_only_is_a_warning():
     assert not check(parse_patch("node f tqt\nnode p print\nf -> p\n", "c.pat"), REG).warnings
 
 
+
+def test_a_file_a_node_reads_at_start_that_is_not_there_is_a_warning(tmp_path):
+    (tmp_path / "take1.csv").write_text("t,gx\n")
+    (tmp_path / "show.pat").write_text("node a replay file=take1.csv\nnode b replay file=take2.csv\n")
+    [w] = check(read_spec(tmp_path / "show.pat"), REG).warnings  # relative to the patch: take1 is found
+    assert w.severity == "warning" and w.where.line == 2
+    assert "node 'b' (replay): parameter 'file': no file" in w.message and "take2.csv" in w.message
+    # a file a node writes may well not be there yet
+    assert not check(parse_patch("node r record file=out.csv\n", str(tmp_path / "r.pat")), REG).warnings
+
 def test_all_errors_are_reported_at_once():
     problems = errors_of("node a metr\nnode b prnt\nnode c metro x=1\n")
     assert [line for line, _ in problems] == [1, 2, 3]

@@ -486,6 +486,20 @@ def in_patch(started, params, wires=""):
     return rt, rt.nodes["imu"], rt.nodes["imu"].address
 
 
+def test_a_port_already_taken_says_which_and_what_to_do():
+    from pointat.runtime import StartError
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        port = taken.getsockname()[1]
+        rt = patch(f"node ctl osc_in port={port}")
+        with pytest.raises(StartError) as info:
+            rt.start()
+    msg = str(info.value)
+    assert f"node 'ctl' (osc_in): cannot start: cannot listen on UDP 127.0.0.1:{port}" in msg
+    assert "another program listens there (a second pointat? Pd?)" in msg
+
+
 def test_ngimu_sensors_and_quaternion_in_si_units_right_to_left(started):
     rt, imu, addr = in_patch(
         started,
