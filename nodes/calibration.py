@@ -10,6 +10,7 @@ computed from.  Their nulls come from a calibration file (Bachmann et al. 2001 Â
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -64,6 +65,11 @@ class Offset(Node):
         ),
         Param("calibration", "path", "", "calibration file with accel/mag (and gyro) nulls", reads=True),
     )
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        if values["samples"] < 0:
+            raise ValueError(f"samples must be >= 0 (0: no averaging), got {values['samples']}")
 
     def setup(self) -> None:
         nulls = [self.p.null] * 9

@@ -24,6 +24,7 @@ node ctl    osc_in port=9001
 node both   pack 0 0 0
 node slow   speedlim 500
 node show   print prefix="azimuth elevation distance"
+node cue    print prefix="gyro nulls (hold the glove still)"
 
 glove.device -> base
 base.m1 -> nulls -> units
@@ -38,3 +39,4 @@ tqt.elevation -> both.1
 tqt.azimuth -> out.azimuth
 tqt.azimuth -> both.0
 both -> slow -> show
+nulls.status -> cue
