@@ -278,9 +278,9 @@ def _port(value: Any, what: str) -> int:
     try:
         port = int(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{what}: port {value!r} is not a number") from None
+        raise ValueError(f"{what} {value!r} is not a number") from None
     if not 1 <= port <= 65535:
-        raise ValueError(f"{what}: port {port} is outside 1..65535")
+        raise ValueError(f"{what} {port} is outside 1..65535")
     return port
 
 
@@ -293,15 +293,15 @@ def destinations(host: str, port: int, extra: Sequence[Any]) -> list[tuple[str, 
     """
     if not host:
         raise ValueError("host is empty")
-    out = [(host, _port(port, "host"))]
+    out = [(host, _port(port, "port"))]
     for item in extra:
         if isinstance(item, int) and not isinstance(item, bool):
-            out.append((host, _port(item, f"to {item!r}")))
+            out.append((host, _port(item, f"to {item!r}: port")))
             continue
         h, colon, p = str(item).rpartition(":")
         if not colon or not h:
             raise ValueError(f"to {item!r}: expected host:port or a port number")
-        out.append((h, _port(p, f"to {item!r}")))
+        out.append((h, _port(p, f"to {item!r}: port")))
     return out
 
 

@@ -79,6 +79,7 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = ()) -> PatchSpec:
     inlet_map: dict[tuple[str, str | int], list[tuple[str, str | int]]] = {}
     outlet_map: dict[tuple[str, str | int], tuple[str, str | int]] = {}
     problems: list[Problem] = []
+    failed: set[str] = set()
     for decl in spec.nodes:
         if not _is_abstraction(decl.type):
             out.nodes.append(decl)
@@ -87,6 +88,7 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = ()) -> PatchSpec:
             sub = _instantiate(spec, decl, _stack)
         except PatchError as exc:
             problems += exc.problems
+            failed.add(decl.name)  # its wires would only repeat that it has no such inlet or outlet
             continue
         out.nodes += sub.nodes
         out.wires += sub.wires
@@ -98,6 +100,8 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = ()) -> PatchSpec:
                 outlet_map[(decl.name, key)] = (port.node, port.port)
     instances = {d.name for d in spec.nodes if _is_abstraction(d.type)}
     for w in spec.wires:
+        if w.src in failed or w.dst in failed:
+            continue
         srcs = [(w.src, w.outlet)]
         dsts = [(w.dst, w.inlet)]
         if w.src in instances:
@@ -124,7 +128,13 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...]) -> P
     base = Path(parent.path).parent
     path = (base / decl.type).resolve()
     if not path.exists():
-        raise PatchError(f"abstraction file '{decl.type}' not found (looked in {base})", decl.where)
+        near = [str(f.relative_to(base)) for f in (*base.glob("*.pat"), *base.glob("*/*.pat"))]
+        hint = _close(decl.type, dict.fromkeys(near))
+        raise PatchError(
+            f"abstraction file '{decl.type}' not found (looked in {base})"
+            + (f"; did you mean '{hint}'?" if hint else ""),
+            decl.where,
+        )
     if str(path) in stack:
         raise PatchError(f"abstraction '{decl.type}' includes itself", decl.where)
     sub = read_spec(path)
@@ -252,10 +262,7 @@ def check(
             for key, value in over.get(decl.name, {}).items():
                 p = cls.param(key)
                 if p is None:
-                    raise ParamError(
-                        f"--set: unknown parameter '{key}' (parameters: "
-                        f"{', '.join(q.name for q in cls.params) or 'none'})"
-                    )
+                    raise ParamError(f"--set: {cls.unknown_param(key)}")
                 values[key] = p.coerce(value)
             _anchor_paths(cls, values, decl, over.get(decl.name, {}))
             cls.validate(values)

@@ -216,6 +216,16 @@ class Node:
         return None
 
     @classmethod
+    def unknown_param(cls, key: str) -> str:
+        """What to say of a parameter ``key`` the node does not have: the closest one, and all of them."""
+        import difflib
+
+        names = [q.name for q in cls.params]
+        close = difflib.get_close_matches(key, names, n=1)
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        return f"unknown parameter '{key}'{hint}; parameters: {', '.join(names) or 'none'}"
+
+    @classmethod
     def resolve_params(cls, positional: Sequence[Any] = (), named: Mapping[str, Any] | None = None) -> dict:
         """Creation arguments -> a complete, typed parameter dict.
 
@@ -241,8 +251,7 @@ class Node:
         for key, value in named.items():
             p = cls.param(key)
             if p is None:
-                names = ", ".join(q.name for q in cls.params) or "none"
-                raise ParamError(f"unknown parameter '{key}' (parameters: {names})")
+                raise ParamError(cls.unknown_param(key))
             if key in values:
                 raise ParamError(f"parameter '{key}' given twice (by position and by name)")
             values[key] = value

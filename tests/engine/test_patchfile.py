@@ -74,7 +74,9 @@ def test_unknown_node_type_suggests_a_close_name():
 
 def test_unknown_parameter():
     [(line, msg)] = errors_of("node a metro intervall=3\n")
-    assert line == 1 and "unknown parameter 'intervall' (parameters: interval)" in msg
+    assert (
+        line == 1 and "unknown parameter 'intervall' (did you mean 'interval'?); parameters: interval" in msg
+    )
 
 
 def test_bad_parameter_value_says_expected_and_got():
@@ -139,7 +141,6 @@ def test_a_node_fed_on_cold_inlets_only_is_a_warning():
     assert not check(parse_patch("node f tqt\nnode p print\nf -> p\n", "c.pat"), REG).warnings
 
 
-
 def test_a_file_a_node_reads_at_start_that_is_not_there_is_a_warning(tmp_path):
     (tmp_path / "take1.csv").write_text("t,gx\n")
     (tmp_path / "show.pat").write_text("node a replay file=take1.csv\nnode b replay file=take2.csv\n")
@@ -148,6 +149,7 @@ def test_a_file_a_node_reads_at_start_that_is_not_there_is_a_warning(tmp_path):
     assert "node 'b' (replay): parameter 'file': no file" in w.message and "take2.csv" in w.message
     # a file a node writes may well not be there yet
     assert not check(parse_patch("node r record file=out.csv\n", str(tmp_path / "r.pat")), REG).warnings
+
 
 def test_all_errors_are_reported_at_once():
     problems = errors_of("node a metr\nnode b prnt\nnode c metro x=1\n")
@@ -219,6 +221,18 @@ def test_abstraction_errors(tmp_path):
     assert msgs[1][0] == 2 and "'missing.pat' not found" in msgs[1][1]
     assert "includes itself" in msgs[2][1]
     assert msgs[3][0] == 2 and "$y is not an argument" in msgs[3][1]  # the line inside a.pat
+
+
+def test_a_misspelt_abstraction_is_one_error_with_the_file_it_may_have_meant(tmp_path):
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "voice.pat").write_text("inlet go -> m.0\noutlet tick <- m.0\nnode m metro 100\n")
+    (tmp_path / "main.pat").write_text(
+        "node lb loadbang\nnode v lib/voise.pat\nnode p print\nlb -> v.go\nv.tick -> p\n"
+    )
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "main.pat"), REG)
+    [problem] = info.value.problems  # not one more for each of its wires
+    assert problem.where.line == 2 and "did you mean 'lib/voice.pat'?" in problem.message
 
 
 def test_unreadable_file_is_a_patch_error(tmp_path):
