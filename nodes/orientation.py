@@ -535,7 +535,7 @@ class RollDistanceNode(Node):
     Hysteresis: distance mode starts at |roll| >= ``enter`` and ends below ``leave``.  In distance mode
     the azimuth output holds, and sweeping the rolled hand left brings the source closer.  When the
     hand unrolls, the azimuth goes to where the hand points in one step; for a receiver that does not
-    glide, put a ``smooth`` (it wraps at +-180) between this node and it.  The roll is only read while
+    glide, put a ``smooth wrap=true`` between this node and it.  The roll is only read while
     the hand points within ``max_elevation`` of the horizon: pointing (nearly) straight up or down, its
     roll is its heading and jitters wildly, so the mode stays as it is.
     """
