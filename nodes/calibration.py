@@ -9,6 +9,7 @@ computed from.  Their nulls come from a calibration file (Bachmann et al. 2001 �
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -27,6 +28,8 @@ from pointat.maths.calibration import (
 from pointat.message import Message, as_floats, as_vector, floats
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
+
+log = logging.getLogger(__name__)
 
 ADC = Inlet("adc", ("vector", "list"), "nine ADC counts: gyro x y z, accel x y z, mag x y z")
 STATUS = Outlet("status", "list", "what the node is doing: calibrating, ready, saved PATH...")
@@ -107,7 +110,9 @@ class Scaling(Node):
     """Counts relative to their nulls -> gyro rad/s, accelerometer m/s², magnetometer gauss (Torre Table 1).
 
     Per-sensor resolutions in the table's units (deg/s, m/s², gauss per count), or per-axis scales and
-    the soft-iron matrix from a ``calibration`` file.  Outputs right to left: mag, accel, then gyro, so a
+    the soft-iron matrix from a ``calibration`` file; an axis the file has no scale for (a gyro axis
+    never turned) keeps its resolution, with a warning.  A calibrated magnetometer reads in units of
+    the local field (its strength is 1): the filters use its direction only.  Outputs right to left: mag, accel, then gyro, so a
     filter whose hot inlet is the gyro sees a complete sample.
     """
 
@@ -139,11 +144,26 @@ class Scaling(Node):
         factor = [math.radians(self.p.gyro)] * 3 + [self.p.accel] * 3 + [self.p.mag] * 3
         if self.p.calibration:
             cal = _load(self.p.calibration)
+            nominal = []
             for i, sensor in enumerate(("gyro", "acc", "mag")):
-                if _calibrated(cal, sensor):
-                    factor[3 * i : 3 * i + 3] = (1.0 / getattr(cal, f"{sensor}_scale")).tolist()
+                scale = getattr(cal, f"{sensor}_scale")
+                # a scale of 1 is an axis the file does not calibrate (a gyro axis never turned): it keeps
+                # its resolution, not 1 count per rad/s; an ellipsoid fit's matrix holds the mag's scales
+                whole = sensor == "mag" and cal.mag_soft_iron is not None
+                for a in range(3):
+                    if whole or scale[a] != 1.0:
+                        factor[3 * i + a] = 1.0 / float(scale[a])
+                    elif _calibrated(cal, sensor):
+                        nominal.append(f"{sensor} {'xyz'[a]}")
             if cal.mag_soft_iron is not None:
                 self.soft_iron = tuple(np.ravel(cal.mag_soft_iron).tolist())
+            if nominal:
+                log.warning(
+                    "scaling '%s': %s has no scale for %s: the nominal resolution is used there",
+                    self.name,
+                    self.p.calibration,
+                    ", ".join(nominal),
+                )
         self.factor: tuple[float, ...] = tuple(float(f) for f in factor)
 
     def on_adc(self, msg: Message) -> None:
@@ -166,7 +186,7 @@ class Scaling(Node):
 class Calibrate(Node):
     """Calibrate a mote by Bachmann et al.'s procedures (VRST 2001 §3.2.1), driven by messages.
 
-    Feed it the raw counts continuously, then send, in any order:
+    Feed it the raw counts continuously, then send, in any order (but ``rest`` before any turn):
 
     * ``rest``: hold still; the next ``samples`` samples give the gyro nulls.
     * ``pose``: six times, with each accelerometer axis up and then down (any order): accelerometer
@@ -236,6 +256,11 @@ class Calibrate(Node):
         samples = self._take("turn")
         if len(samples) < 2:
             raise ValueError("turn_end: no samples since turn_begin")
+        if not np.any(self.calibration.gyro_null):
+            raise ValueError(
+                "turn_end: the gyro nulls are not known yet (the turn is integrated from them): send rest"
+                " first and hold still, then turn again"
+            )
         dt = np.diff(self._times, prepend=self._times[0] - (self._times[1] - self._times[0]))
         ax = int(axis)
         scale = gyro_scale(

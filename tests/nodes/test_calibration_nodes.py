@@ -147,3 +147,24 @@ def test_calibrate_finds_a_gyro_scale_from_a_known_rotation(tmp_path):
     cal.receive(0, method("turn_end", 90, 2))
     assert rt.nodes["st"].values[-1][:2] == ("gyro_scale", 2)
     assert cal.calibration.gyro_scale[2] == pytest.approx(scale, rel=2e-3)
+
+
+def test_a_gyro_axis_the_file_has_no_scale_for_keeps_its_resolution(tmp_path, caplog):
+    # rest and one turn about z: x and y were never turned, their scale in the file is the "none" of 1
+    path = tmp_path / "partial.json"
+    Calibration(gyro_null=[2050.0, 2040.0, 2049.0], gyro_scale=[1.0, 1.0, 570.0]).save(path)
+    rt = patch(f"node units scaling gyro=0.1 calibration={path}\nnode g collect\nunits.gyro -> g\n")
+    rt.nodes["units"].receive(0, vector([10.0, -10.0, 570.0] + [0.0] * 6))
+    assert list(rt.nodes["g"].values[0]) == pytest.approx([math.radians(1.0), -math.radians(1.0), 1.0])
+    assert "has no scale for gyro x, gyro y: the nominal resolution is used" in caplog.text
+
+
+def test_a_turn_before_rest_is_refused(tmp_path):
+    rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    cal.receive(0, method("turn_begin"))
+    for k in range(50):
+        cal.receive(0, vector([2048.0, 2048.0, 2600.0] + [2048.0] * 6, k * 0.01))
+    with pytest.raises(ValueError, match="the gyro nulls are not known yet.*send rest first"):
+        cal.receive(0, method("turn_end", 90, 2))
+    assert cal.calibration.gyro_scale[2] == 1.0  # nothing stored: not a scale against a null of 0
