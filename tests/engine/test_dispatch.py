@@ -137,6 +137,20 @@ m -> a
     rt.shutdown()
 
 
+def test_msg_separators_written_against_a_word_split_as_in_pd():
+    rt = patch(
+        "node m msg turn_end -220 2, save;bus go\nnode a collect\nnode r receive bus\nm -> a\nr -> a\n"
+    )
+    rt.start()
+    rt.nodes["m"].receive(0, bang())
+    assert [(m.kind, m.value) for m in rt.nodes["a"].messages] == [
+        ("turn_end", (-220, 2)),
+        ("save", ()),
+        ("go", ()),
+    ]
+    rt.shutdown()
+
+
 def test_change_drops_repeats_including_vectors():
     rt = patch("node c change\nnode out collect\nc -> out\n")
     c = rt.nodes["c"]
