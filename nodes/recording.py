@@ -21,8 +21,10 @@ from __future__ import annotations
 
 import gzip
 import json
+import logging
 import math
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -32,6 +34,8 @@ from pointat.maths.quaternion import enu_to_nwu
 from pointat.message import Message, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
+
+log = logging.getLogger(__name__)
 
 _GROUPS = {
     "gyro": (("gyr_x", "gyr_y", "gyr_z"), ("gyro_x", "gyro_y", "gyro_z")),
@@ -65,10 +69,36 @@ def read_csv_table(path: str | Path) -> tuple[list[str], np.ndarray]:
                 break
         if not header or header[0] != "t":
             raise ValueError(f"{path}: expected a header line starting with 't', got {','.join(header)!r}")
-        rows = np.loadtxt(fh, delimiter=",", ndmin=2, comments="#")
-    if rows.size and rows.shape[1] != len(header):
-        raise ValueError(f"{path}: {len(header)} columns in the header, {rows.shape[1]} in the rows")
+        try:
+            rows = np.loadtxt(fh, delimiter=",", ndmin=2, comments="#")
+        except ValueError:
+            rows = None
+    if rows is None or (rows.size and rows.shape[1] != len(header)):
+        raise ValueError(_first_bad_row(path, opener, len(header)))
     return header, rows.reshape(-1, len(header))
+
+
+def _first_bad_row(path: Path, opener: Any, width: int) -> str:
+    """Where and why a CSV recording does not read as numbers: ``FILE:LINE: ...`` (the line in the file,
+    as an editor counts it)."""
+    with opener(path, "rt", encoding="utf-8") as fh:
+        header_seen = False
+        for n, line in enumerate(fh, 1):
+            text = line.split("#", 1)[0].strip()
+            if not text:
+                continue
+            if not header_seen:
+                header_seen = True
+                continue
+            cells = [c.strip() for c in text.split(",")]
+            if len(cells) != width:
+                return f"{path}:{n}: {len(cells)} values, the header names {width} columns"
+            for col, cell in enumerate(cells, 1):
+                try:
+                    float(cell)
+                except ValueError:
+                    return f"{path}:{n}: column {col}: {cell!r} is not a number"
+    return f"{path}: not a table of numbers"
 
 
 @register("record")
@@ -89,6 +119,14 @@ class Record(Node):
     example = """
 node sink record file=out.csv columns=[qw, qx, qy, qz]
 """
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        if str(values["file"]).lower().endswith(".gz"):
+            raise ValueError(
+                f"file {values['file']!r}: record writes plain text, line by line, so that nothing is lost"
+                " if the patch stops: name it without .gz (and compress it afterwards)"
+            )
 
     def setup(self) -> None:
         self._fh: TextIO | None = None
@@ -204,6 +242,19 @@ source.mag -> fuse.mag
                     self._groups[outlet] = data
                     break
         self._messages: list[Message] | None = None
+        silent = [
+            name
+            for outlet, name in enumerate(_GROUPS)
+            if outlet not in self._groups and self._targets[outlet]
+        ]
+        if silent:
+            log.warning(
+                "replay '%s': %s has no columns for %s (its columns: %s); those outlets stay silent",
+                self.name,
+                path,
+                ", ".join(f"{n} ({' or '.join(' '.join(a) for a in _GROUPS[n])})" for n in silent),
+                " ".join(header),
+            )
 
     def _load_ndjson(self, path: str) -> None:
         messages = []

@@ -172,6 +172,38 @@ def test_a_source_that_cannot_start_stops_the_patch_with_a_clear_error(tmp_path)
     assert not rt.running
 
 
+@pytest.mark.parametrize(
+    "rows, where",
+    [
+        ("0,1,2\n# a note\n0.01,abc,2\n", "bad.csv:5: column 2: 'abc' is not a number"),
+        ("0,1,2\n0.01,1\n", "bad.csv:4: 2 values, the header names 3 columns"),
+    ],
+)
+def test_a_csv_recording_that_does_not_read_names_its_line(tmp_path, rows, where):
+    from pointat.runtime import StartError
+
+    (tmp_path / "bad.csv").write_text("# take 1\nt,gyr_x,gyr_y\n" + rows)
+    rt = patch(f"node src replay file={tmp_path / 'bad.csv'}\n", realtime=True)
+    with pytest.raises(StartError, match=where):
+        rt.run(2)
+
+
+def test_replay_warns_when_a_wired_outlet_has_no_columns_in_the_file(tmp_path, caplog):
+    f = tmp_path / "other.csv"
+    f.write_text("t,a,b\n0,1,2\n")
+    rt = patch(f"node src replay file={f} speed=0\nnode g collect\nsrc.gyro -> g\n", realtime=True)
+    rt.run(5)
+    assert "has no columns for gyro (gyr_x gyr_y gyr_z or gyro_x gyro_y gyro_z)" in caplog.text
+    assert "accel" not in caplog.text  # not wired: nothing to say
+
+
+def test_record_refuses_a_gz_name_it_would_not_compress():
+    from pointat.errors import PatchError
+
+    with pytest.raises(PatchError, match="record writes plain text"):
+        patch("node sink record file=take.csv.gz\n")
+
+
 def test_mote_waits_for_a_device_that_is_not_there_yet_without_a_thread_of_its_own(tmp_path):
     import threading
 
