@@ -188,7 +188,8 @@ class Calibrate(Node):
 
     Feed it the raw counts continuously, then send, in any order (but ``rest`` before any turn):
 
-    * ``rest``: hold still; the next ``samples`` samples give the gyro nulls.
+    * ``rest``: hold still; the next ``samples`` samples give the gyro nulls (refused, with a
+      ``moved`` status, when a gyro varied by more than ``still`` counts rms).
     * ``pose``: six times, with each accelerometer axis up and then down (any order): accelerometer
       nulls and scales (Eqs. 29-30).
     * ``mag_begin`` ... turn the mote every way ... ``mag_end``: magnetometer nulls and scales from min/max,
@@ -212,6 +213,13 @@ class Calibrate(Node):
             choices=("minmax", "ellipsoid"),
         ),
         Param("gravity", "float", 9.80665, "local gravity", unit="m/s²"),
+        Param(
+            "still",
+            "float",
+            10.0,
+            "rest: refuse the nulls when a gyro varied by more (rms; 0: never)",
+            unit="counts",
+        ),
     )
 
     def setup(self) -> None:
@@ -295,6 +303,14 @@ class Calibrate(Node):
             data = np.array(self._buf)
             what, self._collect = self._collect, None
             if what == "rest":
+                spread = data[:, 0:3].std(axis=0)
+                if self.p.still and spread.max() > self.p.still:
+                    axis = "xyz"[int(spread.argmax())]
+                    self.out(0, ("moved", axis, round(float(spread.max()), 1)))
+                    raise ValueError(
+                        f"rest: the glove moved (gyro {axis} varied by {spread.max():.1f} counts rms, more"
+                        f" than still={self.p.still:g}): nulls not taken; hold it still and send rest again"
+                    )
                 self.calibration.gyro_null = gyro_null(data[:, 0:3])
                 self.out(0, ("rest", *self.calibration.gyro_null.tolist()))
             else:

@@ -29,6 +29,7 @@ examples:
   pointat help tqt                                  a node's inlets, outlets, parameters, example
   pointat graph my.pat -o my.dot                    Graphviz (also my.svg when dot is installed)
   pointat convert my.pat my.pd                      to Pure Data (and back: my.pd my.pat)
+  pointat send 9001 /pointat/press/bang             live control of a running patch (OSC to port 9001)
 """
 
 
@@ -111,6 +112,13 @@ def _parser() -> argparse.ArgumentParser:
         "stubs", help="write Pd stub abstractions (right inlets and outlets) for every node type"
     )
     p.add_argument("folder")
+
+    p = sub.add_parser(
+        "send", help="send one OSC message over UDP: live control of a running patch from a shell"
+    )
+    p.add_argument("to", metavar="[HOST:]PORT", help="where: a port on 127.0.0.1, or host:port")
+    p.add_argument("address", help="OSC address, e.g. /pointat/press/bang or /pointat/tqt/fuse/k_heading")
+    p.add_argument("values", nargs="*", help="arguments: numbers go as int32 or float32, the rest as strings")
     return ap
 
 
@@ -263,6 +271,27 @@ def cmd_stubs(args: argparse.Namespace, registry: Registry) -> int:
     return 0
 
 
+def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
+    from pythonosc.udp_client import SimpleUDPClient
+
+    from .patchfile import parse_value
+
+    host, _, port = args.to.rpartition(":")
+    if not port.isdigit() or not 1 <= int(port) <= 65535:
+        print(f"error: {args.to!r}: expected a port 1..65535 or host:port", file=sys.stderr)
+        return 2
+    if not args.address.startswith("/"):
+        print(f"error: OSC address {args.address!r} must start with '/'", file=sys.stderr)
+        return 2
+    values = [parse_value(v) for v in args.values]
+    try:
+        SimpleUDPClient(host or "127.0.0.1", int(port)).send_message(args.address, values)
+    except OSError as exc:
+        print(f"error: cannot send to {host or '127.0.0.1'}:{port}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
 COMMANDS = {
     "run": cmd_run,
     "check": cmd_check,
@@ -271,6 +300,7 @@ COMMANDS = {
     "help": cmd_help,
     "convert": cmd_convert,
     "stubs": cmd_stubs,
+    "send": cmd_send,
 }
 
 if __name__ == "__main__":

@@ -168,3 +168,14 @@ def test_a_turn_before_rest_is_refused(tmp_path):
     with pytest.raises(ValueError, match="the gyro nulls are not known yet.*send rest first"):
         cal.receive(0, method("turn_end", 90, 2))
     assert cal.calibration.gyro_scale[2] == 1.0  # nothing stored: not a scale against a null of 0
+
+
+def test_a_rest_during_which_the_glove_moved_is_refused(tmp_path):
+    rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    cal.receive(0, method("rest"))
+    with pytest.raises(ValueError, match=r"rest: the glove moved \(gyro z varied by .* than still=10\)"):
+        for k in range(20):  # z turning: 2048 .. 2238 counts
+            cal.receive(0, vector([2048.0, 2048.0, 2048.0 + 10 * k] + [2048.0] * 6, k * 0.01))
+    assert rt.nodes["st"].values[-1][:2] == ("moved", "z")
+    assert not np.any(cal.calibration.gyro_null)  # nothing taken

@@ -1,0 +1,32 @@
+# Calibrate a glove (Bachmann et al., VRST 2001 §3.2.1): its nulls and scales, into calibration.json.
+#
+#   mote -> calibrate -> print        (driven by OSC on port 9001, from a second terminal)
+#
+# Run it, then send each step with `pointat send 9001 ADDRESS [values]` and watch what it prints:
+#   1. /pointat/cal/rest                  lay the glove down, hold still 2 s: the gyro nulls
+#   2. /pointat/cal/pose  (six times)      each accelerometer axis straight up, then straight down,
+#                                          held still 2 s each: accelerometer nulls and scales (Eqs. 29-30)
+#   3. /pointat/cal/mag_begin, turn the glove every way for 30 s, /pointat/cal/mag_end
+#                                          magnetometer nulls and scales (away from steel and speakers)
+#   4. /pointat/cal/turn_begin, turn the glove by a known angle about one of its axes (90 deg flat on
+#      a table, against a square edge), then /pointat/cal/turn_end 90 2 (the angle, the axis: 0 x,
+#      1 y, 2 z): that gyro axis's scale (Eq. 31).  Again for the other two axes.  After step 1.
+#   5. /pointat/cal/save                  writes calibration.json next to this patch (or cal.file=...)
+# Steps 2-4 may be left out: a sensor the file does not calibrate keeps Torre's nominal resolution.
+# Then play with it:
+#   pointat run patches/glove_tqt.pat --set nulls.calibration=patches/calibration.json \
+#       --set units.calibration=patches/calibration.json
+#
+# The source is the built-in simulated glove (it can do steps 1, 3 and 4: its script turns but never
+# points an accelerometer axis down).  For a real base station:
+#     pointat run patches/calibrate.pat --set glove.output=direct --set base.device=/dev/ttyUSB0
+
+node glove  simulate rate=100 output=pty
+node base   mote ids=[1] rate=100
+node cal    calibrate file=calibration.json samples=200
+node ctl    osc_in port=9001
+node show   print prefix=calibrate
+
+glove.device -> base
+base.m1 -> cal
+cal -> show
