@@ -251,6 +251,15 @@ def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
     if target.suffix == ".pd":
         from .pdfile import write_pd, write_stubs
 
+        if (
+            registry.get(target.stem) is not None
+        ):  # Pd looks beside the patch first: [tqt] in tqt.pd is itself
+            print(
+                f"error: {target.name} is named like the node type '{target.stem}': in Pd, a [{target.stem}] "
+                f"box inside it would open the patch itself instead of its stub; choose another name",
+                file=sys.stderr,
+            )
+            return 2
         spec = expand(spec)
         rebase_paths(spec, registry, target.parent)
         target.write_text(write_pd(spec, registry))

@@ -176,6 +176,13 @@ def test_set_overrides_and_reports_unknown_nodes():
     assert out.returncode == 2 and "--set nope.k: no node named 'nope'" in out.stderr
 
 
+def test_convert_refuses_a_pd_file_named_like_a_node_type(tmp_path):
+    # Pd finds abstractions beside the patch first: [calibrate] inside calibrate.pd would be the patch itself
+    out = pointat("convert", "patches/calibrate_glove.pat", tmp_path / "calibrate.pd")
+    assert out.returncode == 2 and "calibrate.pd is named like the node type 'calibrate'" in out.stderr
+    assert not (tmp_path / "calibrate.pd").exists()
+
+
 def test_convert_round_trip_to_pd_and_back_elsewhere_keeps_the_graph(tmp_path):
     from pointat.loader import check, read_spec
 

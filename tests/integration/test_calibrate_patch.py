@@ -1,4 +1,4 @@
-"""patches/calibrate.pat as its comments tell a user to drive it: `pointat run` in one process,
+"""patches/calibrate_glove.pat as its comments tell a user to drive it: `pointat run` in one process,
 `pointat send` steps from another, a calibration file that the glove patch then reads."""
 
 import json
@@ -37,7 +37,7 @@ def calibrating(tmp_path):
     port, target = _free_udp_port(), tmp_path / "glove.json"
     args = ["--set", f"ctl.port={port}", "--set", f"cal.file={target}", "--set", "cal.samples=30"]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "pointat.cli", "run", "patches/calibrate.pat", "--for", "30", *args],
+        [sys.executable, "-m", "pointat.cli", "run", "patches/calibrate_glove.pat", "--for", "30", *args],
         cwd=ROOT,
         env=ENV,
         stdout=subprocess.PIPE,

@@ -19,7 +19,7 @@
 #
 # The source is the built-in simulated glove (it can do steps 1, 3 and 4: its script turns but never
 # points an accelerometer axis down).  For a real base station:
-#     pointat run patches/calibrate.pat --set glove.output=direct --set base.device=/dev/ttyUSB0
+#     pointat run patches/calibrate_glove.pat --set glove.output=direct --set base.device=/dev/ttyUSB0
 
 node glove  simulate rate=100 output=pty
 node base   mote ids=[1] rate=100
