@@ -32,5 +32,6 @@ accmag -> fuse.accmag
 gyro -> fuse.gyro_orientation
 fuse -> quat -> ref
 ref -> axis
-ref -> roll
+# dir before roll: the elevation must be in place when roll's azimuth (the hot one downstream) fires
 ref -> dir
+ref -> roll

@@ -21,5 +21,6 @@ node dir  azi_ele
 node roll roll_distance
 
 fuse.quat -> ref
-ref -> roll
+# dir before roll: the elevation must be in place when roll's azimuth (the hot one downstream) fires
 ref -> dir
+ref -> roll

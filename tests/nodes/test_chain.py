@@ -202,6 +202,33 @@ f.elevation -> el
     assert el[7.0] == pytest.approx(0.0, abs=3.0)  # heading only: the horizon stays the horizon
 
 
+@pytest.mark.parametrize("fusion", ["tqt_fusion", "torre_fusion"])
+def test_the_fusion_halves_deliver_elevation_before_the_hot_azimuth(fusion):
+    # a receiver (osc_out, pack) takes its update when the azimuth arrives: the elevation stored by then
+    # must be this sample's, not the previous one's
+    lib = Path(__file__).resolve().parents[2] / "patches" / "lib" / f"{fusion}.pat"
+    rt = glove_into(
+        "f",
+        4,
+        f"""
+node f {lib} rate=100
+node both pack 0 0
+node pairs collect
+node el collect
+f.elevation -> el
+f.elevation -> both.1
+f.azimuth -> both.0
+both -> pairs
+""",
+    )
+    rt.advance(20.0)  # through the raise (17-18.5 s), where the elevation changes every sample
+    el = by_time(rt, "el")
+    pairs = by_time(rt, "pairs")
+    raising = [t for t in pairs if 17.2 < t < 18.3]
+    assert len(raising) > 100
+    assert all(pairs[t][1] == el[t] for t in raising)
+
+
 def test_bad_samples_never_reach_downstream_as_nan():
     from pointat.message import vector
 
