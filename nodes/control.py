@@ -6,14 +6,12 @@ and msg (a Pd message box).
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 import numpy as np
 
 from pointat.message import Message, as_float, bang, make, method
 from pointat.node import Inlet, Node, Outlet, Param
-from pointat.patchfile import parse_value
 from pointat.registry import register
 from pointat.runtime import Timer
 
@@ -500,20 +498,16 @@ class Msg(Node):
 def _split(content: tuple) -> list[tuple[list, str]]:
     """The messages of a message box and the separator after each (``,`` ``;`` or none at the end).
 
-    As in Pd, a separator need not stand apart: ``a 1, b 2`` is ``a 1`` then ``b 2``.
-
-    >>> _split(("a", "1,", "b", 2, ";", "bus", "go"))
+    >>> _split(("a", 1, ",", "b", 2, ";", "bus", "go"))
     [(['a', 1], ','), (['b', 2], ';'), (['bus', 'go'], '')]
     """
     parts, cur = [], []
     for tok in content:
-        pieces = [tok] if not isinstance(tok, str) else [p for p in re.split(r"([,;])", tok) if p]
-        for piece in pieces:
-            if piece in (",", ";"):
-                parts.append((cur, piece))
-                cur = []
-            else:
-                cur.append(parse_value(piece) if piece is not tok else tok)
+        if tok in (",", ";"):
+            parts.append((cur, tok))
+            cur = []
+        else:
+            cur.append(tok)
     parts.append((cur, ""))
     return parts
 

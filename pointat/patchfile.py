@@ -73,7 +73,12 @@ def _logical_lines(text: str) -> list[tuple[int, str]]:
 
 
 def tokenize(line: str) -> list[str]:
-    """Split a statement into tokens: quotes and brackets stay whole, ``->``/``<-`` stand alone, ``#`` ends it."""
+    """Split a statement into tokens: quotes and brackets stay whole, ``->``/``<-`` and the separators
+    ``,`` ``;`` stand alone, ``#`` ends it.
+
+    >>> tokenize('node m msg set 1, bang;bus "a, b" [1, 2]')
+    ['node', 'm', 'msg', 'set', '1', ',', 'bang', ';', 'bus', '"a, b"', '[1, 2]']
+    """
     tokens: list[str] = []
     cur = ""
     i, n = 0, len(line)
@@ -110,6 +115,13 @@ def tokenize(line: str) -> list[str]:
                     cur = ""
                 tokens.append(line[i : i + 2])
                 i += 2
+                continue
+            if c in ",;":  # a message box's separators stand alone, written apart or not (as in Pd)
+                if cur:
+                    tokens.append(cur)
+                    cur = ""
+                tokens.append(c)
+                i += 1
                 continue
         cur += c
         i += 1

@@ -149,6 +149,9 @@ def test_msg_separators_written_against_a_word_split_as_in_pd():
         ("go", ()),
     ]
     rt.shutdown()
+    quoted = patch('node m msg "a, b"\nnode a collect\nm -> a\n')  # quoted, a comma is just text
+    quoted.nodes["m"].receive(0, bang())
+    assert [m.kind for m in quoted.nodes["a"].messages] == ["a, b"]
 
 
 def test_change_drops_repeats_including_vectors():
