@@ -150,10 +150,11 @@ class Scaling(Node):
                 # a scale of 1 is an axis the file does not calibrate (a gyro axis never turned): it keeps
                 # its resolution, not 1 count per rad/s; an ellipsoid fit's matrix holds the mag's scales
                 whole = sensor == "mag" and cal.mag_soft_iron is not None
+                measured = [whole or scale[a] != 1.0 for a in range(3)]
                 for a in range(3):
-                    if whole or scale[a] != 1.0:
+                    if measured[a]:
                         factor[3 * i + a] = 1.0 / float(scale[a])
-                    elif _calibrated(cal, sensor):
+                    elif any(measured):  # some axes of this sensor calibrated, not this one: say so
                         nominal.append(f"{sensor} {'xyz'[a]}")
             if cal.mag_soft_iron is not None:
                 self.soft_iron = tuple(np.ravel(cal.mag_soft_iron).tolist())
@@ -195,7 +196,8 @@ class Calibrate(Node):
     * ``mag_begin`` ... turn the mote every way ... ``mag_end``: magnetometer nulls and scales from min/max,
       or a hard/soft-iron ellipsoid fit with ``mag_fit=ellipsoid``.
     * ``turn_begin`` ... rotate by a known angle about one axis ... ``turn_end ANGLE AXIS`` (degrees,
-      0/1/2 for x/y/z): that gyro axis's scale (Eq. 31).
+      0/1/2 for x/y/z; a positive angle is counter-clockwise seen from the axis's tip): that gyro
+      axis's scale (Eq. 31).
     * ``save`` (to ``file``, or ``save PATH``); ``load`` reads it back.  ``offset`` and ``scaling`` read
       the file through their ``calibration`` parameter.
     """
@@ -222,6 +224,13 @@ class Calibrate(Node):
         ),
     )
 
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        if values["samples"] < 2:
+            raise ValueError(f"samples must be 2 or more, got {values['samples']}")
+        if values["still"] < 0:
+            raise ValueError(f"still must be >= 0 counts (0: never refuse a rest), got {values['still']}")
+
     def setup(self) -> None:
         self.calibration = Calibration()
         self.poses: list[np.ndarray] = []
@@ -245,7 +254,15 @@ class Calibrate(Node):
         self._start("mag")
 
     def do_turn_begin(self) -> None:
+        self._need_rest("turn_begin")
         self._start("turn")
+
+    def _need_rest(self, what: str) -> None:
+        if not np.any(self.calibration.gyro_null):
+            raise ValueError(
+                f"{what}: the gyro nulls are not known yet (the turn is integrated from them): send rest"
+                " first and hold still, then turn"
+            )
 
     def do_mag_end(self) -> None:
         samples = self._take("mag")[:, 6:9]
@@ -264,16 +281,18 @@ class Calibrate(Node):
         samples = self._take("turn")
         if len(samples) < 2:
             raise ValueError("turn_end: no samples since turn_begin")
-        if not np.any(self.calibration.gyro_null):
-            raise ValueError(
-                "turn_end: the gyro nulls are not known yet (the turn is integrated from them): send rest"
-                " first and hold still, then turn again"
-            )
+        self._need_rest("turn_end")
         dt = np.diff(self._times, prepend=self._times[0] - (self._times[1] - self._times[0]))
         ax = int(axis)
         scale = gyro_scale(
             samples[:, 0:3], dt, math.radians(float(angle_deg)), ax, null=self.calibration.gyro_null
         )
+        if not scale > 0.0:
+            raise ValueError(
+                f"turn_end: the glove turned the other way ({float(angle_deg):g} deg about {'xyz'[ax]} means"
+                f" counter-clockwise seen from the axis's tip, right-hand rule): scale not taken; turn again"
+                f" (or send turn_end {-float(angle_deg):g} {ax} after a turn that way)"
+            )
         self.calibration.gyro_scale[ax] = scale
         self.out(0, ("gyro_scale", ax, scale))
 

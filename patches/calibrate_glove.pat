@@ -9,8 +9,9 @@
 #   3. /pointat/cal/mag_begin, turn the glove every way for 30 s, /pointat/cal/mag_end
 #                                          magnetometer nulls and scales (away from steel and speakers)
 #   4. /pointat/cal/turn_begin, turn the glove by a known angle about one of its axes (90 deg flat on
-#      a table, against a square edge), then /pointat/cal/turn_end 90 2 (the angle, the axis: 0 x,
-#      1 y, 2 z): that gyro axis's scale (Eq. 31).  Again for the other two axes.  After step 1.
+#      a table, against a square edge, counter-clockwise seen from the axis's tip: for z, from above),
+#      then /pointat/cal/turn_end 90 2 (the angle, the axis: 0 x, 1 y, 2 z): that gyro axis's scale
+#      (Eq. 31).  Again for the other two axes.  After step 1.
 #   5. /pointat/cal/save                  writes calibration.json next to this patch (or cal.file=...)
 # Steps 2-4 may be left out: a sensor the file does not calibrate keeps Torre's nominal resolution.
 # Then play with it:

@@ -162,12 +162,28 @@ def test_a_gyro_axis_the_file_has_no_scale_for_keeps_its_resolution(tmp_path, ca
 def test_a_turn_before_rest_is_refused(tmp_path):
     rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
     cal = rt.nodes["cal"]
-    cal.receive(0, method("turn_begin"))
+    with pytest.raises(ValueError, match="turn_begin: the gyro nulls are not known yet.*send rest first"):
+        cal.receive(0, method("turn_begin"))  # said before the user turns, not after
+    cal._start("turn")  # and had it started anyway (a null loaded as 0): turn_end refuses it too
     for k in range(50):
         cal.receive(0, vector([2048.0, 2048.0, 2600.0] + [2048.0] * 6, k * 0.01))
-    with pytest.raises(ValueError, match="the gyro nulls are not known yet.*send rest first"):
+    with pytest.raises(ValueError, match="turn_end: the gyro nulls are not known yet"):
         cal.receive(0, method("turn_end", 90, 2))
     assert cal.calibration.gyro_scale[2] == 1.0  # nothing stored: not a scale against a null of 0
+
+
+def test_a_turn_the_other_way_is_refused_not_stored_as_a_negative_scale(tmp_path):
+    rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    cal.receive(0, method("rest"))
+    for k in range(20):
+        cal.receive(0, vector([2048.0] * 9, k * 0.01))
+    cal.receive(0, method("turn_begin"))
+    for k in range(100):  # clockwise about z: the rate is negative
+        cal.receive(0, vector([2048.0, 2048.0, 2048.0 - 450.0] + [2048.0] * 6, 1.0 + k * 0.01))
+    with pytest.raises(ValueError, match="turned the other way.*send turn_end -90 2"):
+        cal.receive(0, method("turn_end", 90, 2))
+    assert cal.calibration.gyro_scale[2] == 1.0
 
 
 def test_a_rest_during_which_the_glove_moved_is_refused(tmp_path):
