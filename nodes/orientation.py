@@ -574,7 +574,7 @@ class RollDistanceNode(Node):
         if not 0.0 <= values["max_elevation"] <= 90.0:
             raise ValueError(f"max_elevation must be 0..90 deg, got {values['max_elevation']}")
         if not 0.0 <= values["pole"] < 90.0:
-            raise ValueError(f"pole must be 0..90 deg, got {values['pole']}")
+            raise ValueError(f"pole must be >= 0 and < 90 deg, got {values['pole']}")
 
     def setup(self) -> None:
         self.state = RollDistance(

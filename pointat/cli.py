@@ -118,7 +118,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("to", metavar="[HOST:]PORT", help="where: a port on 127.0.0.1, or host:port")
     p.add_argument("address", help="OSC address, e.g. /pointat/press/bang or /pointat/tqt/fuse/k_heading")
-    p.add_argument("values", nargs="*", help="arguments: numbers go as int32 or float32, the rest as strings")
+    p.add_argument(
+        "values",
+        nargs="*",
+        help="arguments: whole numbers go as int32, other numbers as float32, the rest as strings "
+        "(put -- before the address for values such as -1e3)",
+    )
     return ap
 
 
@@ -251,16 +256,14 @@ def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
     if target.suffix == ".pd":
         from .pdfile import write_pd, write_stubs
 
-        if (
-            registry.get(target.stem) is not None
-        ):  # Pd looks beside the patch first: [tqt] in tqt.pd is itself
+        spec = expand(spec)
+        if target.stem in {d.type for d in spec.nodes}:  # Pd looks beside a patch first: itself
             print(
-                f"error: {target.name} is named like the node type '{target.stem}': in Pd, a [{target.stem}] "
-                f"box inside it would open the patch itself instead of its stub; choose another name",
+                f"error: {target.name} is named like its own [{target.stem}] box: in Pd that box would open "
+                f"the patch itself instead of the {target.stem} stub; choose another name",
                 file=sys.stderr,
             )
             return 2
-        spec = expand(spec)
         rebase_paths(spec, registry, target.parent)
         target.write_text(write_pd(spec, registry))
         if not args.no_stubs:
@@ -280,10 +283,21 @@ def cmd_stubs(args: argparse.Namespace, registry: Registry) -> int:
     return 0
 
 
+def _osc_value(text: str) -> int | float | str:
+    """A command-line argument as OSC sends it: int32 when it is a whole number that fits, float32 when
+    it is a number, else a string."""
+    try:
+        number = int(text)
+    except ValueError:
+        try:
+            return float(text)
+        except ValueError:
+            return text
+    return number if -(2**31) <= number < 2**31 else float(number)
+
+
 def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
     from pythonosc.udp_client import SimpleUDPClient
-
-    from .patchfile import parse_value
 
     host, _, port = args.to.rpartition(":")
     if not port.isdigit() or not 1 <= int(port) <= 65535:
@@ -292,7 +306,7 @@ def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
     if not args.address.startswith("/"):
         print(f"error: OSC address {args.address!r} must start with '/'", file=sys.stderr)
         return 2
-    values = [parse_value(v) for v in args.values]
+    values = [_osc_value(v) for v in args.values]
     try:
         SimpleUDPClient(host or "127.0.0.1", int(port)).send_message(args.address, values)
     except OSError as exc:

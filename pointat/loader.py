@@ -2,8 +2,9 @@
 
 :func:`check` finds every problem at once and never runs anything: unknown node types (with a close-name
 suggestion), unknown inlets and outlets, bad or missing parameters, wrong value types, wires whose kinds
-cannot meet, feedback loops with no delay, and (a warning) one outlet feeding two inlets of one node,
-whose order only the file knows.  Every problem names ``file:line`` and what was expected and found.
+cannot meet, feedback loops with no delay, and warnings: one outlet feeding two inlets of one node (whose
+order only the file knows), a node fed on cold inlets only (it never outputs), a file a node reads at
+start that is not there.  Every problem names ``file:line`` and what was expected and found.
 """
 
 from __future__ import annotations
@@ -229,7 +230,10 @@ def check(
     registry = registry or default_registry
     problems: list[Problem] = []
     spec, overrides = _set_arguments(spec, overrides, problems)
-    flat = expand(spec)
+    try:
+        flat = expand(spec)
+    except PatchError as exc:  # with the --set problems found before, all at once
+        raise PatchError(problems + exc.problems) from None
     result = Checked(flat)
     names: dict[str, NodeDecl] = {}
     for decl in flat.nodes:
@@ -388,6 +392,11 @@ def _never_triggered(result: Checked) -> list[Problem]:
     fed: dict[str, set[int]] = {}
     for _src, _o, dst, i in result.wires:
         fed.setdefault(dst, set()).add(i)
+    for port in result.spec.inlets:  # an abstraction checked on its own: its inlets feed from outside
+        r = result.nodes.get(port.node)
+        i = None if r is None else _port_index(r.inlets, port.port)
+        if i is not None:
+            fed.setdefault(port.node, set()).add(i)
     found = []
     for name, r in result.nodes.items():
         hot = {i for i, inlet in enumerate(r.inlets) if inlet.is_hot(i)}

@@ -179,7 +179,7 @@ def test_set_overrides_and_reports_unknown_nodes():
 def test_convert_refuses_a_pd_file_named_like_a_node_type(tmp_path):
     # Pd finds abstractions beside the patch first: [calibrate] inside calibrate.pd would be the patch itself
     out = pointat("convert", "patches/calibrate_glove.pat", tmp_path / "calibrate.pd")
-    assert out.returncode == 2 and "calibrate.pd is named like the node type 'calibrate'" in out.stderr
+    assert out.returncode == 2 and "calibrate.pd is named like its own [calibrate] box" in out.stderr
     assert not (tmp_path / "calibrate.pd").exists()
 
 
@@ -224,3 +224,23 @@ def test_for_takes_a_finite_number_of_seconds(value, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "argument --for: expected a" in err and repr(value) in err
+
+
+def test_send_delivers_one_osc_message_with_typed_arguments():
+    import socket
+
+    from pythonosc.osc_message import OscMessage
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as rx:
+        rx.bind(("127.0.0.1", 0))
+        rx.settimeout(10)
+        port = rx.getsockname()[1]
+        out = pointat("send", str(port), "/pointat/tqt/fuse/k_heading", "3", "0.05", "word", "3000000000")
+        assert out.returncode == 0, out.stderr
+        msg = OscMessage(rx.recv(1024))
+    assert msg.address == "/pointat/tqt/fuse/k_heading"
+    assert msg.params[0] == 3 and msg.params[2] == "word" and msg.params[3] == 3e9
+    assert msg.params[1] == pytest.approx(0.05)  # float32
+    assert [t for t in msg.dgram.split(b",", 1)[1][:4].decode()] == ["i", "f", "s", "f"]
+    bad = pointat("send", "99999", "/x")
+    assert bad.returncode == 2 and "expected a port 1..65535 or host:port" in bad.stderr

@@ -139,6 +139,8 @@ def test_a_node_fed_on_cold_inlets_only_is_a_warning():
     # wired to the hot inlet, or not wired at all (driven by live control): nothing to say
     assert not check(parse_patch(text + "u.2 -> f.gyro\n", "c.pat"), REG).warnings
     assert not check(parse_patch("node f tqt\nnode p print\nf -> p\n", "c.pat"), REG).warnings
+    # an abstraction checked on its own: its inlet feeds the hot inlet from outside
+    assert not check(parse_patch("inlet gyro -> f.gyro\n" + text, "c.pat"), REG).warnings
 
 
 def test_a_file_a_node_reads_at_start_that_is_not_there_is_a_warning(tmp_path):
