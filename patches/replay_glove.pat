@@ -1,0 +1,24 @@
+# A take recorded by patches/record_glove.pat, played back through the same chain in real time: the
+# same directions, sent the same way, without the glove.
+#   pointat run patches/replay_glove.pat --set source.file=OTHER.csv --set source.loop=true
+
+node source replay file=take.csv speed=1
+node nulls  offset samples=150
+node units  scaling
+node tqt    lib/tqt_fusion.pat rate=100 mode=robust
+node out    osc_out profile=pointat host=127.0.0.1 port=9000
+node both   pack 0 0 0
+node slow   speedlim 500
+node show   print prefix="azimuth elevation distance"
+
+source.row -> nulls -> units
+units.mag -> tqt.mag
+units.accel -> tqt.accel
+units.gyro -> tqt.gyro
+tqt.distance -> out.distance
+tqt.distance -> both.2
+tqt.elevation -> out.elevation
+tqt.elevation -> both.1
+tqt.azimuth -> out.azimuth
+tqt.azimuth -> both.0
+both -> slow -> show
