@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import inspect
 import logging
+import math
 import threading
 import types
 from collections.abc import Callable, Mapping, Sequence
@@ -93,7 +94,10 @@ class Param:
             if t == "float":
                 if isinstance(value, bool) or not isinstance(value, (int, float, np.number, str)):
                     raise TypeError
-                return float(value)
+                number = float(value)
+                if not math.isfinite(number):  # NaN and infinity mean nothing as a setting
+                    raise ParamError(f"parameter '{self.name}' expects a finite number; got {value!r}")
+                return number
             if t == "int":
                 if isinstance(value, float) and value.is_integer():
                     return int(value)
@@ -363,10 +367,18 @@ class Node:
                 raise ParamError(f"parameter '{name}' of node '{self.name}' cannot change while running")
             new[name] = p.coerce(value)
         cls.validate({**vars(self.p), **new})
+        old = {name: getattr(self.p, name) for name in new}
         for name, value in new.items():
             setattr(self.p, name, value)
-        for name in new:
-            self.param_changed(name)
+        try:
+            for name in new:
+                self.param_changed(name)
+        except Exception:  # the node refused the new values as it rebuilt: it keeps the ones that worked
+            for name, value in old.items():
+                setattr(self.p, name, value)
+            for name in old:
+                self.param_changed(name)
+            raise
 
     def fail(self, index: int, msg: Message, exc: BaseException) -> None:
         """A message could not be handled: log it with the node's name and drop it (rate-limited)."""

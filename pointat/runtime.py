@@ -320,7 +320,14 @@ class Runtime:
 
     # scheduling --------------------------------------------------------------------
     def call_at(self, when: float, node: Node | None, fn: Callable, *args: Any) -> Timer:
-        """Schedule ``fn(*args)`` at logical time ``when`` (scheduler thread only)."""
+        """Schedule ``fn(*args)`` at logical time ``when`` (scheduler thread only).
+
+        ``when`` must be a finite number: NaN would break the order of the timers, and every timer of
+        the patch with it; the caller gets a ``ValueError`` and the schedule stays as it was.
+        """
+        if not math.isfinite(when):
+            who = f"node '{node.name}': " if node is not None else ""
+            raise ValueError(f"{who}cannot schedule at time {when!r}: expected a finite time")
         t = Timer(when, next(self._seq), node, fn, args)
         heapq.heappush(self._timers, t)
         return t

@@ -243,3 +243,51 @@ def test_vectors_are_flat_floats_whatever_they_are_made_of():
     assert vector((np.float32(0.5), 2)).value == (0.5, 2.0)
     with pytest.raises(ValueError):
         vector(["a", "b"])
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), "-inf"])
+def test_a_setting_that_is_not_a_finite_number_is_refused_and_the_timers_go_on(value):
+    from pointat.node import ParamError
+
+    rt = patch("node m metro 10\nnode s speedlim 50\nnode n collect\nm -> s -> n\n")
+    rt.start()
+    rt.nodes["m"].receive(0, make(1))
+    rt.advance(0.1)
+    with pytest.raises(ParamError, match="parameter 'interval' expects a finite number"):
+        rt.nodes["s"].set_param("interval", value)  # as /pointat/s/interval nan from live control
+    assert rt.nodes["s"].p.interval == 50.0
+    before = len(rt.nodes["n"].messages)
+    rt.advance(1.0)
+    assert len(rt.nodes["n"].messages) >= before + 15  # every 50 ms, still: the schedule is whole
+    rt.shutdown()
+
+
+def test_the_scheduler_refuses_a_time_that_is_not_finite():
+    rt = patch("node n collect\n")
+    with pytest.raises(ValueError, match="cannot schedule at time nan"):
+        rt.call_at(float("nan"), None, lambda: None)
+    assert rt._timers == []
+
+
+class Fussy(Node):
+    """A test node that rebuilds from its parameter and refuses some values only then."""
+
+    type_name = "fussy_test"
+    inlets = (Inlet("in"),)
+    params = (Param("k", "float", 1.0, live=True),)
+
+    def setup(self):
+        self.built = self.p.k
+
+    def param_changed(self, name):
+        if self.p.k > 10:
+            raise ValueError("k too large for this filter")
+        self.built = self.p.k
+
+
+def test_a_value_the_node_refuses_while_rebuilding_leaves_the_old_one_in_place():
+    node = Fussy("f", {})
+    node.set_param("k", 5.0)
+    with pytest.raises(ValueError, match="too large"):
+        node.set_param("k", 50.0)
+    assert node.p.k == 5.0 and node.built == 5.0  # all or none: the value that worked stays
