@@ -15,6 +15,7 @@ b'#bundle\x00\x00\x00\x00\x00\x00\x00\x00\x01'
 
 from __future__ import annotations
 
+import difflib
 import errno
 import functools
 import ipaddress
@@ -705,6 +706,7 @@ phone.quat -> dir
         self.received = 0
         self.malformed = 0
         self.refused = 0
+        self.refused_control = 0
 
     def start(self) -> None:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -825,22 +827,42 @@ phone.quat -> dir
             return False
         rt = self._runtime()
         if rest in rt.nodes:  # values for the left inlet
-            if not args:
-                rt.send(rest, "bang")
-            else:
-                rt.send(rest, make(args[0] if len(args) == 1 else tuple(args)))
-            return True
-        node, _, selector = rest.rpartition("/")
-        if not node or not selector:
-            log.warning(
-                "osc_in '%s': %s: no node '%s'; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD",
-                self.name,
-                address,
-                rest,
-            )
-            return True
-        rt.send(node, selector, *args)
+            name, msg = rest, make(None if not args else args[0] if len(args) == 1 else tuple(args))
+        else:
+            name, _, selector = rest.rpartition("/")
+            if name not in rt.nodes or not selector:
+                hint = difflib.get_close_matches(name or rest, list(rt.nodes), n=1)
+                self._refuse(
+                    address,
+                    f"no node '{name or rest}'"
+                    + (f" (did you mean '{hint[0]}'?)" if hint else "")
+                    + "; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD",
+                )
+                return True
+            try:
+                msg = rt.message(selector, *args)
+            except ValueError as exc:
+                self._refuse(address, str(exc))
+                return True
+        try:  # on the scheduler thread already: straight to the node, nothing queued or lost
+            rt.nodes[name].receive(0, msg._replace(time=self.time))
+        except Exception as exc:
+            self._refuse(address, f"node '{name}': {exc}")
         return True
+
+    def _refuse(self, address: str, why: str) -> None:
+        """A live-control message that did nothing: counted, and logged the first times, then every 10th,
+        100th...: a flood of them keeps the console readable."""
+        self.refused_control += 1
+        if worth_reporting(self.refused_control):
+            log.warning(
+                "osc_in '%s' (port %d): %s refused: %s%s",
+                self.name,
+                self.address[1],
+                address[:80],
+                why[:200],
+                f" ({self.refused_control} refused so far)" if self.refused_control > 3 else "",
+            )
 
     def close(self) -> None:
         self.active = False

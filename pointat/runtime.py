@@ -46,7 +46,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from .errors import FeedbackError, PointatError
-from .message import make, method
+from .message import Message, make, method
 from .node import Node
 
 __all__ = [
@@ -427,22 +427,28 @@ class Runtime:
         """Set a live parameter by name, from any thread (validated on the scheduler thread)."""
         self.send(node_name, param, value)
 
+    @staticmethod
+    def message(selector: str | Any, *args: Any) -> Message:
+        """The message :meth:`send` delivers: ``bang``, a value, a ``list``, or a method with its args."""
+        if selector == "bang":
+            return make(None)
+        if selector in ("float", "int", "symbol"):
+            if not args:
+                raise ValueError(f"'{selector}' without a value")
+            return make(args[0])
+        if selector == "list":
+            return make(tuple(args))
+        if isinstance(selector, str):
+            return method(selector, *args)
+        return make(selector)
+
     def send(self, node_name: str, selector: str | Any, *args: Any, inlet: int = 0) -> None:
         """Send a message to a node by name, from any thread: a method (``recalibrate``, ``k 0.5``) or a value."""
         node = self.nodes.get(node_name)
         if node is None:
             log.error("no node named '%s' (nodes: %s)", node_name, ", ".join(self.nodes))
             return
-        if selector == "bang":
-            msg = make(None)
-        elif selector in ("float", "int", "symbol"):
-            msg = make(args[0])
-        elif selector == "list":
-            msg = make(tuple(args))
-        elif isinstance(selector, str):
-            msg = method(selector, *args)
-        else:
-            msg = make(selector)
+        msg = self.message(selector, *args)
 
         def deliver() -> None:
             node.receive(inlet, msg._replace(time=self.clock.now()))

@@ -631,6 +631,23 @@ def test_pointat_to_pointat_directions_are_not_taken_for_control(started):
     assert msg.kind == "/pointat/1/aed" and values_match(list(msg.value), [15.0, 0.0, 1.0])
 
 
+def test_a_flood_of_bad_control_is_counted_and_logged_sparingly_and_good_control_still_works(started, caplog):
+    rt, imu, addr = in_patch(started, "", "node m metro 100")
+    with sender() as tx:
+        for k in range(300):
+            tx.sendto(osc("/pointat/nosuch/k", 1.0).dgram, addr)  # no such node
+            tx.sendto(osc("/pointat/m/nosuch", "x" * 5000).dgram, addr)  # no such method, a huge string
+            if k % 10 == 9:  # let it read them: 5 kB datagrams would overflow the socket's buffer
+                assert wait_for(rt, lambda k=k: imu.refused_control == 2 * (k + 1))
+        tx.sendto(osc("/pointat/m/interval", 5.0).dgram, addr)
+        assert wait_for(rt, lambda: rt.nodes["m"].p.interval == 5.0)
+    assert imu.refused_control == 600
+    lines = [r.getMessage() for r in caplog.records if "refused" in r.getMessage()]
+    assert 4 <= len(lines) <= 6  # the 1st, 2nd, 3rd, 10th, 100th: not 600
+    assert f"osc_in 'imu' (port {addr[1]}): /pointat/nosuch/k refused: no node 'nosuch'" in lines[0]
+    assert max(len(x) for x in lines) < 400  # the 5000-character string is not echoed whole
+
+
 def test_control_reaches_a_node_inside_an_abstraction(tmp_path, started):
     (tmp_path / "hand.pat").write_text("node m metro 100\n")
     (tmp_path / "show.pat").write_text("node left hand.pat\nnode ctl osc_in port=0\n")
