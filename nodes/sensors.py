@@ -8,13 +8,20 @@ from __future__ import annotations
 
 import logging
 import os
+import time
 from typing import Any
 
 from serial import SerialException
 
 from pointat.devices.glove_sim import GloveSimulator, PtyGlove, SensorModel
-from pointat.devices.mote_frame import CorruptFrame, Frame, LostPackets
-from pointat.devices.serial_reader import DeviceLost, DeviceOpened, OpenFailed, SerialMoteReader
+from pointat.devices.mote_frame import CorruptFrame, CounterJump, Frame, Garbage, LostPackets
+from pointat.devices.serial_reader import (
+    DeviceLost,
+    DeviceOpened,
+    OpenFailed,
+    ReaderError,
+    SerialMoteReader,
+)
 from pointat.message import Message, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
@@ -102,6 +109,10 @@ base.1 -> right
     CHECK_EVERY = 0.25
     #: Where select cannot wait on a serial port (Windows), the reader runs in a thread of its own.
     READ_IN_THREAD = os.name != "posix"
+    #: Seconds without a frame from an open device before the log says so (the glove off, out of range).
+    SILENT = 1.0
+    #: Seconds over which the log sums up lost packets and damaged frames: one line, not one a frame.
+    REPORT_EVERY = 5.0
 
     def setup(self) -> None:
         self._outlet = {int(i): k for k, i in enumerate(self.p.ids)}
@@ -112,6 +123,11 @@ base.1 -> right
         self._failing = False
         self._unknown: set[int] = set()
         self.received = 0
+        self._trouble: dict[str, int] = {}  # since the last summary: lost, corrupt, jumps, garbage bytes
+        self._reported = 0.0  # monotonic time of the last summary
+        self._last_frame = 0.0  # monotonic time of the last frame, or of the open
+        self._silent = False
+        self._was_lost = False
 
     def start(self) -> None:
         self.active = True  # a base station runs until the patch is stopped
@@ -197,8 +213,41 @@ base.1 -> right
             return
         if reader.check():
             self._timer = self.call_later(self.CHECK_EVERY, self._check)
+            self._health(time.monotonic())
         else:
             self._reopen_later()
+
+    def _health(self, now: float) -> None:
+        """The link's troubles, in the log in a few lines: a silence when it starts, the packets lost and
+        frames damaged summed up every :attr:`REPORT_EVERY` seconds (the ``events`` outlet has each one)."""
+        if not self._silent and now - self._last_frame > self.SILENT:
+            self._silent = True
+            log.warning(
+                "mote '%s': no frames from %s for %.0f s (the glove off, or out of the radio's range?)",
+                self.name,
+                self.p.device,
+                now - self._last_frame,
+            )
+        if self._trouble and now - self._reported >= self.REPORT_EVERY:
+            t = self._trouble
+            parts = [
+                f"{t['lost']} packets lost" if t.get("lost") else "",
+                f"{t['corrupt']} damaged frames" if t.get("corrupt") else "",
+                f"{t['jump']} counter jumps (a mote restarted?)" if t.get("jump") else "",
+                f"{t['garbage']} bytes of noise" if t.get("garbage") else "",
+                f"{t['error']} reader errors" if t.get("error") else "",
+            ]
+            log.warning(
+                "mote '%s' on %s, in the last %.0f s: %s",
+                self.name,
+                self.p.device,
+                now - self._reported if self._reported else self.REPORT_EVERY,
+                ", ".join(p for p in parts if p),
+            )
+            self._trouble, self._reported = {}, now
+
+    def _count(self, what: str, n: int = 1) -> None:
+        self._trouble[what] = self._trouble.get(what, 0) + n
 
     def _reopen_later(self) -> None:
         """Lost: a device that delivered data is tried again at once, one that fails right after opening
@@ -229,6 +278,10 @@ base.1 -> right
                 self.out(len(self.out_specs) - 1, ("unknown_mote", frame.mote))
             return
         self.received += 1
+        if self._silent:
+            self._silent = False
+            log.warning("mote '%s': frames again from %s", self.name, self.p.device)
+        self._last_frame = time.monotonic()
         t = self._clocks[frame.mote].time(frame.n_pack, host_time)
         self.out(k, vector(frame.channels, t))
 
@@ -236,10 +289,21 @@ base.1 -> right
         ev = len(self.out_specs) - 1
         self.time = self.now
         if isinstance(event, LostPackets):
+            self._count("lost", event.count)
             self.out(ev, ("lost", event.mote, event.count))
         elif isinstance(event, CorruptFrame):
-            self.out(ev, ("corrupt", event.reason if hasattr(event, "reason") else "frame"))
+            self._count("corrupt")
+            self.out(ev, ("corrupt", event.reason))
+        elif isinstance(event, CounterJump):
+            self._count("jump")
+            self.out(ev, ("counter_jump", event.mote, event.expected, event.got))
+        elif isinstance(event, Garbage):
+            self._count("garbage", event.nbytes)
+        elif isinstance(event, ReaderError):
+            self._count("error")
+            self.out(ev, ("reader_error", event.where, event.reason[:80]))
         elif isinstance(event, DeviceLost):
+            self._was_lost = True
             log.warning(
                 "mote '%s': device %s lost: %s; waiting for it to come back",
                 self.name,
@@ -248,6 +312,10 @@ base.1 -> right
             )
             self.out(ev, ("device_lost", self.p.device))
         elif isinstance(event, DeviceOpened):
+            self._last_frame, self._silent = time.monotonic(), False
+            if self._was_lost:
+                self._was_lost = False
+                log.warning("mote '%s': device %s is back", self.name, self.p.device)
             self.out(ev, ("opened", self.p.device))
         elif isinstance(event, OpenFailed):
             self.out(ev, ("open_failed", self.p.device))

@@ -474,7 +474,7 @@ class SerialMoteReader:
         return ""
 
     def _lose(self, reason: str) -> None:
-        log.warning("lost mote port %s: %s", self.port_path, reason)
+        log.info("lost mote port %s: %s", self.port_path, reason)  # the owner hears of it: DeviceLost
         self._close()
         with self._lock:
             self._parser.flush()  # a frame cut by the outage is garbage

@@ -204,6 +204,38 @@ def test_record_refuses_a_gz_name_it_would_not_compress():
         patch("node sink record file=take.csv.gz\n")
 
 
+def test_mote_tells_the_log_of_a_silence_and_sums_up_lost_and_damaged_frames(monkeypatch, caplog):
+    # the shipped patches leave the events outlet unwired: the log is where a performer sees the link
+    from nodes.sensors import Mote
+
+    monkeypatch.setattr(Mote, "SILENT", 0.3)
+    monkeypatch.setattr(Mote, "REPORT_EVERY", 0.5)
+    master, slave = os.openpty()
+    rt = patch(
+        f"node base mote device={os.ttyname(slave)} ids=[1] rate=100\nnode one collect\nbase.m1 -> one\n",
+        realtime=True,
+    )
+    th = rt.run_in_thread()
+    try:
+        assert wait_until(lambda: rt.nodes["base"]._fd is not None)  # open: what is written now is read
+        os.write(master, encode_frame(Frame(1, 0, (2048,) * 9)))
+        assert wait_until(lambda: rt.nodes["one"].messages)
+        assert "no frames from" not in caplog.text
+        assert wait_until(lambda: "no frames from" in caplog.text)  # the glove went quiet
+        bad = bytearray(encode_frame(Frame(1, 1, (2048,) * 9)))
+        bad[-1] ^= 0xFF  # a damaged checksum
+        os.write(master, bytes(bad) + encode_frame(Frame(1, 40, (2048,) * 9)))  # 2..39 never came
+        assert wait_until(lambda: "frames again from" in caplog.text)
+        assert wait_until(lambda: "in the last" in caplog.text)
+        [summary] = [r.getMessage() for r in caplog.records if "in the last" in r.getMessage()]
+        assert "39 packets lost" in summary and "1 damaged frames" in summary
+    finally:
+        rt.stop()
+        th.join(timeout=5)
+        os.close(master)
+        os.close(slave)
+
+
 def test_mote_waits_for_a_device_that_is_not_there_yet_without_a_thread_of_its_own(tmp_path):
     import threading
 
