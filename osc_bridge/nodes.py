@@ -317,6 +317,12 @@ class _Destination:
     refused: int = 0
     failed: int = 0
     warned: bool = False
+    outage: int = 0  # datagrams refused since the receiver last answered
+    clean: int = 0  # sends in a row without a refusal, during an outage
+
+    #: Sends in a row without a refusal that mean the receiver is back (loopback reports a refusal on
+    #: the send after each datagram nobody took).
+    BACK_AFTER = 10
 
     @property
     def label(self) -> str:
@@ -566,22 +572,36 @@ dir.azimuth -> out.azimuth
             self.failed += 1
             d.failed += 1
             return
+        refused = False
         for _attempt in range(2):
             try:
                 d.sock.send(dgram)
                 self.sent += 1
+                if d.outage and not refused:
+                    d.clean += 1
+                    if d.clean >= d.BACK_AFTER:
+                        log.warning(
+                            "osc_out '%s': %s is listening again (%d datagrams refused meanwhile)",
+                            self.name,
+                            d.label,
+                            d.outage,
+                        )
+                        d.outage = d.clean = 0
                 return
             except ConnectionRefusedError:
                 # an earlier datagram found nobody listening; the error is now cleared: try this one again
+                refused = True
                 self.refused += 1
                 d.refused += 1
-                if worth_reporting(d.refused, first=1):
+                d.outage += 1
+                d.clean = 0
+                if worth_reporting(d.outage, first=1):
                     log.warning(
-                        "osc_out '%s': nobody listening at %s (connection refused, %d times so far); "
-                        "sending on",
+                        "osc_out '%s': nobody listening at %s (%d datagram%s refused); sending on",
                         self.name,
                         d.label,
-                        d.refused,
+                        d.outage,
+                        "s" if d.outage > 1 else "",
                     )
             except OSError as exc:  # buffer full (EAGAIN), no route: drop, count, go on
                 self.failed += 1

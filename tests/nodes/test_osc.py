@@ -449,6 +449,28 @@ az -> seen
     assert azimuths(rx) == [30.0] * 10
 
 
+def test_the_log_says_when_a_receiver_is_back_and_of_each_outage(started, receivers, caplog):
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()
+    rt, out = out_node(started, port)
+    lines = lambda: [r.getMessage() for r in caplog.records if r.name == "pointat.osc"]  # noqa: E731
+    for _ in range(50):
+        push(out, 10.0)
+    assert sum("nobody listening" in x for x in lines()) == 2  # the 1st refusal, the 10th: not 50
+    rx = receivers(port)
+    for _ in range(20):
+        push(out, 20.0)
+    assert any(f"127.0.0.1:{port} is listening again" in x for x in lines())
+    assert azimuths(rx)[-5:] == [20.0] * 5
+    rx.close()  # a second outage is told from its start again
+    caplog.clear()
+    for _ in range(5):
+        push(out, 30.0)
+    assert any("nobody listening" in x and "(1 datagram refused)" in x for x in lines())
+
+
 # --------------------------------------------------------------------------- osc_in
 def osc(address, *args, types=None):
     b = OscMessageBuilder(address)
