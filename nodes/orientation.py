@@ -335,6 +335,19 @@ cal.accel -> fuse.accel
 cal.mag -> fuse.mag
 """
 
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        """The ranges the filter's settings mean something in (at load, and for every live change)."""
+        for name in ("k", "rho", "k_heading"):
+            if values[name] < 0:
+                raise ValueError(f"{name} must be >= 0, got {values[name]}")
+        if values["iterations"] < 1:
+            raise ValueError(f"iterations must be 1 or more, got {values['iterations']}")
+        if not (math.isnan(values["dip"]) or -90.0 <= values["dip"] <= 90.0):
+            raise ValueError(f"dip must be -90..90 deg (or nan: learned), got {values['dip']}")
+        if not values["rate"] > 0:
+            raise ValueError(f"rate must be > 0 Hz, got {values['rate']}")
+
     def setup(self) -> None:
         dip = None if math.isnan(self.p.dip) else math.radians(self.p.dip)
         self.filter = TQTFilter(

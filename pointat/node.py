@@ -73,7 +73,8 @@ class Param:
     and ``vector`` (numbers, ``size`` of them when given).  ``choices`` restricts a symbol.  ``variadic``
     collects every remaining positional creation argument (``trigger b b f``).  ``live`` parameters can be
     set while the patch runs (by a message to the node, or from outside by name).  ``reads`` marks a
-    ``path`` the node reads when it starts: ``pointat check`` warns when nothing is there.
+    ``path`` the node reads when it starts: ``pointat check`` warns when nothing is there.  A ``float``
+    is a finite number, or NaN where NaN is the default (its "none", such as a dip still to learn).
     """
 
     name: str
@@ -95,7 +96,8 @@ class Param:
                 if isinstance(value, bool) or not isinstance(value, (int, float, np.number, str)):
                     raise TypeError
                 number = float(value)
-                if not math.isfinite(number):  # NaN and infinity mean nothing as a setting
+                if not math.isfinite(number) and not (math.isnan(number) and self._nan_default):
+                    # NaN and infinity mean nothing as a setting, but where NaN is the default's "none"
                     raise ParamError(f"parameter '{self.name}' expects a finite number; got {value!r}")
                 return number
             if t == "int":
@@ -141,6 +143,10 @@ class Param:
             pass
         expected = {"float": "a number", "int": "a whole number", "bool": "true or false"}.get(t, f"a {t}")
         raise ParamError(f"parameter '{self.name}' expects {expected}; got {value!r}")
+
+    @property
+    def _nan_default(self) -> bool:
+        return isinstance(self.default, float) and math.isnan(self.default)
 
     def describe_type(self) -> str:
         if self.choices:

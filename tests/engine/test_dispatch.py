@@ -1,6 +1,7 @@
 """Message order: right to left, depth first, fan-out in wire order; hot and cold inlets; the depth guard."""
 
 import logging
+import math
 
 import numpy as np
 import pytest
@@ -291,3 +292,16 @@ def test_a_value_the_node_refuses_while_rebuilding_leaves_the_old_one_in_place()
     with pytest.raises(ValueError, match="too large"):
         node.set_param("k", 50.0)
     assert node.p.k == 5.0 and node.built == 5.0  # all or none: the value that worked stays
+
+
+def test_nan_stays_a_setting_where_it_is_the_default_and_tqt_refuses_what_means_nothing():
+    from pointat.errors import PatchError
+
+    assert math.isnan(patch("node f tqt dip=nan\n").nodes["f"].p.dip)  # "learn the dip", as by default
+    for bad, why in (("dip=inf", "expects a finite number"), ("k=-5", "k must be >= 0"), ("rate=0", "rate")):
+        with pytest.raises(PatchError, match=why):
+            patch(f"node f tqt {bad}\n")
+    rt = patch("node f tqt\n")
+    with pytest.raises(ValueError, match="k_heading must be >= 0"):
+        rt.nodes["f"].set_param("k_heading", -1.0)  # live, from /pointat/f/k_heading -1
+    assert rt.nodes["f"].p.k_heading == 0.05
