@@ -171,7 +171,7 @@ def as_float(msg: Message) -> float:
         return float(msg.value)
     if kind == "list" and msg.value and isinstance(msg.value[0], (int, float)):
         return float(msg.value[0])
-    raise TypeError(f"expected a number, got {kind} {msg.describe()!r}")
+    raise TypeError(f"expected a number, got {msg.describe()!r}")
 
 
 def as_floats(msg: Message, *sizes: int) -> tuple[float, ...]:

@@ -344,6 +344,8 @@ class Node:
             raise TypeError(f"method '{sel}' must be sent to the left inlet")
         if p is not None:
             args = msg.value
+            if not args:
+                raise TypeError(f"'{sel}' needs a value ({p.describe_type()}), e.g. '{sel} {p.default}'")
             self.set_param(sel, args[0] if len(args) == 1 else list(args))
             return True
         if fn is not None:
