@@ -8,6 +8,8 @@ import pytest
 from pointat.maths.quaternion import matrix_to_quat, quat_angle
 from pointat.testing import patch
 
+LIB = Path(__file__).resolve().parents[2] / "patches" / "lib"
+
 FRONT_END = """
 node glove simulate rate=100 seed={seed}
 node nulls offset samples=150
@@ -22,6 +24,11 @@ def glove_into(fusion, seed, text):
     """The simulated glove's front end into node ``fusion``'s mag, accel and gyro inlets, plus ``text``."""
     wires = "".join(f"units.{s} -> {fusion}.{s}\n" for s in ("mag", "accel", "gyro"))
     return patch(FRONT_END.format(seed=seed) + text + wires)
+
+
+def fusion_half(fusion, seed, text):
+    """A shipped fusion half (patches/lib/FUSION.pat) as node ``f`` on the simulated glove, plus ``text``."""
+    return glove_into("f", seed, f"node f {LIB / fusion}.pat rate=100\n" + text)
 
 
 def by_time(rt, name):
@@ -154,12 +161,10 @@ roll.mode -> mode
 @pytest.mark.parametrize("fusion", ["tqt_fusion", "torre_fusion"])
 def test_the_shipped_fusion_halves_hold_the_azimuth_while_the_roll_sets_the_distance(fusion):
     # Torre §5.2: rolled 90 deg, the azimuth is *read as* distance: the source stays where it was
-    lib = Path(__file__).resolve().parents[2] / "patches" / "lib" / f"{fusion}.pat"
-    rt = glove_into(
-        "f",
+    rt = fusion_half(
+        fusion,
         5,
-        f"""
-node f {lib} rate=100
+        """
 node az collect
 node dist collect
 f.azimuth -> az
@@ -178,12 +183,10 @@ f.distance -> dist
 
 @pytest.mark.parametrize("fusion", ["tqt_fusion", "torre_fusion"])
 def test_a_bang_at_the_fusion_halves_reference_inlet_makes_where_the_hand_points_azimuth_0(fusion):
-    lib = Path(__file__).resolve().parents[2] / "patches" / "lib" / f"{fusion}.pat"
-    rt = glove_into(
-        "f",
+    rt = fusion_half(
+        fusion,
         4,
-        f"""
-node f {lib} rate=100
+        """
 node press msg bang
 node az collect
 node el collect
@@ -206,12 +209,10 @@ f.elevation -> el
 def test_the_fusion_halves_deliver_elevation_before_the_hot_azimuth(fusion):
     # a receiver (osc_out, pack) takes its update when the azimuth arrives: the elevation stored by then
     # must be this sample's, not the previous one's
-    lib = Path(__file__).resolve().parents[2] / "patches" / "lib" / f"{fusion}.pat"
-    rt = glove_into(
-        "f",
+    rt = fusion_half(
+        fusion,
         4,
-        f"""
-node f {lib} rate=100
+        """
 node both pack 0 0
 node pairs collect
 node el collect
