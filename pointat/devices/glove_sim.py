@@ -60,7 +60,6 @@ from pointat.devices.mote_frame import (
     encode_frame,
     encode_text,
 )
-from pointat.maths.quaternion import euler_to_quat, quat_inverse_rotate
 
 __all__ = [
     "DEFAULT_RESOLUTION",
@@ -241,9 +240,20 @@ class MotionScript:
         return tuple(de * (b - a) / d for a, b in zip(p0, p1, strict=True))  # type: ignore[return-value]
 
     def orientation(self, t: float) -> np.ndarray:
-        """Unit quaternion ``(w, x, y, z)``, sensor -> NWU, at time ``t`` seconds."""
+        """Unit quaternion ``(w, x, y, z)``, sensor -> NWU, at time ``t`` seconds: yaw = az, pitch = -el,
+        roll, as :func:`~pointat.maths.quaternion.euler_to_quat` (on floats: one sample at a time)."""
         az, el, roll = self.pose(t)
-        return euler_to_quat(az, -el, roll, degrees=True)
+        ca, sa = math.cos(math.radians(az) / 2), math.sin(math.radians(az) / 2)
+        cb, sb = math.cos(math.radians(-el) / 2), math.sin(math.radians(-el) / 2)
+        cc, sc = math.cos(math.radians(roll) / 2), math.sin(math.radians(roll) / 2)
+        return np.array(
+            [
+                ca * cb * cc + sa * sb * sc,
+                ca * cb * sc - sa * sb * cc,
+                ca * sb * cc + sa * cb * sc,
+                sa * cb * cc - ca * sb * sc,
+            ]
+        )
 
     def angular_rate(self, t: float) -> np.ndarray:
         """Angular rate in the sensor frame, rad/s, shape (3,), at time ``t`` seconds (analytic)."""
@@ -381,6 +391,7 @@ class SensorModel:
         dip = math.radians(dip_deg)
         self.gravity_earth = np.array([0.0, 0.0, self.gravity])
         self.field_earth = self.field_gauss * np.array([math.cos(dip), 0.0, -math.sin(dip)])
+        self._earth = (tuple(self.gravity_earth.tolist()), tuple(self.field_earth.tolist()))
 
     @classmethod
     def ideal(cls, spec: MoteSpec = DEFAULT_SPEC, **kwargs: float) -> SensorModel:
@@ -396,8 +407,16 @@ class SensorModel:
 
     def true_values(self, q: ArrayLike, omega: ArrayLike) -> np.ndarray:
         """Noiseless, unbiased readings, shape (9,): gyro °/s, accel m/s², mag gauss (sensor frame)."""
-        down = quat_inverse_rotate(q, np.stack([self.gravity_earth, self.field_earth]))
-        return np.concatenate([np.degrees(np.asarray(omega, dtype=float)), down[0], down[1]])
+        w, x, y, z = (float(c) for c in np.ravel(q))
+        out = [math.degrees(float(r)) for r in np.ravel(omega)]
+        for vx, vy, vz in self._earth:  # each earth vector into the sensor frame: q* (0, v) q
+            tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
+            out += (
+                vx - w * tx + (y * tz - z * ty),
+                vy - w * ty + (z * tx - x * tz),
+                vz - w * tz + (x * ty - y * tx),
+            )
+        return np.array(out)
 
     def values(self, q: ArrayLike, omega: ArrayLike, rng: np.random.Generator | None = None) -> np.ndarray:
         """Readings with bias and (if ``rng`` is given) noise, shape (9,), physical units."""

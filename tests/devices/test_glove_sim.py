@@ -316,3 +316,19 @@ def test_pty_glove_start_stop_idempotent():
     glove.close()
     with pytest.raises(ValueError):
         PtyGlove(format="csv")  # type: ignore[arg-type]
+
+
+def test_the_per_sample_float_path_is_the_array_maths(script):
+    # orientation and true_values run on floats, one sample at a time (the simulator's own cost); the
+    # reference is pointat.maths.quaternion on arrays (equal here to the last bit; a libm may differ)
+    from pointat.maths.quaternion import euler_to_quat, quat_inverse_rotate
+
+    sensor = SensorModel(seed=3)
+    earth = np.stack([sensor.gravity_earth, sensor.field_earth])
+    for t in np.random.default_rng(2).uniform(0.0, script.duration, 500):
+        az, el, roll = script.pose(t)
+        q = script.orientation(t)
+        assert np.allclose(q, euler_to_quat(az, -el, roll, degrees=True), rtol=0, atol=1e-15)
+        w = script.angular_rate(t)
+        want = np.concatenate([np.degrees(w), *quat_inverse_rotate(q, earth)])
+        assert np.allclose(sensor.true_values(q, w), want, rtol=0, atol=1e-12)
