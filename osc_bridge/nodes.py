@@ -319,10 +319,13 @@ class _Destination:
     warned: bool = False
     outage: int = 0  # datagrams refused since the receiver last answered
     clean: int = 0  # sends in a row without a refusal, during an outage
+    last_refused: float = 0.0  # monotonic time of the last refusal
 
-    #: Sends in a row without a refusal that mean the receiver is back (loopback reports a refusal on
-    #: the send after each datagram nobody took).
+    #: A receiver is back after this many sends in a row without a refusal, the last refusal this many
+    #: seconds ago: loopback reports a refusal on the send after each datagram nobody took, another host
+    #: (its ICMP rate limit) about once a second.
     BACK_AFTER = 10
+    BACK_QUIET = 3.0
 
     @property
     def label(self) -> str:
@@ -350,8 +353,9 @@ class OscOut(Node):
     everything that arrived together: right after a glove's sample, in one burst for all the gloves of
     a base station's delivery (a receiver they share is woken once); an ``osc_out`` holds one update
     back at most.  Sending never blocks and never stops the
-    patch: an absent receiver (ECONNREFUSED on loopback) is logged (once, then every 1000th) and
-    counted (``refused``); datagrams the system would not take are counted in ``failed``.
+    patch: an absent receiver (ECONNREFUSED) is counted (``refused``) and logged at the 1st, 10th,
+    100th... datagram of each outage, and when it listens again; datagrams the system would not take
+    are counted in ``failed``.
     """
 
     inlets = (
@@ -579,12 +583,13 @@ dir.azimuth -> out.azimuth
                 self.sent += 1
                 if d.outage and not refused:
                     d.clean += 1
-                    if d.clean >= d.BACK_AFTER:
+                    if d.clean >= d.BACK_AFTER and time.monotonic() - d.last_refused >= d.BACK_QUIET:
                         log.warning(
-                            "osc_out '%s': %s is listening again (%d datagrams refused meanwhile)",
+                            "osc_out '%s': %s is listening again (%d datagram%s refused meanwhile)",
                             self.name,
                             d.label,
                             d.outage,
+                            "s" if d.outage > 1 else "",
                         )
                         d.outage = d.clean = 0
                 return
@@ -594,7 +599,7 @@ dir.azimuth -> out.azimuth
                 self.refused += 1
                 d.refused += 1
                 d.outage += 1
-                d.clean = 0
+                d.clean, d.last_refused = 0, time.monotonic()
                 if worth_reporting(d.outage, first=1):
                     log.warning(
                         "osc_out '%s': nobody listening at %s (%d datagram%s refused); sending on",
@@ -846,27 +851,25 @@ phone.quat -> dir
         if not rest or rest[0].isdigit():
             return False
         rt = self._runtime()
-        if rest in rt.nodes:  # values for the left inlet
-            name, msg = rest, make(None if not args else args[0] if len(args) == 1 else tuple(args))
-        else:
+        name, selector = rest, None
+        if rest not in rt.nodes:  # not values for a node's left inlet: /pointat/NODE/SELECTOR
             name, _, selector = rest.rpartition("/")
             if name not in rt.nodes or not selector:
-                hint = difflib.get_close_matches(name or rest, list(rt.nodes), n=1)
-                self._refuse(
-                    address,
-                    f"no node '{name or rest}'"
-                    + (f" (did you mean '{hint[0]}'?)" if hint else "")
-                    + "; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD",
+                near = difflib.get_close_matches(name or rest, list(rt.nodes), n=1)
+                why = (
+                    f"no parameter or method after node '{name}'"
+                    if name in rt.nodes
+                    else f"no node '{name or rest}'" + (f" (did you mean '{near[0]}'?)" if near else "")
                 )
-                return True
-            try:
-                msg = rt.message(selector, *args)
-            except ValueError as exc:
-                self._refuse(address, str(exc))
+                self._refuse(address, why + "; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD")
                 return True
         try:  # on the scheduler thread already: straight to the node, nothing queued or lost
+            if selector is None:
+                msg = make(None if not args else args[0] if len(args) == 1 else tuple(args))
+            else:
+                msg = rt.message(selector, *args)
             rt.nodes[name].receive(0, msg._replace(time=self.time))
-        except Exception as exc:
+        except Exception as exc:  # a blob where a number belongs, an unknown method, a refused value
             self._refuse(address, f"node '{name}': {exc}")
         return True
 

@@ -449,7 +449,36 @@ az -> seen
     assert azimuths(rx) == [30.0] * 10
 
 
-def test_the_log_says_when_a_receiver_is_back_and_of_each_outage(started, receivers, caplog):
+def test_a_receiver_host_that_refuses_once_a_second_is_not_taken_for_back(started, caplog):
+    # another host rate-limits its "port unreachable" to about one a second: at 100 Hz, 100 sends pass
+    # between two refusals, and that is not a receiver that came back
+    class Refusing:
+        def __init__(self):
+            self.n = 0
+
+        def send(self, dgram):
+            self.n += 1
+            if self.n % 101 == 0:
+                raise ConnectionRefusedError
+
+        def close(self):
+            pass
+
+    rt, out = out_node(started, 9)
+    [d] = out.dests
+    d.sock.close()
+    d.sock = Refusing()
+    for _ in range(1000):
+        push(out, 10.0)
+    lines = [r.getMessage() for r in caplog.records if r.name == "pointat.osc"]
+    assert not any("listening again" in x for x in lines)
+    assert sum("nobody listening" in x for x in lines) == 1  # one outage, told once (9 refusals)
+
+
+def test_the_log_says_when_a_receiver_is_back_and_of_each_outage(started, receivers, caplog, monkeypatch):
+    from osc_bridge.nodes import _Destination
+
+    monkeypatch.setattr(_Destination, "BACK_QUIET", 0.0)  # loopback refuses at once: no need to wait
     probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     probe.bind(("127.0.0.1", 0))
     port = probe.getsockname()[1]
