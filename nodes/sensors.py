@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import os
 import time
+from collections.abc import Mapping
 from typing import Any
 
 from serial import SerialException
@@ -65,6 +66,11 @@ class Mote(Node):
     (or a bang) sends ``stats received corrupt lost garbage_bytes`` on ``events``.  The port is read on
     the scheduler thread itself (no thread hand-off between the device and the chain).
 
+    ``events`` carries each ``lost``, ``corrupt``, ``counter_jump``, ``unknown_mote``, ``reader_error``,
+    ``opened``, ``open_failed`` and ``device_lost``; the log tells the same in a few lines, for patches
+    that leave ``events`` unwired: a mote silent for a second and its return, lost packets and damaged
+    frames summed up every 5 s, a device lost and back.
+
     A USB-serial adapter holds short frames back: an FTDI chip passes on what it has every 16 ms by
     default, which would be most of a sample's latency.  ``low_latency`` (on by default) asks the
     driver for its low-latency mode at every open; on Linux the FTDI driver then sends within 1 ms.
@@ -98,10 +104,21 @@ base.1 -> right
 """
 
     @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        if not values["rate"] > 0:
+            raise ValueError(f"rate must be > 0 Hz (the motes' sample rate), got {values['rate']}")
+        bad = [i for i in values["ids"] if not (isinstance(i, int) and 0 <= i <= 255)]
+        if bad:
+            raise ValueError(f"ids must be mote ids 0..255, got {bad[0]!r}")
+
+    @classmethod
     def layout(cls, values):
         ids = values.get("ids", (1,)) or (1,)
         outs = tuple(Outlet(f"m{int(i)}", "vector", f"mote {int(i)}: {ADC_DOC}") for i in ids)
-        return cls.inlets, (*outs, Outlet("events", "list", "lost, corrupt, device_lost, opened..."))
+        return cls.inlets, (
+            *outs,
+            Outlet("events", "list", "lost, corrupt, counter_jump, device_lost, opened..."),
+        )
 
     #: Seconds between attempts to reopen a device that is gone: the first, and the largest (doubling).
     BACKOFF = (0.05, 1.0)
@@ -113,6 +130,9 @@ base.1 -> right
     SILENT = 1.0
     #: Seconds over which the log sums up lost packets and damaged frames: one line, not one a frame.
     REPORT_EVERY = 5.0
+    #: Bytes of noise in one summary's span below which it is not worth a line (opening a port in the
+    #: middle of a frame, or losing it, leaves a partial one).
+    NOISE_BYTES = 64
 
     def setup(self) -> None:
         self._outlet = {int(i): k for k, i in enumerate(self.p.ids)}
@@ -124,9 +144,9 @@ base.1 -> right
         self._unknown: set[int] = set()
         self.received = 0
         self._trouble: dict[str, int] = {}  # since the last summary: lost, corrupt, jumps, garbage bytes
-        self._reported = 0.0  # monotonic time of the last summary
-        self._last_frame = 0.0  # monotonic time of the last frame, or of the open
-        self._silent = False
+        self._reported = 0.0  # monotonic time of the last summary, or of the open
+        self._last_frame: dict[int, float] = {}  # per mote: monotonic time of its last frame, or the open
+        self._silent: set[int] = set()
         self._was_lost = False
 
     def start(self) -> None:
@@ -158,7 +178,8 @@ base.1 -> right
             low_latency=self.p.low_latency,
         )
         if self.READ_IN_THREAD:
-            self._reader.start()  # it opens, reads and reopens by itself
+            self._reader.start()  # it opens, reads and reopens by itself; the log hears of it here
+            self._timer = self.call_later(self.CHECK_EVERY, self._health_tick)
         else:
             self._failing = False
             self._try_open()
@@ -217,17 +238,28 @@ base.1 -> right
         else:
             self._reopen_later()
 
+    def _health_tick(self) -> None:
+        self._health(time.monotonic())
+        self._timer = self.call_later(self.CHECK_EVERY, self._health_tick)
+
     def _health(self, now: float) -> None:
-        """The link's troubles, in the log in a few lines: a silence when it starts, the packets lost and
-        frames damaged summed up every :attr:`REPORT_EVERY` seconds (the ``events`` outlet has each one)."""
-        if not self._silent and now - self._last_frame > self.SILENT:
-            self._silent = True
-            log.warning(
-                "mote '%s': no frames from %s for %.0f s (the glove off, or out of the radio's range?)",
-                self.name,
-                self.p.device,
-                now - self._last_frame,
-            )
+        """The link's troubles, in the log in a few lines: a mote's silence when it starts, the packets
+        lost and frames damaged summed up every :attr:`REPORT_EVERY` seconds (the ``events`` outlet has
+        each one)."""
+        if not self._last_frame:  # not open yet
+            return
+        for mote, last in self._last_frame.items():
+            if mote not in self._silent and now - last > self.SILENT:
+                self._silent.add(mote)
+                log.warning(
+                    "mote '%s': no frames from mote %d on %s for %.0f s (the glove off, or out of range?)",
+                    self.name,
+                    mote,
+                    self.p.device,
+                    now - last,
+                )
+        if self._trouble.get("garbage", 0) < self.NOISE_BYTES:
+            self._trouble.pop("garbage", None)
         if self._trouble and now - self._reported >= self.REPORT_EVERY:
             t = self._trouble
             parts = [
@@ -241,7 +273,7 @@ base.1 -> right
                 "mote '%s' on %s, in the last %.0f s: %s",
                 self.name,
                 self.p.device,
-                now - self._reported if self._reported else self.REPORT_EVERY,
+                now - self._reported,
                 ", ".join(p for p in parts if p),
             )
             self._trouble, self._reported = {}, now
@@ -275,13 +307,19 @@ base.1 -> right
         if k is None:
             if frame.mote not in self._unknown:
                 self._unknown.add(frame.mote)
+                log.warning(
+                    "mote '%s': frames from mote %d, which ids=%s does not list: dropped",
+                    self.name,
+                    frame.mote,
+                    list(self.p.ids),
+                )
                 self.out(len(self.out_specs) - 1, ("unknown_mote", frame.mote))
             return
         self.received += 1
-        if self._silent:
-            self._silent = False
-            log.warning("mote '%s': frames again from %s", self.name, self.p.device)
-        self._last_frame = time.monotonic()
+        if frame.mote in self._silent:
+            self._silent.discard(frame.mote)
+            log.warning("mote '%s': frames again from mote %d", self.name, frame.mote)
+        self._last_frame[frame.mote] = time.monotonic()
         t = self._clocks[frame.mote].time(frame.n_pack, host_time)
         self.out(k, vector(frame.channels, t))
 
@@ -312,7 +350,8 @@ base.1 -> right
             )
             self.out(ev, ("device_lost", self.p.device))
         elif isinstance(event, DeviceOpened):
-            self._last_frame, self._silent = time.monotonic(), False
+            now = time.monotonic()  # every mote's silence and the summaries count from the open
+            self._last_frame, self._silent, self._reported = dict.fromkeys(self._outlet, now), set(), now
             if self._was_lost:
                 self._was_lost = False
                 log.warning("mote '%s': device %s is back", self.name, self.p.device)
@@ -359,6 +398,11 @@ node glove simulate rate=100
 node cal   scaling
 glove -> cal
 """
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        if not values["rate"] > 0:
+            raise ValueError(f"rate must be > 0 Hz, got {values['rate']}")
 
     def setup(self) -> None:
         sensor = SensorModel(seed=self.p.seed) if self.p.noise else SensorModel.ideal()

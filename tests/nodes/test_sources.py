@@ -12,7 +12,7 @@ from pointat.testing import patch, wait_until
 
 
 @pytest.mark.parametrize("in_thread", [False, True], ids=["scheduler-reads", "reader-thread"])
-def test_mote_reads_a_pty_separates_motes_and_reports_lost_packets(tmp_path, monkeypatch, in_thread):
+def test_mote_reads_a_pty_separates_motes_and_reports_lost_packets(tmp_path, monkeypatch, in_thread, caplog):
     from nodes.sensors import Mote
 
     monkeypatch.setattr(Mote, "READ_IN_THREAD", in_thread)  # the thread is what Windows uses
@@ -52,6 +52,8 @@ base.events -> ev
         assert one[2].time - one[1].time == pytest.approx(0.04)
         events = [m.value for m in rt.nodes["ev"].messages]
         assert ("lost", 1, 3) in events and ("unknown_mote", 9) in events
+        assert "frames from mote 9, which ids=[1, 2] does not list: dropped" in caplog.text  # once
+        assert caplog.text.count("which ids=") == 1
         rt.send("base", "stats")  # received, corrupt, lost, garbage bytes
         assert wait_until(lambda: rt.nodes["ev"].values[-1][0] == "stats")
         name, received, corrupt, lost, garbage = rt.nodes["ev"].values[-1]
@@ -204,11 +206,13 @@ def test_record_refuses_a_gz_name_it_would_not_compress():
         patch("node sink record file=take.csv.gz\n")
 
 
-def test_mote_tells_the_log_of_a_silence_and_sums_up_lost_and_damaged_frames(monkeypatch, caplog):
+@pytest.mark.parametrize("in_thread", [False, True], ids=["scheduler-reads", "reader-thread"])
+def test_mote_tells_the_log_of_a_silence_and_sums_up_lost_and_damaged_frames(monkeypatch, caplog, in_thread):
     # the shipped patches leave the events outlet unwired: the log is where a performer sees the link
     from nodes.sensors import Mote
 
-    monkeypatch.setattr(Mote, "SILENT", 0.3)
+    monkeypatch.setattr(Mote, "READ_IN_THREAD", in_thread)  # the thread is what Windows uses
+    monkeypatch.setattr(Mote, "SILENT", 1.0)
     monkeypatch.setattr(Mote, "REPORT_EVERY", 0.5)
     master, slave = os.openpty()
     rt = patch(
@@ -217,18 +221,20 @@ def test_mote_tells_the_log_of_a_silence_and_sums_up_lost_and_damaged_frames(mon
     )
     th = rt.run_in_thread()
     try:
-        assert wait_until(lambda: rt.nodes["base"]._fd is not None)  # open: what is written now is read
+        assert wait_until(lambda: rt.nodes["base"]._reader.is_open)  # open: what is written now is read
         os.write(master, encode_frame(Frame(1, 0, (2048,) * 9)))
         assert wait_until(lambda: rt.nodes["one"].messages)
         assert "no frames from" not in caplog.text
-        assert wait_until(lambda: "no frames from" in caplog.text)  # the glove went quiet
+        assert wait_until(lambda: "no frames from mote 1" in caplog.text)  # the glove went quiet
         bad = bytearray(encode_frame(Frame(1, 1, (2048,) * 9)))
         bad[-1] ^= 0xFF  # a damaged checksum
         os.write(master, bytes(bad) + encode_frame(Frame(1, 40, (2048,) * 9)))  # 2..39 never came
-        assert wait_until(lambda: "frames again from" in caplog.text)
-        assert wait_until(lambda: "in the last" in caplog.text)
-        [summary] = [r.getMessage() for r in caplog.records if "in the last" in r.getMessage()]
-        assert "39 packets lost" in summary and "1 damaged frames" in summary
+        assert wait_until(lambda: "frames again from mote 1" in caplog.text)
+
+        def summaries():
+            return " | ".join(r.getMessage() for r in caplog.records if "in the last" in r.getMessage())
+
+        assert wait_until(lambda: "39 packets lost" in summaries() and "1 damaged frames" in summaries())
     finally:
         rt.stop()
         th.join(timeout=5)
