@@ -1,7 +1,9 @@
 # The tqt glove patch that also records the glove: every mote frame's nine raw ADC counts and its time
 # stamp into take.csv (beside this patch, or --set take.file=...), line by line, nothing lost on Ctrl-C.
+# Each run starts the file anew: name each take (--set take.file=take2.csv) or --set take.append=true.
 # Rehearse with the glove on, then shape the sound without it: patches/replay_glove.pat plays the take
-# back through the same chain, with the same results.
+# back through the same chain, with the same results.  Live control on 9001 as in glove_tqt.pat; the
+# reference pose (/pointat/press/bang) is not part of the take.
 #
 #   mote -> offset -> scaling -> lib/tqt_fusion.pat -> osc_out
 #       \-> record
@@ -14,7 +16,9 @@ node take   record file=take.csv columns=[adc_gx, adc_gy, adc_gz, adc_ax, adc_ay
 node nulls  offset samples=150
 node units  scaling
 node tqt    lib/tqt_fusion.pat rate=100 mode=robust
+node press  msg bang
 node out    osc_out profile=pointat host=127.0.0.1 port=9000
+node ctl    osc_in port=9001
 node cue    print prefix="gyro nulls (hold the glove still)"
 
 glove.device -> base
@@ -23,6 +27,7 @@ base.m1 -> nulls -> units
 units.mag -> tqt.mag
 units.accel -> tqt.accel
 units.gyro -> tqt.gyro
+press -> tqt.reference
 tqt.distance -> out.distance
 tqt.elevation -> out.elevation
 tqt.azimuth -> out.azimuth

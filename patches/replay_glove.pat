@@ -1,12 +1,16 @@
 # A take recorded by patches/record_glove.pat, played back through the same chain in real time: the
-# same directions, sent the same way, without the glove.
-#   pointat run patches/replay_glove.pat --set source.file=OTHER.csv --set source.loop=true
+# same directions, sent the same way, without the glove.  Out of the box it plays the simulated glove's
+# demo (pointat/data/glove_take.csv.gz, 41 s); yours:
+#   pointat run patches/replay_glove.pat --set source.file=patches/take.csv --set source.loop=true
+# The reference pose is not part of a take: press again (/pointat/press/bang on port 9001) as it plays.
 
-node source replay file=take.csv speed=1
+node source replay file=../pointat/data/glove_take.csv.gz speed=1
 node nulls  offset samples=150
 node units  scaling
 node tqt    lib/tqt_fusion.pat rate=100 mode=robust
+node press  msg bang
 node out    osc_out profile=pointat host=127.0.0.1 port=9000
+node ctl    osc_in port=9001
 node both   pack 0 0 0
 node slow   speedlim 500
 node show   print prefix="azimuth elevation distance"
@@ -15,6 +19,7 @@ source.row -> nulls -> units
 units.mag -> tqt.mag
 units.accel -> tqt.accel
 units.gyro -> tqt.gyro
+press -> tqt.reference
 tqt.distance -> out.distance
 tqt.distance -> both.2
 tqt.elevation -> out.elevation

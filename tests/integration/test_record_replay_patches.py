@@ -17,6 +17,7 @@ class Listener:
 
     def __init__(self) -> None:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)  # a burst at speed=0
         self.sock.bind(("127.0.0.1", 0))
         self.sock.settimeout(0.2)
         self.port = self.sock.getsockname()[1]
@@ -35,6 +36,12 @@ class Listener:
     def close(self) -> list[bytes]:
         self._stop.set()
         self._thread.join(timeout=5)
+        self.sock.setblocking(False)
+        while True:  # what came in after the thread's last read
+            try:
+                self.datagrams.append(self.sock.recv(4096))
+            except BlockingIOError:
+                break
         self.sock.close()
         return self.datagrams
 
@@ -55,7 +62,9 @@ def test_a_take_replays_into_the_datagrams_it_gave_live(tmp_path):
     take = tmp_path / "take.csv"
     live = Listener()
     try:
-        rec = _run("patches/record_glove.pat", f"take.file={take}", f"out.port={live.port}", seconds=3)
+        rec = _run(
+            "patches/record_glove.pat", f"take.file={take}", f"out.port={live.port}", "ctl.port=0", seconds=3
+        )
     finally:
         sent_live = live.close()
     assert rec.returncode == 0, rec.stderr
@@ -66,8 +75,13 @@ def test_a_take_replays_into_the_datagrams_it_gave_live(tmp_path):
 
     again = Listener()
     try:
-        rep = _run(
-            "patches/replay_glove.pat", f"source.file={take}", "source.speed=0", f"out.port={again.port}"
+        rep = _run(  # live control keeps the patch running after the take: --for
+            "patches/replay_glove.pat",
+            f"source.file={take}",
+            "source.speed=0",
+            f"out.port={again.port}",
+            "ctl.port=0",
+            seconds=4,
         )
     finally:
         sent_again = again.close()
