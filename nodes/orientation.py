@@ -51,6 +51,12 @@ class SampleClock:
 
     MAX_GAP = 1.0
 
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        if not values["rate"] > 0:
+            raise ValueError(f"rate must be > 0 Hz, got {values['rate']}")
+        super().validate(values)  # type: ignore[misc]
+
     def reset_clock(self) -> None:
         self._last_t: float | None = None
 
@@ -345,8 +351,7 @@ cal.mag -> fuse.mag
             raise ValueError(f"iterations must be 1 or more, got {values['iterations']}")
         if not (math.isnan(values["dip"]) or -90.0 <= values["dip"] <= 90.0):
             raise ValueError(f"dip must be -90..90 deg (or nan: learned), got {values['dip']}")
-        if not values["rate"] > 0:
-            raise ValueError(f"rate must be > 0 Hz, got {values['rate']}")
+        super().validate(values)  # rate
 
     def setup(self) -> None:
         dip = None if math.isnan(self.p.dip) else math.radians(self.p.dip)
@@ -363,8 +368,10 @@ cal.mag -> fuse.mag
         self.reset_clock()
 
     def param_changed(self, name: str) -> None:
-        if name != "k" or self.p.k > 0:
-            self.filter.retune(**{name: getattr(self.p, name)})
+        value = getattr(self.p, name)
+        if name == "k" and value == 0:  # 0: the mode's own gain, live as at load
+            value = TQTFilter.DEFAULT_K[self.p.mode]
+        self.filter.retune(**{name: value})
 
     def on_gyro(self, msg: Message) -> None:
         gyro = as_floats(msg, 3)

@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import math
 from enum import IntFlag
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -468,6 +468,9 @@ Mode = Literal["robust", "paper"]
 class _TQTParams:
     """Parameters shared by :class:`TQTFilter` and :class:`TQTBank` (validated once, documented there)."""
 
+    #: The gain ``k`` of each mode when none is given.
+    DEFAULT_K: ClassVar[dict[str, float]] = {"robust": 1.0, "paper": 0.1}
+
     def __init__(
         self,
         k: float | None = None,
@@ -490,7 +493,7 @@ class _TQTParams:
         if mode not in ("robust", "paper"):
             raise ValueError(f"mode must be 'robust' or 'paper', got {mode!r}")
         if k is None:
-            k = 1.0 if mode == "robust" else 0.1
+            k = self.DEFAULT_K[mode]
         for name, value in (
             ("k", k),
             ("rho", rho),
