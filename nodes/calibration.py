@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -62,17 +61,14 @@ class Offset(Node):
     inlets = (ADC,)
     outlets = (Outlet("adc", "vector", "nine counts relative to their nulls"), STATUS)
     params = (
-        Param("samples", "int", 1000, "samples averaged at rest for the gyro nulls (0: no averaging)"),
+        Param(
+            "samples", "int", 1000, "samples averaged at rest for the gyro nulls (0: no averaging)", minimum=0
+        ),
         Param(
             "null", "float", 2048.0, "null of channels without a calibration (ADC mid-scale)", unit="counts"
         ),
         Param("calibration", "path", "", "calibration file with accel/mag (and gyro) nulls", reads=True),
     )
-
-    @classmethod
-    def validate(cls, values: Mapping[str, Any]) -> None:
-        if values["samples"] < 0:
-            raise ValueError(f"samples must be >= 0 (0: no averaging), got {values['samples']}")
 
     def setup(self) -> None:
         nulls = [self.p.null] * 9
@@ -206,7 +202,7 @@ class Calibrate(Node):
     outlets = (STATUS,)
     params = (
         Param("file", "path", "calibration.json", "where save and load go"),
-        Param("samples", "int", 200, "samples averaged per rest or pose"),
+        Param("samples", "int", 200, "samples averaged per rest or pose", minimum=2),
         Param(
             "mag_fit",
             "symbol",
@@ -221,15 +217,9 @@ class Calibrate(Node):
             10.0,
             "rest: refuse the nulls when a gyro varied by more (rms; 0: never)",
             unit="counts",
+            minimum=0.0,
         ),
     )
-
-    @classmethod
-    def validate(cls, values: Mapping[str, Any]) -> None:
-        if values["samples"] < 2:
-            raise ValueError(f"samples must be 2 or more, got {values['samples']}")
-        if values["still"] < 0:
-            raise ValueError(f"still must be >= 0 counts (0: never refuse a rest), got {values['still']}")
 
     def setup(self) -> None:
         self.calibration = Calibration()

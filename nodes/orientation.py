@@ -51,12 +51,6 @@ class SampleClock:
 
     MAX_GAP = 1.0
 
-    @classmethod
-    def validate(cls, values: Mapping[str, Any]) -> None:
-        if not values["rate"] > 0:
-            raise ValueError(f"rate must be > 0 Hz, got {values['rate']}")
-        super().validate(values)  # type: ignore[misc]
-
     def reset_clock(self) -> None:
         self._last_t: float | None = None
 
@@ -84,7 +78,7 @@ class Flagged:
             self.out(self.FLAGS_OUTLET, status)
 
 
-RATE = Param("rate", "float", 100.0, "nominal sample rate, for the first step and gaps", unit="Hz")
+RATE = Param("rate", "float", 100.0, "nominal sample rate, for the first step and gaps", unit="Hz", above=0.0)
 FLAGS = Outlet("flags", "symbol", "status when it changes: ok, or what was wrong (bad_gyro, bad_accmag...)")
 
 
@@ -323,11 +317,20 @@ class TQT(SampleClock, Flagged, Node):
             "gravity-correction gain (0: the mode's default: robust 1, paper 0.1)",
             unit="1/s",
             live=True,
+            minimum=0.0,
         ),
-        Param("rho", "float", 0.5, "magnetometer weight (paper mode)", live=True),
-        Param("iterations", "int", 1, "Gauss-Newton cycles per sample (paper mode)"),
+        Param("rho", "float", 0.5, "magnetometer weight (paper mode)", live=True, minimum=0.0),
+        Param("iterations", "int", 1, "Gauss-Newton cycles per sample (paper mode)", minimum=1),
         Param("use_gyro", "bool", True, "false: accel/mag-only tracking"),
-        Param("k_heading", "float", 0.05, "heading-correction gain (robust mode)", unit="1/s", live=True),
+        Param(
+            "k_heading",
+            "float",
+            0.05,
+            "heading-correction gain (robust mode)",
+            unit="1/s",
+            live=True,
+            minimum=0.0,
+        ),
         Param("dip", "float", float("nan"), "magnetic dip; NaN: learned from the first sample", unit="deg"),
         RATE,
     )
@@ -344,14 +347,8 @@ cal.mag -> fuse.mag
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
         """The ranges the filter's settings mean something in (at load, and for every live change)."""
-        for name in ("k", "rho", "k_heading"):
-            if values[name] < 0:
-                raise ValueError(f"{name} must be >= 0, got {values[name]}")
-        if values["iterations"] < 1:
-            raise ValueError(f"iterations must be 1 or more, got {values['iterations']}")
         if not (math.isnan(values["dip"]) or -90.0 <= values["dip"] <= 90.0):
             raise ValueError(f"dip must be -90..90 deg (or nan: learned), got {values['dip']}")
-        super().validate(values)  # rate
 
     def setup(self) -> None:
         dip = None if math.isnan(self.p.dip) else math.radians(self.p.dip)

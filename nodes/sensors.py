@@ -87,7 +87,7 @@ class Mote(Node):
         Param("ids", "list", (1,), "mote ids, one outlet each, in this order"),
         Param("baud", "int", 115200, "line speed"),
         Param("format", "symbol", "auto", "auto, binary or text", choices=("auto", "binary", "text")),
-        Param("rate", "float", 100.0, "the motes' sample rate, for time stamps", unit="Hz"),
+        Param("rate", "float", 100.0, "the motes' sample rate, for time stamps", unit="Hz", above=0.0),
         Param(
             "low_latency",
             "bool",
@@ -105,8 +105,6 @@ base.1 -> right
 
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
-        if not values["rate"] > 0:
-            raise ValueError(f"rate must be > 0 Hz (the motes' sample rate), got {values['rate']}")
         bad = [i for i in values["ids"] if not (isinstance(i, int) and 0 <= i <= 255)]
         if bad:
             raise ValueError(f"ids must be mote ids 0..255, got {bad[0]!r}")
@@ -378,7 +376,7 @@ class Simulate(Node):
         Outlet("device", "symbol", "the pseudo-terminal's path, once at start (output=pty)"),
     )
     params = (
-        Param("rate", "float", 100.0, "sample rate", unit="Hz"),
+        Param("rate", "float", 100.0, "sample rate", unit="Hz", above=0.0),
         Param(
             "output",
             "symbol",
@@ -398,11 +396,6 @@ node glove simulate rate=100
 node cal   scaling
 glove -> cal
 """
-
-    @classmethod
-    def validate(cls, values: Mapping[str, Any]) -> None:
-        if not values["rate"] > 0:
-            raise ValueError(f"rate must be > 0 Hz, got {values['rate']}")
 
     def setup(self) -> None:
         sensor = SensorModel(seed=self.p.seed) if self.p.noise else SensorModel.ideal()

@@ -74,7 +74,9 @@ class Param:
     collects every remaining positional creation argument (``trigger b b f``).  ``live`` parameters can be
     set while the patch runs (by a message to the node, or from outside by name).  ``reads`` marks a
     ``path`` the node reads when it starts: ``pointat check`` warns when nothing is there.  A ``float``
-    is a finite number, or NaN where NaN is the default (its "none", such as a dip still to learn).
+    is a finite number, or NaN where NaN is the default (its "none", such as a dip still to learn);
+    ``minimum`` and ``above`` bound a number (``pointat help`` shows them, ``check`` and live changes
+    refuse a value outside).
     """
 
     name: str
@@ -87,9 +89,28 @@ class Param:
     variadic: bool = False
     size: int | None = None
     reads: bool = False
+    #: Bounds of a number: ``minimum`` it may equal, ``above`` it must exceed (``None``: unbounded).
+    minimum: float | None = None
+    above: float | None = None
 
     def coerce(self, value: Any) -> Any:
-        """The value converted to the declared type; :class:`ParamError` says expected and got."""
+        """The value converted to the declared type, within its bounds; :class:`ParamError` says expected
+        and got."""
+        number = self._coerce(value)
+        if self.type in ("float", "int") and not (isinstance(number, float) and math.isnan(number)):
+            if (self.minimum is not None and number < self.minimum) or (
+                self.above is not None and number <= self.above
+            ):
+                raise ParamError(f"parameter '{self.name}' expects {self._bounds()}; got {value!r}")
+        return number
+
+    def _bounds(self) -> str:
+        kind = "a whole number" if self.type == "int" else "a number"
+        if self.above is not None:
+            return f"{kind} > {self.above:g}"
+        return f"{kind} >= {self.minimum:g}"
+
+    def _coerce(self, value: Any) -> Any:
         t = self.type
         try:
             if t == "float":
@@ -153,6 +174,10 @@ class Param:
             return "|".join(self.choices)
         if self.type == "vector" and self.size:
             return f"vector[{self.size}]"
+        if self.above is not None:
+            return f"{self.type} > {self.above:g}"
+        if self.minimum is not None:
+            return f"{self.type} >= {self.minimum:g}"
         return self.type + ("..." if self.variadic else "")
 
 

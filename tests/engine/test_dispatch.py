@@ -298,18 +298,22 @@ def test_nan_stays_a_setting_where_it_is_the_default_and_tqt_refuses_what_means_
     from pointat.errors import PatchError
 
     assert math.isnan(patch("node f tqt dip=nan\n").nodes["f"].p.dip)  # "learn the dip", as by default
-    for bad, why in (("dip=inf", "expects a finite number"), ("k=-5", "k must be >= 0"), ("rate=0", "rate")):
+    for bad, why in (
+        ("dip=inf", "expects a finite number"),
+        ("k=-5", "'k' expects a number >= 0"),
+        ("rate=0", "rate"),
+    ):
         with pytest.raises(PatchError, match=why):
             patch(f"node f tqt {bad}\n")
     rt = patch("node f tqt\n")
-    with pytest.raises(ValueError, match="k_heading must be >= 0"):
+    with pytest.raises(ValueError, match="'k_heading' expects a number >= 0; got -1.0"):
         rt.nodes["f"].set_param("k_heading", -1.0)  # live, from /pointat/f/k_heading -1
     assert rt.nodes["f"].p.k_heading == 0.05
 
 
 def test_a_parameter_sent_without_a_value_says_it_needs_one():
     rt = patch("node f tqt\n")
-    with pytest.raises(TypeError, match=r"'k_heading' needs a value \(float\), e.g. 'k_heading 0.05'"):
+    with pytest.raises(TypeError, match=r"'k_heading' needs a value \(float >= 0\), e.g. 'k_heading 0.05'"):
         rt.nodes["f"].receive(0, method("k_heading"))
     with pytest.raises(TypeError, match=r"expected a number, got 'symbol abc'$"):
         as_float(make("abc"))
@@ -322,5 +326,5 @@ def test_tqt_k_0_live_is_the_modes_own_gain_and_a_rate_of_0_is_refused_everywher
     rt.nodes["f"].set_param("k", 0.0)  # as at load: 0 means the mode's default
     assert rt.nodes["f"].filter.k == 1.0
     for node in ("gyro_integrator", "complementary", "tqt", "mote", "simulate"):
-        with pytest.raises(PatchError, match="rate must be > 0"):
+        with pytest.raises(PatchError, match="parameter 'rate' expects a number > 0; got 0"):
             patch(f"node n {node} rate=0\n")
