@@ -15,7 +15,6 @@ b'#bundle\x00\x00\x00\x00\x00\x00\x00\x00\x01'
 
 from __future__ import annotations
 
-import difflib
 import errno
 import functools
 import ipaddress
@@ -30,7 +29,7 @@ from typing import Any
 
 from pythonosc.osc_packet import OscPacket
 
-from pointat.errors import worth_reporting
+from pointat.errors import did_you_mean, worth_reporting
 from pointat.message import Message, as_float, floats, make, method
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
@@ -275,7 +274,8 @@ def _is_ip(host: str) -> bool:
     return True
 
 
-def _port(value: Any, what: str) -> int:
+def udp_port(value: Any, what: str = "port") -> int:
+    """A UDP port number 1..65535; ``ValueError`` starting with ``what`` otherwise."""
     try:
         port = int(value)
     except (TypeError, ValueError):
@@ -294,15 +294,15 @@ def destinations(host: str, port: int, extra: Sequence[Any]) -> list[tuple[str, 
     """
     if not host:
         raise ValueError("host is empty")
-    out = [(host, _port(port, "port"))]
+    out = [(host, udp_port(port))]
     for item in extra:
         if isinstance(item, int) and not isinstance(item, bool):
-            out.append((host, _port(item, f"to {item!r}: port")))
+            out.append((host, udp_port(item, f"to {item!r}: port")))
             continue
         h, colon, p = str(item).rpartition(":")
         if not colon or not h:
             raise ValueError(f"to {item!r}: expected host:port or a port number")
-        out.append((h, _port(p, f"to {item!r}: port")))
+        out.append((h, udp_port(p, f"to {item!r}: port")))
     return out
 
 
@@ -855,11 +855,10 @@ phone.quat -> dir
         if rest not in rt.nodes:  # not values for a node's left inlet: /pointat/NODE/SELECTOR
             name, _, selector = rest.rpartition("/")
             if name not in rt.nodes or not selector:
-                near = difflib.get_close_matches(name or rest, list(rt.nodes), n=1)
                 why = (
                     f"no parameter or method after node '{name}'"
                     if name in rt.nodes
-                    else f"no node '{name or rest}'" + (f" (did you mean '{near[0]}'?)" if near else "")
+                    else f"no node '{name or rest}'" + did_you_mean(name or rest, rt.nodes)
                 )
                 self._refuse(address, why + "; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD")
                 return True

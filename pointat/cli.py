@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from . import __version__
-from .errors import PatchError, PointatError
+from .errors import PatchError, PointatError, did_you_mean
 from .loader import build, check, parse_overrides, read_spec
 from .registry import Registry, default_registry
 from .runtime import CPU_DMA_LATENCY, keep_cpus_awake, realtime_priority
@@ -236,9 +236,8 @@ def cmd_nodes(args: argparse.Namespace, registry: Registry) -> int:
 def cmd_help(args: argparse.Namespace, registry: Registry) -> int:
     cls = registry.get(args.node)
     if cls is None:
-        hint = registry.suggest(args.node)
         print(
-            f"error: unknown node type '{args.node}'" + (f" (did you mean '{hint}'?)" if hint else ""),
+            f"error: unknown node type '{args.node}'" + did_you_mean(args.node, registry.names()),
             file=sys.stderr,
         )
         return 2
@@ -299,16 +298,20 @@ def _osc_value(text: str) -> int | float | str:
 def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
     from pythonosc.udp_client import SimpleUDPClient
 
-    host, _, port = args.to.rpartition(":")
-    if not port.isdigit() or not 1 <= int(port) <= 65535:
-        print(f"error: {args.to!r}: expected a port 1..65535 or host:port", file=sys.stderr)
+    from osc_bridge.nodes import udp_port
+
+    host, _, text = args.to.rpartition(":")
+    try:
+        port = udp_port(text, f"{args.to!r}: expected a port 1..65535 or host:port; port")
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     if not args.address.startswith("/"):
         print(f"error: OSC address {args.address!r} must start with '/'", file=sys.stderr)
         return 2
     values = [_osc_value(v) for v in args.values]
     try:
-        SimpleUDPClient(host or "127.0.0.1", int(port)).send_message(args.address, values)
+        SimpleUDPClient(host or "127.0.0.1", port).send_message(args.address, values)
     except OSError as exc:
         print(f"error: cannot send to {host or '127.0.0.1'}:{port}: {exc.strerror or exc}", file=sys.stderr)
         return 1

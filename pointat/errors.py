@@ -2,9 +2,20 @@
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
 from dataclasses import dataclass
 
-__all__ = ["FeedbackError", "PatchError", "PointatError", "Problem", "Where", "worth_reporting"]
+__all__ = [
+    "FeedbackError",
+    "PatchError",
+    "PointatError",
+    "Problem",
+    "Where",
+    "closest",
+    "did_you_mean",
+    "worth_reporting",
+]
 
 
 @dataclass(frozen=True)
@@ -63,3 +74,19 @@ def worth_reporting(n: int, first: int = 3) -> bool:
     [1, 10, 100, 1000]
     """
     return 1 <= n <= first or (n >= 10 and 10 ** (len(str(n)) - 1) == n)
+
+
+def closest(name: str, names: Iterable[str]) -> str | None:
+    """The one of ``names`` closest to a misspelt ``name``, or ``None`` when none is close."""
+    close = difflib.get_close_matches(name, list(names), n=1)
+    return close[0] if close else None
+
+
+def did_you_mean(name: str, names: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for the closest of ``names``, or nothing: the tail of an error message.
+
+    >>> did_you_mean("k_headng", ["k", "k_heading"]), did_you_mean("zzz", ["k"])
+    (" (did you mean 'k_heading'?)", '')
+    """
+    hint = closest(name, names)
+    return f" (did you mean '{hint}'?)" if hint else ""

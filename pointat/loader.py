@@ -9,6 +9,7 @@ start that is not there.  Every problem names ``file:line`` and what was expecte
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 from collections.abc import Mapping, Sequence
@@ -16,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import PatchError, Problem, Where
+from .errors import PatchError, Problem, Where, closest, did_you_mean
 from .node import Inlet, Node, Outlet, ParamError
 from .patchfile import parse_value, read_patch
 from .registry import Registry, default_registry
@@ -125,12 +126,17 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = ()) -> PatchSpec:
     return out
 
 
+def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
+    """The file of an abstraction instance: its type, relative to the patch that holds it."""
+    return (Path(parent.path).parent / decl.type).resolve()
+
+
 def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...]) -> PatchSpec:
     base = Path(parent.path).parent
-    path = (base / decl.type).resolve()
+    path = _abstraction_path(parent, decl)
     if not path.exists():
         near = [str(f.relative_to(base)) for f in (*base.glob("*.pat"), *base.glob("*/*.pat"))]
-        hint = _close(decl.type, dict.fromkeys(near))
+        hint = closest(decl.type, near)
         raise PatchError(
             f"abstraction file '{decl.type}' not found (looked in {base})"
             + (f"; did you mean '{hint}'?" if hint else ""),
@@ -252,12 +258,10 @@ def check(
         cls = registry.get(decl.type)
         label = f"node '{decl.name}'"
         if cls is None:
-            hint = registry.suggest(decl.type)
             problems.append(
                 Problem(
                     decl.where,
-                    f"{label}: unknown node type '{decl.type}'"
-                    + (f" (did you mean '{hint}'?)" if hint else ""),
+                    f"{label}: unknown node type '{decl.type}'" + did_you_mean(decl.type, registry.names()),
                 )
             )
             continue
@@ -290,12 +294,8 @@ def check(
         ok = True
         for end in (w.src, w.dst):
             if end not in names:
-                hint = _close(end, names)
                 problems.append(
-                    Problem(
-                        w.where,
-                        f"wire {w}: no node named '{end}'" + (f" (did you mean '{hint}'?)" if hint else ""),
-                    )
+                    Problem(w.where, f"wire {w}: no node named '{end}'" + did_you_mean(end, names))
                 )
                 ok = False
         if not ok or w.src not in result.nodes or w.dst not in result.nodes:
@@ -364,7 +364,7 @@ def _set_arguments(
         if node not in instances:
             continue
         decl = instances[node]
-        path = (Path(spec.path).parent / decl.type).resolve()
+        path = _abstraction_path(spec, decl)
         known = read_spec(path).args if path.exists() else None  # a missing file is reported by expand
         if known is not None and arg not in known:
             problems.append(
@@ -380,10 +380,7 @@ def _set_arguments(
         NodeDecl(d.name, d.type, d.args, {**d.params, **given[d.name]}, d.where) if d.name in given else d
         for d in spec.nodes
     ]
-    out = PatchSpec(
-        spec.path, nodes, spec.wires, spec.args, spec.inlets, spec.outlets, spec.doc, spec.args_where
-    )
-    return out, rest
+    return dataclasses.replace(spec, nodes=nodes), rest
 
 
 def _never_triggered(result: Checked) -> list[Problem]:
@@ -440,13 +437,6 @@ def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) ->
             if p is not None and p.type == "path" and isinstance(value, str) and value:
                 if not Path(value).is_absolute():
                     decl.params[name] = os.path.relpath(source_dir / value, target_dir)
-
-
-def _close(name: str, names: Mapping[str, Any]) -> str | None:
-    import difflib
-
-    m = difflib.get_close_matches(name, list(names), n=1)
-    return m[0] if m else None
 
 
 def _cycles(result: Checked) -> list[Problem]:

@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from .errors import FeedbackError, worth_reporting
+from .errors import FeedbackError, did_you_mean, worth_reporting
 from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
@@ -101,14 +101,15 @@ class Param:
             if (self.minimum is not None and number < self.minimum) or (
                 self.above is not None and number <= self.above
             ):
-                raise ParamError(f"parameter '{self.name}' expects {self._bounds()}; got {value!r}")
+                kind = "a whole number" if self.type == "int" else "a number"
+                raise ParamError(f"parameter '{self.name}' expects {kind} {self._range()}; got {value!r}")
         return number
 
-    def _bounds(self) -> str:
-        kind = "a whole number" if self.type == "int" else "a number"
+    def _range(self) -> str:
+        """``> x`` or ``>= x`` for a bounded number, else nothing."""
         if self.above is not None:
-            return f"{kind} > {self.above:g}"
-        return f"{kind} >= {self.minimum:g}"
+            return f"> {self.above:g}"
+        return f">= {self.minimum:g}" if self.minimum is not None else ""
 
     def _coerce(self, value: Any) -> Any:
         t = self.type
@@ -174,10 +175,8 @@ class Param:
             return "|".join(self.choices)
         if self.type == "vector" and self.size:
             return f"vector[{self.size}]"
-        if self.above is not None:
-            return f"{self.type} > {self.above:g}"
-        if self.minimum is not None:
-            return f"{self.type} >= {self.minimum:g}"
+        if self._range():
+            return f"{self.type} {self._range()}"
         return self.type + ("..." if self.variadic else "")
 
 
@@ -253,12 +252,10 @@ class Node:
     @classmethod
     def unknown_param(cls, key: str) -> str:
         """What to say of a parameter ``key`` the node does not have: the closest one, and all of them."""
-        import difflib
-
         names = [q.name for q in cls.params]
-        close = difflib.get_close_matches(key, names, n=1)
-        hint = f" (did you mean '{close[0]}'?)" if close else ""
-        return f"unknown parameter '{key}'{hint}; parameters: {', '.join(names) or 'none'}"
+        return (
+            f"unknown parameter '{key}'{did_you_mean(key, names)}; parameters: {', '.join(names) or 'none'}"
+        )
 
     @classmethod
     def resolve_params(cls, positional: Sequence[Any] = (), named: Mapping[str, Any] | None = None) -> dict:

@@ -12,7 +12,6 @@ A name (or alias) registered twice by two different classes is an error that nam
 
 from __future__ import annotations
 
-import difflib
 import importlib
 import importlib.metadata
 import importlib.util
@@ -22,7 +21,7 @@ import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from .errors import PointatError
+from .errors import PointatError, closest
 from .node import PARAM_TYPES, Node
 
 __all__ = [
@@ -124,8 +123,7 @@ class Registry:
 
     def suggest(self, name: str) -> str | None:
         """The closest registered name, for "did you mean" hints."""
-        close = difflib.get_close_matches(name, self._types, n=1, cutoff=0.6)
-        return close[0] if close else None
+        return closest(name, self._types)
 
     # loading ------------------------------------------------------------------------
     def load_builtins(self) -> Registry:
