@@ -108,7 +108,8 @@ class Scaling(Node):
     Per-sensor resolutions in the table's units (deg/s, m/s², gauss per count), or per-axis scales and
     the soft-iron matrix from a ``calibration`` file; an axis the file has no scale for (a gyro axis
     never turned) keeps its resolution, with a warning.  A calibrated magnetometer reads in units of
-    the local field (its strength is 1): the filters use its direction only.  Outputs right to left: mag, accel, then gyro, so a
+    the local field (its strength is 1): the filters use its direction only.  Outputs right to left:
+    mag, accel, then gyro, so a
     filter whose hot inlet is the gyro sees a complete sample.
     """
 

@@ -584,12 +584,7 @@ class RollDistanceNode(Node):
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
         """What a live change must keep too: leave below enter, angles in their ranges."""
-        if not 0.0 <= values["leave"] < values["enter"] <= 180.0:
-            raise ValueError(
-                f"need 0 <= leave < enter <= 180, got leave={values['leave']} enter={values['enter']}"
-            )
-        if not 0.0 <= values["max_elevation"] <= 90.0:
-            raise ValueError(f"max_elevation must be 0..90 deg, got {values['max_elevation']}")
+        RollDistance.check(values["enter"], values["leave"], values["max_elevation"])
         if not 0.0 <= values["pole"] < 90.0:
             raise ValueError(f"pole must be >= 0 and < 90 deg, got {values['pole']}")
 

@@ -75,8 +75,8 @@ class Mote(Node):
     default, which would be most of a sample's latency.  ``low_latency`` (on by default) asks the
     driver for its low-latency mode at every open; on Linux the FTDI driver then sends within 1 ms.
     The mode is turned off again when the port closes, unless it was on already (the adapter is left
-    as it was found).  The log says whether the driver accepted the request; where an FTDI adapter's driver refuses it, the
-    log names the ``latency_timer`` file to set instead.
+    as it was found).  The log says whether the driver accepted the request; where an FTDI adapter's
+    driver refuses it, the log names the ``latency_timer`` file to set instead.
     """
 
     inlets = (
@@ -298,9 +298,10 @@ base.1 -> right
             self._fd = None
 
     def _on_frame(self, frame: Frame, host_time: float) -> None:
-        self._frame(frame, self._runtime().clock.from_monotonic(host_time))
+        self._frame(frame, host_time, self._runtime().clock.from_monotonic(host_time))
 
-    def _frame(self, frame: Frame, host_time: float) -> None:
+    def _frame(self, frame: Frame, seen: float, host_time: float) -> None:
+        """One frame: ``seen`` its read's monotonic stamp, ``host_time`` the same on the patch's clock."""
         k = self._outlet.get(frame.mote)
         if k is None:
             if frame.mote not in self._unknown:
@@ -317,7 +318,7 @@ base.1 -> right
         if frame.mote in self._silent:
             self._silent.discard(frame.mote)
             log.warning("mote '%s': frames again from mote %d", self.name, frame.mote)
-        self._last_frame[frame.mote] = time.monotonic()
+        self._last_frame[frame.mote] = seen
         t = self._clocks[frame.mote].time(frame.n_pack, host_time)
         self.out(k, vector(frame.channels, t))
 

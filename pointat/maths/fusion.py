@@ -660,16 +660,21 @@ class RollDistance:
         distance: float = 0.0,
         max_elevation_deg: float = 75.0,
     ) -> None:
-        if not 0.0 <= leave_deg < enter_deg <= 180.0:
-            raise ValueError(f"need 0 <= leave_deg < enter_deg <= 180, got {leave_deg!r}, {enter_deg!r}")
-        if not 0.0 <= max_elevation_deg <= 90.0:
-            raise ValueError(f"need 0 <= max_elevation_deg <= 90, got {max_elevation_deg!r}")
+        self.check(enter_deg, leave_deg, max_elevation_deg)
         self.max_elevation_deg = float(max_elevation_deg)
         self.enter_deg = float(enter_deg)
         self.leave_deg = float(leave_deg)
         self.gain = float(gain)
         self._initial_distance = float(np.clip(distance, 0.0, 90.0))
         self.reset()
+
+    @staticmethod
+    def check(enter_deg: float, leave_deg: float, max_elevation_deg: float) -> None:
+        """Raise ``ValueError`` for thresholds that make no gesture (also for a change while running)."""
+        if not 0.0 <= leave_deg < enter_deg <= 180.0:
+            raise ValueError(f"need 0 <= leave < enter <= 180, got leave={leave_deg} enter={enter_deg}")
+        if not 0.0 <= max_elevation_deg <= 90.0:
+            raise ValueError(f"max_elevation must be 0..90 deg, got {max_elevation_deg}")
 
     def reset(self, distance: float | None = None) -> None:
         """Back to azimuth mode; distance set to ``distance`` (clipped to 0..90) or the initial value."""
