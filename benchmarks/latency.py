@@ -93,6 +93,8 @@ class LatencyResult:
     error: str = ""
     #: run at real-time priority (pointat ``--rt``; a floor under ``chrt -f``), as Pd runs by default as root
     realtime: bool = False
+    #: pointat ``--spin MS``: the scheduler polls for this many ms after each input instead of sleeping
+    spin: float = 0.0
     #: (p50, p99) of each round (:func:`pool`) in the order they ran; ``None`` for a round that failed
     rounds: list[tuple[float, float] | None] = field(default_factory=list)
 
@@ -279,12 +281,30 @@ def stop_process(proc: subprocess.Popen) -> None:
             proc.wait(timeout=3.0)
 
 
-def pointat_command(patch: Path, overrides: list[str], seconds: float, realtime: bool = False) -> list[str]:
-    """``pointat run [--rt] PATCH --set ... --for SECONDS`` through this interpreter."""
-    cmd = [sys.executable, "-m", "pointat.cli", "run", *(["--rt"] if realtime else []), str(patch)]
+def pointat_command(
+    patch: Path, overrides: list[str], seconds: float, realtime: bool = False, spin: float = 0.0
+) -> list[str]:
+    """``pointat run [--rt] [--spin MS] PATCH --set ... --for SECONDS`` through this interpreter."""
+    cmd = [sys.executable, "-m", "pointat.cli", "run", *(["--rt"] if realtime else [])]
+    cmd += [*(["--spin", f"{spin:g}"] if spin else []), str(patch)]
     for o in overrides:
         cmd += ["--set", o]
     return cmd + ["--for", f"{seconds:.0f}"]
+
+
+def spin_for(rate: float) -> float:
+    """The ``--spin`` the benchmark gives pointat at ``rate`` Hz: two sample periods, in ms (2 at 1 kHz),
+    so that the scheduler is polling when the next sample comes."""
+    return 2000.0 / rate
+
+
+def _mode(realtime: bool, spin: float) -> tuple[str, str]:
+    """A run's options as they show in its label (", --rt") and in its log's name ("_rt")."""
+    if realtime:
+        return ", --rt", "_rt"
+    if spin:
+        return f", --spin {spin:g}", "_spin"
+    return "", ""
 
 
 #: Real-time priority for the floors, as pointat's ``--rt`` asks for it (SCHED_FIFO 10).
@@ -643,6 +663,7 @@ def run_pointat_mote(
     sample: dict[str, np.ndarray],
     workdir: Path,
     realtime: bool = False,
+    spin: float = 0.0,
 ) -> LatencyResult:
     """pointat's mote path: frames into a pty -> ``mote`` -> chain(s) -> ``osc_out`` -> our socket."""
     patch = PATCHES / f"mote_{chain}_{motes}.pat"
@@ -651,10 +672,13 @@ def run_pointat_mote(
     port = sock.getsockname()[1]
     overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
     overrides += [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
-    cmd = pointat_command(patch, overrides, phases.lifetime, realtime)
-    label = f"pointat {chain} (mote, pty{', --rt' if realtime else ''})"
-    res = LatencyResult(label, "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes), realtime=realtime)
-    log = workdir / f"mote_{chain}_{motes}_{rate:g}{'_rt' if realtime else ''}.log"
+    cmd = pointat_command(patch, overrides, phases.lifetime, realtime, spin)
+    shown_mode, log_mode = _mode(realtime, spin)
+    label = f"pointat {chain} (mote, pty{shown_mode})"
+    res = LatencyResult(
+        label, "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes), realtime=realtime, spin=spin
+    )
+    log = workdir / f"mote_{chain}_{motes}_{rate:g}{log_mode}.log"
     return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, motes)
 
 
@@ -680,6 +704,7 @@ def run_pointat_udp(
     sample: dict[str, np.ndarray],
     workdir: Path,
     realtime: bool = False,
+    spin: float = 0.0,
 ) -> LatencyResult:
     """pointat's UDP path: one OSC bundle per sample -> ``osc_in`` -> fusion -> ``osc_out`` -> our socket."""
     patch = PATCHES / f"oscin_{chain}.pat"
@@ -687,10 +712,11 @@ def run_pointat_udp(
     in_port = free_udp_port()
     src = UdpSource(in_port, "bundle", sample)
     overrides = [f"src.port={in_port}", f"out.port={sock.getsockname()[1]}"]
-    cmd = pointat_command(patch, overrides, phases.lifetime, realtime)
-    label = f"pointat {chain} (osc_in, UDP{', --rt' if realtime else ''})"
-    res = LatencyResult(label, "pointat-udp", chain, rate, 1, shown(cmd), realtime=realtime)
-    log = workdir / f"oscin_{chain}_{rate:g}{'_rt' if realtime else ''}.log"
+    cmd = pointat_command(patch, overrides, phases.lifetime, realtime, spin)
+    shown_mode, log_mode = _mode(realtime, spin)
+    label = f"pointat {chain} (osc_in, UDP{shown_mode})"
+    res = LatencyResult(label, "pointat-udp", chain, rate, 1, shown(cmd), realtime=realtime, spin=spin)
+    log = workdir / f"oscin_{chain}_{rate:g}{log_mode}.log"
     return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, 1)
 
 
@@ -957,6 +983,21 @@ def run_all(
                     (
                         f"pointat {chain} mote x1 --rt",
                         partial(run_pointat_mote, chain, rate, 1, ph, sample, workdir, True),
+                    )
+                )
+            # polling instead of sleeping (pointat --spin), at normal priority: against the plain relay
+            for chain in ("torre", "tqt"):
+                spin = spin_for(rate)
+                plan.append(
+                    (
+                        f"pointat {chain} osc_in --spin",
+                        partial(run_pointat_udp, chain, rate, ph, sample, workdir, spin=spin),
+                    )
+                )
+                plan.append(
+                    (
+                        f"pointat {chain} mote x1 --spin",
+                        partial(run_pointat_mote, chain, rate, 1, ph, sample, workdir, spin=spin),
                     )
                 )
             for motes in (1, 16):

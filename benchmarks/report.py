@@ -59,7 +59,13 @@ def _ok(flag: bool | None) -> str:
 
 # ------------------------------------------------------------------------------------------ latency
 def _find(
-    lat: list[LatencyResult], family: str, chain: str, rate: float, motes: int = 1, realtime: bool = False
+    lat: list[LatencyResult],
+    family: str,
+    chain: str,
+    rate: float,
+    motes: int = 1,
+    realtime: bool = False,
+    spin: bool = False,
 ) -> LatencyResult | None:
     for r in lat:
         if (
@@ -68,6 +74,7 @@ def _find(
             and r.rate == rate
             and r.motes == motes
             and r.realtime == realtime
+            and bool(r.spin) == spin
             and not r.error
         ):
             return r
@@ -198,7 +205,11 @@ def _latency_section(run: Run) -> list[str]:
         "threads) over the window, per wall-clock second.  A real base station adds its USB-serial "
         "adapter, which no pseudo-terminal has: an FTDI chip holds a short frame back for up to its "
         "latency timer, 16 ms by default, more than all of the above; the `mote` node asks the driver for "
-        "its low-latency mode (1 ms) when it opens the port (`low_latency`, on by default).",
+        "its low-latency mode (1 ms) when it opens the port (`low_latency`, on by default).  The "
+        "`--spin` rows run `pointat run --spin MS` (two sample periods: the scheduler polls for input "
+        "instead of sleeping while samples flow, as Pd polls every 0.1 ms with `-sleepgrain 0.1`) at "
+        "normal priority, against the floors at normal priority, which sleep in `recv`; their *CPU* "
+        "column is the price.",
         "",
         "Published on this kind of machine at 1 kHz (brief): Pd default p50 5.2 / p99 7.5 ms; Pd "
         "-sleepgrain 0.1 p50 0.22 / p99 3.4 ms; python-osc relay p50 0.26-0.45 / p99 1.4-1.6 ms.",
@@ -520,12 +531,13 @@ def _summary(run: Run) -> list[str]:
                     _ok(r.jitter <= 500),
                 ]
             )
-        for realtime in (False, True):
-            rt_name = name + (" --rt" if realtime else "")
+        for realtime, spin in ((False, False), (True, False), (False, True)):
+            u = _find(lat, "pointat-udp", chain, 1000.0, realtime=realtime, spin=spin)
+            m = _find(lat, "pointat-mote", chain, 1000.0, realtime=realtime, spin=spin)
+            shown = u or m
+            rt_name = name + (" --rt" if realtime else f" --spin {shown.spin:g}" if spin and shown else "")
             floor = _find(lat, "floor", "python-osc", 1000.0, realtime=realtime)
             floor_name = "python-osc relay" + (" at real-time priority" if realtime else "")
-            u = _find(lat, "pointat-udp", chain, 1000.0, realtime=realtime)
-            m = _find(lat, "pointat-mote", chain, 1000.0, realtime=realtime)
             if floor and u:
                 rows.append(
                     [
@@ -722,7 +734,7 @@ def latency_cdf_svg(results: list[LatencyResult], rate: float = 1000.0) -> str:
     series = [
         r
         for r in results
-        if r.rate == rate and r.motes == 1 and not r.realtime and not r.error and r.received
+        if r.rate == rate and r.motes == 1 and not (r.realtime or r.spin) and not r.error and r.received
     ]
     W, H, L, R, T, B = 760, 420, 60, 250, 20, 50
     lo, hi = 30.0, 20000.0

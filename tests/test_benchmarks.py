@@ -74,3 +74,24 @@ def test_a_send_to_a_sleeping_receiver_and_a_burst_of_sends_are_measured_and_rep
     assert 0 < nobody and 0 < burst and 0 < asleep
     text = "\n".join(_throughput_section(ThroughputResults(wake=(asleep, nobody, burst))))
     assert f"costs {asleep:.1f} µs" in text and f"16 sends back to back cost {burst:.1f} µs each" in text
+
+
+def test_spin_rows_are_goals_of_their_own_against_the_plain_relay():
+    """A ``--spin`` run is judged apart from the default one (never mistaken for it) and against the
+    python-osc relay at normal priority, named with its option."""
+    from dataclasses import replace
+
+    from benchmarks.report import Run, _summary
+
+    floor = replace(_round([100.0] * 100), label="python-osc relay", family="floor", chain="python-osc")
+    slept = replace(_round([150.0] * 100), label="pointat torre (osc_in, UDP)")
+    spun = replace(_round([90.0] * 100), label="pointat torre (osc_in, UDP, --spin 2)", spin=2.0)
+    run = Run(command="x", quick=True, machine={}, data_note="", started="", latency=[floor, spun, slept])
+    cells = [
+        [c.strip() for c in line.strip("|").split("|")] for line in _summary(run) if line.startswith("| ")
+    ]
+    goals = {row[0]: row[1:] for row in cells}
+    plain = "Pointing-at (torre_fusion), osc_in path, 1 kHz: p99 ≤ 1.2 × python-osc relay"
+    spin = "Pointing-at (torre_fusion) --spin 2, osc_in path, 1 kHz: p99 ≤ 1.2 × python-osc relay"
+    assert goals[plain][0].startswith("1.50 ×") and goals[plain][1] == "**missed**"
+    assert goals[spin][0].startswith("0.90 ×") and goals[spin][1] == "**met**"

@@ -86,6 +86,18 @@ def test_rt_runs_at_real_time_priority_or_says_why_not(tmp_path):
     assert "policy: symbol normal" in plain.stdout, plain.stdout
 
 
+def test_spin_runs_a_patch_and_is_refused_with_rt_or_out_of_range():
+    ok = pointat("run", "-v", "--spin", "2", "patches/glove_tqt.pat", "--for", "3")
+    assert ok.returncode == 0, ok.stderr
+    assert "polling for input for 2 ms after each input" in ok.stderr
+    assert "azimuth elevation distance:" in ok.stdout
+    both = pointat("run", "--rt", "--spin", "2", "patches/glove_tqt.pat", "--for", "1")
+    assert both.returncode == 2 and "--spin with --rt" in both.stderr and "Traceback" not in both.stderr
+    for bad in ("-1", "x", "nan", "2000"):
+        out = pointat("run", "--spin", bad, "patches/glove_tqt.pat", "--for", "1")
+        assert out.returncode == 2 and "argument --spin" in out.stderr, (bad, out.stderr)
+
+
 def test_rt_keeps_the_cpus_out_of_deep_idle_while_it_runs_or_says_why_not(tmp_path):
     """``--rt`` holds a PM QoS request of 0 µs (/dev/cpu_dma_latency) while the patch runs, and lets go
     when it ends; where it may not, it says why and the patch runs all the same."""

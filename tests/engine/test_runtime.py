@@ -285,6 +285,55 @@ def test_descriptors_are_read_on_the_scheduler_thread_and_a_failing_reader_does_
     assert not th.is_alive()
 
 
+def test_spin_polls_after_an_input_for_its_window_then_sleeps_again():
+    """``spin``: after an input the scheduler polls (select with no timeout) instead of sleeping, for
+    ``spin`` seconds; then it sleeps as before, so an idle patch does not keep a CPU busy."""
+    import socket
+
+    rt = Runtime(spin=0.2)
+    rt.IDLE = 10.0
+    src = rt.add(Socketed("src"))
+    out = rt.add(Collect("out"))
+    rt.connect(src, 0, out, 0)
+    polls = []  # the timeout of every select the scheduler makes
+    th = rt.run_in_thread(duration=20)
+    try:
+        assert wait_until(lambda: hasattr(src, "sock"))
+        sel = rt._io()
+        real = sel.select
+
+        def select(timeout):
+            polls.append(timeout)
+            return real(timeout)
+
+        sel.select = select
+        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        tx.sendto(b"1.5", src.sock.getsockname())
+        assert wait_until(lambda: out.values == [1.5])
+        time.sleep(0.5)  # the window closes 0.2 s after the input
+        after = len(polls)
+        time.sleep(0.3)
+        assert len(polls) - after <= 2, "still polling after the spin window"
+        assert polls.count(0.0) > 50, "no polling after the input"
+        assert polls[-1] > 1.0  # asleep again, until the next timer (IDLE) or input
+        # a datagram that comes while it sleeps is read as ever, and starts a new window
+        tx.sendto(b"2.5", src.sock.getsockname())
+        tx.close()
+        assert wait_until(lambda: out.values == [1.5, 2.5])
+        n = polls.count(0.0)
+        assert wait_until(lambda: polls.count(0.0) > n + 50)
+    finally:
+        rt.stop()
+        th.join(timeout=5)
+    assert not th.is_alive()
+
+
+def test_spin_must_be_a_finite_number_of_seconds():
+    for bad in (-0.001, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="spin"):
+            Runtime(spin=bad)
+
+
 class Stuck(Node):
     """A test source whose callback raises before it reads: its socket stays readable."""
 
