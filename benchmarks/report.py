@@ -207,7 +207,8 @@ def _latency_section(run: Run) -> list[str]:
         "latency timer, 16 ms by default, more than all of the above; the `mote` node asks the driver for "
         "its low-latency mode (1 ms) when it opens the port (`low_latency`, on by default).  The "
         "`--spin` rows run `pointat run --spin MS` (two sample periods: the scheduler polls for input "
-        "instead of sleeping while samples flow, as Pd polls every 0.1 ms with `-sleepgrain 0.1`) at "
+        "instead of sleeping while samples flow; Pd with `-sleepgrain 0.1` sleeps in 0.1 ms grains between "
+        "polls) at "
         "normal priority, against the floors at normal priority, which sleep in `recv`; their *CPU* "
         "column is the price.",
         "",

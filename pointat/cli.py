@@ -108,9 +108,10 @@ def _parser() -> argparse.ArgumentParser:
         type=_milliseconds,
         default=0.0,
         metavar="MS",
-        help="after each input, poll for the next one for MS milliseconds instead of sleeping (Pd's "
-        "-sleepgrain trade): the system's wake-up leaves every sample's latency, and one CPU is busy "
-        "while input flows.  Make it longer than the time between samples: 2 at 1 kHz, 12 at 100 Hz",
+        help="after each input, poll for the next one for MS milliseconds instead of sleeping: the "
+        "system's wake-up no longer adds to each sample's latency, and one CPU is busy while input flows "
+        "(Pd's -sleepgrain makes the same trade, sleeping in short grains between polls).  Make it longer "
+        "than the time between samples: two periods, 2 at 1 kHz, 20 at 100 Hz",
     )
 
     p = sub.add_parser("check", help="validate a patch without running it")
@@ -184,8 +185,9 @@ def _checked(args: argparse.Namespace, registry: Registry):
 def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     if args.rt and args.spin:
         raise PointatError(
-            "--spin with --rt would keep a real-time thread polling on a CPU that other programs then "
-            "hardly get (the system leaves them 5 %); use one of them"
+            "--spin with --rt would keep a real-time thread polling on a CPU that other programs (the "
+            "serial port's own interrupt thread among them) then hardly get; use one of them: --rt "
+            "already keeps the CPUs out of deep idle states, which takes much of the wake-up's cost away"
         )
     checked = _checked(args, registry)
     rt = build(checked)

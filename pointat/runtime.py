@@ -26,7 +26,9 @@
   one wake-up leave together.
 * **Spinning.**  With ``spin`` seconds (``pointat run --spin MS``) the scheduler polls its descriptors
   instead of sleeping for that long after each input: the next sample finds it awake, with its caches
-  warm, and the system's wake-up leaves its latency; a CPU is busy while input flows.
+  warm, and the system's wake-up no longer adds to its latency; a CPU is busy while input flows.  With
+  other Python threads in the process it waits :attr:`Runtime.SPIN_GRAIN` in select between polls, so
+  that they still get the interpreter.
 * **Live control.**  :meth:`set_param` and :meth:`send` may be called from any thread (the OSC bridge
   uses them); they are carried out on the scheduler thread.
 """
@@ -235,6 +237,15 @@ class _Descriptors:
         data = self._data
         return [data[fd] for fd, _ in ready if fd in data]
 
+    def wait(self, timeout: float) -> list[Any]:
+        """As :meth:`select`, to the microsecond: epoll's own timeout counts whole milliseconds, so this
+        waits in ``select`` on the epoll descriptor itself (readable when a watched one is)."""
+        if self._epoll is None:
+            return self.select(timeout)
+        if not select.select([self._epoll.fileno()], [], [], timeout)[0]:
+            return []
+        return self.select(0.0)
+
     def close(self) -> None:
         if self._epoll is not None:
             self._epoll.close()
@@ -256,8 +267,6 @@ class Runtime:
         queue_size: int = 4096,
         spin: float = 0.0,
     ):
-        if not (math.isfinite(spin) and spin >= 0.0):
-            raise ValueError(f"spin must be a finite number of seconds >= 0, got {spin}")
         self.nodes: dict[str, Node] = {}
         self.clock: RealClock | ManualClock = RealClock() if realtime else ManualClock()
         self.realtime = realtime
@@ -281,14 +290,25 @@ class Runtime:
         self._passing = False  # a pass (timers due, or readers and queue) is being handled
         self._at_end: list[tuple[Node | None, Callable[[], Any]]] = []
         self._late_warned = -math.inf  # when the log last said that timers run late (time.monotonic)
-        #: Seconds after each input during which the scheduler polls for the next one instead of sleeping
-        #: (``pointat run --spin``); 0: it sleeps as soon as there is nothing to do.
         self.spin = spin
         self._input_at = -math.inf  # when a pass last served input (time.monotonic)
         #: Where ``print`` nodes write; the CLI points it at the terminal, tests at a list.
         self.console: Callable[[str], None] = logging.getLogger("pointat.console").info
         for node in nodes:
             self.add(node)
+
+    @property
+    def spin(self) -> float:
+        """Seconds after each input during which the scheduler polls for the next one instead of sleeping
+        (``pointat run --spin``); 0 (the default): it sleeps as soon as there is nothing to do.  A runtime
+        on a manual clock (``realtime=False``) never sleeps, and never spins."""
+        return self._spin_for
+
+    @spin.setter
+    def spin(self, seconds: float) -> None:
+        if not (isinstance(seconds, (int, float)) and math.isfinite(seconds) and seconds >= 0.0):
+            raise ValueError(f"spin must be a finite number of seconds >= 0, got {seconds!r}")
+        self._spin_for = float(seconds)
 
     # building ----------------------------------------------------------------------
     def add(self, node: Node) -> Node:
@@ -649,44 +669,54 @@ class Runtime:
         if self._closed:
             return 0
         selector = self._io()
-        self._sleeping = True
         waiting = self._queue.queue
-        if waiting:  # checked after _sleeping is set: a post from now on wakes us
-            timeout = 0.0
-        try:
-            if self.spin and timeout > 0.0 and self.realtime:
-                ready = self._spin(selector, timeout, waiting)
-            else:
-                ready = selector.select(timeout)
-        finally:
-            self._sleeping = False
+        if self._spin_for and self.realtime and timeout > 0.0 and not waiting:
+            ready = self._spin(selector, timeout, waiting)
+        else:
+            ready = self._sleep(selector, timeout, waiting)
         self._passing = True
         try:
             n = self._serve(ready, waiting)
-            if n and self.spin:
+            if n and self._spin_for:
                 self._input_at = time.monotonic()
             return n
         finally:
             self._end_pass()
 
+    def _sleep(self, selector: _Descriptors, timeout: float, waiting: Any) -> list[Any]:
+        """Sleep in select until a descriptor is readable, a post comes or ``timeout`` passes."""
+        self._sleeping = True
+        try:
+            if waiting:  # checked after _sleeping is set: a post from now on wakes us
+                timeout = 0.0
+            return selector.select(timeout)
+        finally:
+            self._sleeping = False
+
+    #: While other Python threads share the process (a simulated glove's writer, a replay, MIDI input),
+    #: spinning waits this long in select between polls, so that they get the interpreter: a thread that
+    #: only polls would hold it nearly all the time.  The wait ends at once when input comes.
+    SPIN_GRAIN = 50e-6
+
     def _spin(self, selector: _Descriptors, timeout: float, waiting: Any) -> list[Any]:
-        """Poll without sleeping while the last input is less than :attr:`spin` old (and ``timeout`` has
-        not passed), then sleep for the rest of ``timeout``.
+        """Poll while the last input is less than :attr:`spin` old (and ``timeout`` has not passed), then
+        sleep for the rest of ``timeout``.
 
         A scheduler that sleeps between samples is woken by the system when the next one arrives, which
         costs tens of microseconds (more on a virtual machine, or a CPU in a deep idle state); polling
-        takes that out of every sample's latency, for a CPU kept busy while input flows: Pd's
-        ``-sleepgrain`` trade.  A post from another thread ends the polling as it ends a sleep.
+        keeps that wake-up out of every sample's latency, for a CPU kept busy while input flows.  A post
+        from another thread is seen at the next poll (it need not wake anyone).
         """
         start = now = time.monotonic()
         end = start + timeout
-        until = min(self._input_at + self.spin, end)
+        until = min(self._input_at + self._spin_for, end)
+        grain = self.SPIN_GRAIN if threading.active_count() > 1 else 0.0
         while now < until:
-            ready = selector.select(0.0)
+            ready = selector.select(0.0) if not grain else selector.wait(min(grain, until - now))
             if ready or waiting:
                 return ready
             now = time.monotonic()
-        return selector.select(max(0.0, end - now))
+        return self._sleep(selector, max(0.0, end - now), waiting)
 
     def _serve(self, ready: list, waiting: Any) -> int:
         """One pass: the readers in ``ready``, then what is in the queue now."""

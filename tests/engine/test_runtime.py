@@ -300,13 +300,17 @@ def test_spin_polls_after_an_input_for_its_window_then_sleeps_again():
     try:
         assert wait_until(lambda: hasattr(src, "sock"))
         sel = rt._io()
-        real = sel.select
+        real_select, real_wait = sel.select, sel.wait
 
         def select(timeout):
             polls.append(timeout)
-            return real(timeout)
+            return real_select(timeout)
 
-        sel.select = select
+        def wait(timeout):  # a poll that waits a grain (other threads about: this test's own)
+            polls.append(0.0)
+            return real_wait(timeout)
+
+        sel.select, sel.wait = select, wait
         tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         tx.sendto(b"1.5", src.sock.getsockname())
         assert wait_until(lambda: out.values == [1.5])
@@ -328,10 +332,41 @@ def test_spin_polls_after_an_input_for_its_window_then_sleeps_again():
     assert not th.is_alive()
 
 
+def test_spinning_leaves_the_interpreter_to_the_other_threads_of_the_process():
+    """A source thread in the same process (a simulated glove's writer, a replay) keeps its pace while the
+    scheduler spins: with other Python threads about, the polling waits in select between polls."""
+    import socket
+
+    rt = Runtime(spin=5.0)
+    rt.IDLE = 10.0
+    src = rt.add(Socketed("src"))
+    out = rt.add(Collect("out"))
+    rt.connect(src, 0, out, 0)
+    th = rt.run_in_thread(duration=20)
+    try:
+        assert wait_until(lambda: hasattr(src, "sock"))
+        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        tx.sendto(b"1.5", src.sock.getsockname())
+        tx.close()
+        assert wait_until(lambda: out.values == [1.5])  # the scheduler spins from now on, for 5 s
+        t0 = time.monotonic()
+        for _ in range(200):  # this thread needs the interpreter after each of 200 short sleeps
+            time.sleep(0.001)
+        assert time.monotonic() - t0 < 2.0  # about 0.25 s when it gets it at once
+    finally:
+        rt.stop()
+        th.join(timeout=5)
+    assert not th.is_alive()
+
+
 def test_spin_must_be_a_finite_number_of_seconds():
-    for bad in (-0.001, float("nan"), float("inf")):
+    for bad in (-0.001, float("nan"), float("inf"), "2"):
         with pytest.raises(ValueError, match="spin"):
             Runtime(spin=bad)
+    rt = Runtime()
+    with pytest.raises(ValueError, match="spin"):
+        rt.spin = -1.0
+    assert rt.spin == 0.0
 
 
 class Stuck(Node):
