@@ -1,6 +1,8 @@
 """The runtime: logical clock, deadline timers, metro drift, sources in threads, clean shutdown."""
 
+import contextlib
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -233,8 +235,6 @@ class Socketed(Node):
     outlets = (Outlet("out", "float"),)
 
     def start(self):
-        import socket
-
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(("127.0.0.1", 0))
         self.sock.setblocking(False)
@@ -255,50 +255,47 @@ class Socketed(Node):
         self.sock.close()
 
 
-def test_descriptors_are_read_on_the_scheduler_thread_and_a_failing_reader_does_not_stop_it(caplog):
-    import socket
-
-    rt = Runtime()
-    rt.IDLE = 10.0  # with nothing due the select sleeps 10 s: only a wake-up can answer a post sooner
+@contextlib.contextmanager
+def socketed_runtime(**kw):
+    """A running Runtime(**kw) on its own thread, its ``Socketed`` source wired to a ``Collect``;
+    yields (runtime, source, sink, a socket to send from); stopped and joined on the way out."""
+    rt = Runtime(**kw)
+    rt.IDLE = 10.0  # with nothing due the select sleeps 10 s: only input or a wake-up can end it sooner
     src = rt.add(Socketed("src"))
     out = rt.add(Collect("out"))
     rt.connect(src, 0, out, 0)
     th = rt.run_in_thread(duration=20)
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
         assert wait_until(lambda: hasattr(src, "sock"))
-        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        yield rt, src, out, tx
+        assert set(src.threads) == {th}  # no thread of its own: the scheduler read every datagram
+    finally:
+        tx.close()
+        rt.stop()
+        th.join(timeout=5)
+    assert not th.is_alive()
+
+
+def test_descriptors_are_read_on_the_scheduler_thread_and_a_failing_reader_does_not_stop_it(caplog):
+    with socketed_runtime() as (rt, src, out, tx):
         for data in (b"1.5", b"boom", b"2.5"):
             tx.sendto(data, src.sock.getsockname())
-        tx.close()
         assert wait_until(lambda: len(out.values) == 2)
         assert out.values == [1.5, 2.5]
-        assert set(src.threads) == {th}  # no thread of its own: the scheduler read every datagram
         assert "a callback that fails" in caplog.text and "src" in caplog.text
         # a post from another thread wakes the select at once, whatever its timeout
         t0 = time.monotonic()
         rt.send("out", 7.0)
         assert wait_until(lambda: out.values[-1:] == [7.0])
         assert time.monotonic() - t0 < 2.0
-    finally:
-        rt.stop()
-        th.join(timeout=5)
-    assert not th.is_alive()
 
 
 def test_spin_polls_after_an_input_for_its_window_then_sleeps_again():
     """``spin``: after an input the scheduler polls (select with no timeout) instead of sleeping, for
     ``spin`` seconds; then it sleeps as before, so an idle patch does not keep a CPU busy."""
-    import socket
-
-    rt = Runtime(spin=0.2)
-    rt.IDLE = 10.0
-    src = rt.add(Socketed("src"))
-    out = rt.add(Collect("out"))
-    rt.connect(src, 0, out, 0)
     polls = []  # the timeout of every select the scheduler makes
-    th = rt.run_in_thread(duration=20)
-    try:
-        assert wait_until(lambda: hasattr(src, "sock"))
+    with socketed_runtime(spin=0.2) as (rt, src, out, tx):
         sel = rt._io()
         real_select, real_wait = sel.select, sel.wait
 
@@ -311,7 +308,6 @@ def test_spin_polls_after_an_input_for_its_window_then_sleeps_again():
             return real_wait(timeout)
 
         sel.select, sel.wait = select, wait
-        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         tx.sendto(b"1.5", src.sock.getsockname())
         assert wait_until(lambda: out.values == [1.5])
         time.sleep(0.5)  # the window closes 0.2 s after the input
@@ -322,41 +318,21 @@ def test_spin_polls_after_an_input_for_its_window_then_sleeps_again():
         assert polls[-1] > 1.0  # asleep again, until the next timer (IDLE) or input
         # a datagram that comes while it sleeps is read as ever, and starts a new window
         tx.sendto(b"2.5", src.sock.getsockname())
-        tx.close()
         assert wait_until(lambda: out.values == [1.5, 2.5])
         n = polls.count(0.0)
         assert wait_until(lambda: polls.count(0.0) > n + 50)
-    finally:
-        rt.stop()
-        th.join(timeout=5)
-    assert not th.is_alive()
 
 
 def test_spinning_leaves_the_interpreter_to_the_other_threads_of_the_process():
     """A source thread in the same process (a simulated glove's writer, a replay) keeps its pace while the
     scheduler spins: with other Python threads about, the polling waits in select between polls."""
-    import socket
-
-    rt = Runtime(spin=5.0)
-    rt.IDLE = 10.0
-    src = rt.add(Socketed("src"))
-    out = rt.add(Collect("out"))
-    rt.connect(src, 0, out, 0)
-    th = rt.run_in_thread(duration=20)
-    try:
-        assert wait_until(lambda: hasattr(src, "sock"))
-        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    with socketed_runtime(spin=5.0) as (rt, src, out, tx):
         tx.sendto(b"1.5", src.sock.getsockname())
-        tx.close()
         assert wait_until(lambda: out.values == [1.5])  # the scheduler spins from now on, for 5 s
         t0 = time.monotonic()
         for _ in range(200):  # this thread needs the interpreter after each of 200 short sleeps
             time.sleep(0.001)
         assert time.monotonic() - t0 < 2.0  # about 0.25 s when it gets it at once
-    finally:
-        rt.stop()
-        th.join(timeout=5)
-    assert not th.is_alive()
 
 
 def test_spin_must_be_a_finite_number_of_seconds():
@@ -375,8 +351,6 @@ class Stuck(Node):
     type_name = "stuck_test"
 
     def start(self):
-        import socket
-
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(("127.0.0.1", 0))
         self.sock.setblocking(False)
@@ -394,8 +368,6 @@ class Stuck(Node):
 
 
 def test_a_reader_that_keeps_failing_is_dropped_and_the_patch_goes_on(caplog):
-    import socket
-
     rt = patch("node lb loadbang\nnode tick metro 10\nnode n collect\nlb -> tick -> n\n", realtime=True)
     stuck = rt.add(Stuck("stuck"))
     th = rt.run_in_thread(duration=20)
@@ -419,7 +391,6 @@ def test_a_reader_that_keeps_failing_is_dropped_and_the_patch_goes_on(caplog):
 def test_a_reader_removed_by_another_in_the_same_wake_up_is_not_called(epoll, monkeypatch):
     import functools
     import select
-    import socket
 
     from pointat import runtime
 
@@ -459,7 +430,6 @@ def test_a_reader_removed_by_another_in_the_same_wake_up_is_not_called(epoll, mo
 def test_descriptors_watched_by_number_or_object_and_forgotten_once_closed(epoll):
     import os
     import select
-    import socket
 
     from pointat.runtime import _Descriptors
 
@@ -514,8 +484,6 @@ def test_the_scheduler_sleeps_until_the_next_timer_at_most_idle():
 def test_a_timer_that_costs_more_than_its_period_cannot_starve_the_readers_nor_the_time_limit(caplog):
     """A machine too slow for a patch: a 1 ms tick that takes 3 ms falls behind (as Pd's clocks do), but
     the sockets are still read between ticks and ``run(duration)`` ends on time (wall clock)."""
-    import socket
-
     rt = Runtime()
     rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rx.bind(("127.0.0.1", 0))
@@ -602,8 +570,6 @@ def test_a_pass_inside_a_pass_end_call_runs_each_call_once():
 
 def test_readers_woken_together_share_one_pass_end():
     """Two sockets readable in one wake-up: what their callbacks leave for the end runs after both."""
-    import socket
-
     rt = Runtime()
     log = []
     socks = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(2)]
