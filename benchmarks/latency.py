@@ -972,34 +972,22 @@ def run_all(
                     partial(run_floor, "python-osc", rate, ph, sample, workdir, True),
                 )
             )
-            for chain in ("torre", "tqt"):
-                plan.append(
-                    (
-                        f"pointat {chain} osc_in --rt",
-                        partial(run_pointat_udp, chain, rate, ph, sample, workdir, True),
+            # pointat --rt beside it; then polling instead of sleeping (--spin), at normal priority, against
+            # the plain relay
+            for option, how in (("--rt", {"realtime": True}), ("--spin", {"spin": spin_for(rate)})):
+                for chain in ("torre", "tqt"):
+                    plan.append(
+                        (
+                            f"pointat {chain} osc_in {option}",
+                            partial(run_pointat_udp, chain, rate, ph, sample, workdir, **how),
+                        )
                     )
-                )
-                plan.append(
-                    (
-                        f"pointat {chain} mote x1 --rt",
-                        partial(run_pointat_mote, chain, rate, 1, ph, sample, workdir, True),
+                    plan.append(
+                        (
+                            f"pointat {chain} mote x1 {option}",
+                            partial(run_pointat_mote, chain, rate, 1, ph, sample, workdir, **how),
+                        )
                     )
-                )
-            # polling instead of sleeping (pointat --spin), at normal priority: against the plain relay
-            for chain in ("torre", "tqt"):
-                spin = spin_for(rate)
-                plan.append(
-                    (
-                        f"pointat {chain} osc_in --spin",
-                        partial(run_pointat_udp, chain, rate, ph, sample, workdir, spin=spin),
-                    )
-                )
-                plan.append(
-                    (
-                        f"pointat {chain} mote x1 --spin",
-                        partial(run_pointat_mote, chain, rate, 1, ph, sample, workdir, spin=spin),
-                    )
-                )
             for motes in (1, 16):
                 for chain in ("torre", "tqt"):
                     plan.append(
