@@ -41,26 +41,26 @@ def _registry(plugins: list[str]) -> Registry:
     return reg
 
 
-def _seconds(text: str) -> float:
-    """``--for``: a finite number of seconds, 0 or more."""
+def _number(text: str, unit: str, maximum: float = math.inf) -> float:
+    """A finite number of ``unit`` from 0 to ``maximum`` (argparse's message when not)."""
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
-    if not (math.isfinite(value) and value >= 0.0):
-        raise argparse.ArgumentTypeError(f"expected a finite number of seconds >= 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a number of {unit}, got {text!r}") from None
+    if not (math.isfinite(value) and 0.0 <= value <= maximum):
+        span = ">= 0" if maximum == math.inf else f"from 0 to {maximum:g}"
+        raise argparse.ArgumentTypeError(f"expected a finite number of {unit} {span}, got {text!r}")
     return value
+
+
+def _seconds(text: str) -> float:
+    """``--for``: a finite number of seconds, 0 or more."""
+    return _number(text, "seconds")
 
 
 def _milliseconds(text: str) -> float:
     """``--spin``: a finite number of milliseconds, 0 to 1000."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of milliseconds, got {text!r}") from None
-    if not (math.isfinite(value) and 0.0 <= value <= 1000.0):
-        raise argparse.ArgumentTypeError(f"expected milliseconds from 0 to 1000, got {text!r}")
-    return value
+    return _number(text, "milliseconds", 1000.0)
 
 
 def _add_patch_args(p: argparse.ArgumentParser) -> None:
