@@ -203,6 +203,12 @@ def main(argv: list[str] | None = None) -> int:
         run.handoff = latency.handoff(1000.0, 3.0 if args.quick else 10.0)
         progress("latency: Python calls per sample on the osc_in path")
         run.calls = latency.python_calls(sample)
+        progress("latency: instructions per sample on the osc_in path (valgrind)")
+        counted = latency.instructions_per_sample(first)
+        if counted is None:
+            progress("latency: valgrind is not installed: no instruction counts")
+        for c in run.calls:
+            c.instructions = None if counted is None else counted.get(c.path)
     if "throughput" in parts:
         run.throughput = throughput.run_all(sample, first, args.quick, progress)
     soak = None

@@ -51,6 +51,7 @@ import threading
 import time
 import tty
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -856,43 +857,55 @@ class CallCount:
     path: str  # "python-osc" (the relay), "relay" (pointat's, no filter), "torre", "tqt"
     calls: float  # Python function calls per sample (C functions not counted)
     distinct: int  # different Python functions among them
+    #: machine instructions per sample, counted by callgrind (:func:`instructions_per_sample`); None
+    #: where valgrind is not installed
+    instructions: float | None = None
 
 
-def python_calls(sample: dict[str, np.ndarray], samples: int = 50, warmup: int = 200) -> list[CallCount]:
-    """Count, with :func:`sys.setprofile`, the Python function calls a sample makes through the
-    python-osc relay (:func:`benchmarks.relay.osc_relay`, the floor's own code) and through pointat's
-    ``oscin_*.pat`` patches, in this process: select, receive, parse, the chain, encode, send.
-    """
+#: The osc_in paths whose work per sample is counted, the python-osc relay first (the others' reference).
+OSC_PATHS = ("python-osc", "relay", "torre", "tqt")
+
+
+@contextlib.contextmanager
+def osc_path(path: str, sample: dict[str, np.ndarray], out_port: int) -> Iterator[tuple[UdpSource, Callable]]:
+    """One osc_in path in this process: yields its input (a :class:`UdpSource`) and ``step()``, which
+    reads one datagram and runs it through (select, receive, parse, the chain, encode, send to
+    ``out_port``).  ``path`` is one of :data:`OSC_PATHS`; "python-osc" is the floor's own code
+    (:func:`benchmarks.relay.osc_relay`), the others pointat's ``oscin_PATH.pat``."""
     from pointat.loader import load
 
     from .relay import osc_relay
 
+    in_port = free_udp_port()
+    if path == "python-osc":
+        server = osc_relay(in_port, out_port)
+        src, step, done = UdpSource(in_port, "arg", sample), server.handle_request, server.server_close
+    else:
+        rt = load(PATCHES / f"oscin_{path}.pat", overrides=[f"src.port={in_port}", f"out.port={out_port}"])
+        rt.console = lambda line: None
+        rt.start()
+        src, step, done = UdpSource(in_port, "bundle", sample), partial(rt.drain, 1.0), rt.shutdown
+    try:
+        yield src, step
+    finally:
+        done()
+        src.close()
+
+
+def python_calls(sample: dict[str, np.ndarray], samples: int = 50, warmup: int = 200) -> list[CallCount]:
+    """Count, with :func:`sys.setprofile`, the Python function calls a sample makes through the
+    python-osc relay and through pointat's ``oscin_*.pat`` patches (:func:`osc_path`), in this process.
+    """
     counts = []
     with udp_hole() as hole:
-        out_port = hole.getsockname()[1]
-        for path in ("python-osc", "relay", "torre", "tqt"):
-            in_port = free_udp_port()
-            if path == "python-osc":
-                server = osc_relay(in_port, out_port)
-                src, step, done = (
-                    UdpSource(in_port, "arg", sample),
-                    server.handle_request,
-                    server.server_close,
-                )
-            else:
-                rt = load(
-                    PATCHES / f"oscin_{path}.pat", overrides=[f"src.port={in_port}", f"out.port={out_port}"]
-                )
-                rt.console = lambda line: None
-                rt.start()
-                src, step, done = UdpSource(in_port, "bundle", sample), partial(rt._poll, 1.0), rt.shutdown
+        for path in OSC_PATHS:
             seen: dict[Any, int] = {}
 
             def profile(frame: Any, event: str, arg: Any, seen: dict[Any, int] = seen) -> None:
                 if event == "call":
                     seen[frame.f_code] = seen.get(frame.f_code, 0) + 1
 
-            try:
+            with osc_path(path, sample, hole.getsockname()[1]) as (src, step):
                 for k in range(warmup + samples):
                     src.tick(k)
                     time.sleep(0.0005)  # arrived: the step below reads it without waiting
@@ -904,11 +917,81 @@ def python_calls(sample: dict[str, np.ndarray], samples: int = 50, warmup: int =
                         sys.setprofile(None)
                     if k % 50 == 0:
                         _drain(hole, [])
-            finally:
-                done()
-                src.close()
             counts.append(CallCount(path, sum(seen.values()) / samples, len(seen)))
     return counts
+
+
+def run_osc_path(path: str, trial: str | Path, samples: int) -> None:
+    """``samples`` samples through one osc_in path (or, for ``path="none"``, only sent: the driver's own
+    work), as fast as they are read; what :func:`instructions_per_sample` counts.
+
+    The samples run inside :func:`sys.call_tracing` (with no tracer set, a plain call), a C function
+    that nothing else calls: callgrind counts only inside it (``--toggle-collect``), so the process's
+    start-up, which varies from run to run, is not counted at all.
+    """
+    from pointat.maths.evaluation import load_broad
+
+    sample = load_broad(trial)
+    with udp_hole() as hole:
+        if path == "none":
+            src = UdpSource(free_udp_port(), "bundle", sample)
+            with contextlib.closing(src):
+                sys.call_tracing(_send_only, (src, samples))
+            return
+        with osc_path(path, sample, hole.getsockname()[1]) as (src, step):
+            sys.call_tracing(_send_and_step, (src, step, hole, samples))
+
+
+def _send_only(src: UdpSource, samples: int) -> None:
+    for k in range(samples):
+        src.tick(k)
+        time.sleep(0.0005)
+
+
+def _send_and_step(src: UdpSource, step: Callable, hole: socket.socket, samples: int) -> None:
+    for k in range(samples):
+        src.tick(k)
+        time.sleep(0.0005)
+        step()
+        if k % 50 == 0:
+            _drain(hole, [])
+
+
+def _callgrind_total(path: str, trial: str | Path, samples: int) -> int:
+    """Instructions callgrind counts for a whole ``python -m benchmarks.work PATH TRIAL SAMPLES``."""
+    cmd = ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", "--collect-atstart=no"]
+    cmd += ["--toggle-collect=sys_call_tracing", sys.executable]
+    cmd += ["-m", "benchmarks.work", path, str(trial), str(samples)]
+    env = {**os.environ, "PYTHONHASHSEED": "0"}
+    done = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
+    for line in done.stderr.splitlines():
+        if "Collected :" in line:
+            return int(line.split("Collected :")[1].split()[0])
+    raise RuntimeError(
+        f"callgrind printed no total for {path} (exit {done.returncode}): {done.stderr[-300:]}"
+    )
+
+
+def instructions_per_sample(
+    trial: str | Path, paths: tuple[str, ...] = OSC_PATHS, samples: int = 1000, warmup: int = 300
+) -> dict[str, float] | None:
+    """Machine instructions per sample on each osc_in path, counted by ``valgrind --tool=callgrind``:
+    unlike a time, the same on a busy machine as on an idle one.
+
+    Each path runs twice, ``warmup`` samples and ``warmup + samples``; the difference over ``samples``
+    is the steady cost of one sample, start-up and the filters' first samples left out.  The driver's
+    own part (building and sending the datagram, the pacing sleep) is counted the same way with no
+    receiver (path "none") and taken out.  User-space instructions only: the system calls' kernel work
+    is not in it.  None when valgrind is not installed.
+    """
+    if shutil.which("valgrind") is None:
+        return None
+    jobs = [(p, n) for p in ("none", *paths) for n in (warmup, warmup + samples)]
+    with ThreadPoolExecutor(max_workers=max(1, min(2, os.cpu_count() or 1))) as pool:
+        counts = pool.map(lambda job: _callgrind_total(job[0], trial, job[1]), jobs)
+        totals = dict(zip(jobs, counts, strict=True))
+    per = {p: (totals[(p, warmup + samples)] - totals[(p, warmup)]) / samples for p in ("none", *paths)}
+    return {p: per[p] - per["none"] for p in paths}
 
 
 def pool(runs: list[LatencyResult]) -> LatencyResult:

@@ -266,6 +266,7 @@ def _where_the_time_goes(
         return []
     names = {"python-osc": "the python-osc relay", "relay": "pointat's relay", **CHAINS}
     counted = "; ".join(f"{names[c.path]} {c.calls:.0f} ({c.distinct} different functions)" for c in calls)
+    work = _instructions(calls, names)
     return [
         "**Where the time goes (1 kHz, one glove).**  "
         + "  ".join(out)
@@ -279,9 +280,27 @@ def _where_the_time_goes(
             f"send; counted with `sys.setprofile`): {counted}."
             if calls
             else ""
-        ),
+        )
+        + work,
         "",
     ]
+
+
+def _instructions(calls: Sequence[CallCount], names: dict[str, str]) -> str:
+    """The sentence on the instructions per sample, each path as a ratio to the python-osc relay's."""
+    counted = {c.path: c.instructions for c in calls if c.instructions is not None}
+    floor = counted.get("python-osc")
+    if not floor:
+        return ""
+    each = "; ".join(
+        f"{names[path]} {n / 1000:.0f} k" + ("" if path == "python-osc" else f" ({n / floor:.2f} ×)")
+        for path, n in counted.items()
+    )
+    return (
+        "  Machine instructions per sample on the same paths (user space, the system calls' kernel work "
+        "left out; counted by `valgrind --tool=callgrind`, so the same on a busy machine as on an idle "
+        f"one, unlike every time in this report): {each}."
+    )
 
 
 # ------------------------------------------------------------------------------------------ throughput

@@ -64,6 +64,59 @@ def test_python_calls_per_sample_are_counted_on_each_osc_in_path():
     assert f"pointat's relay {counts['relay'].calls:.0f} ({counts['relay'].distinct} different" in text
 
 
+def test_instructions_per_sample_take_out_warmup_and_driver_and_are_reported_as_ratios(monkeypatch):
+    """The arithmetic of the callgrind counts (faked here: valgrind takes minutes) and their sentence."""
+    import benchmarks.latency as lat
+    from benchmarks.latency import CallCount
+    from benchmarks.report import _instructions
+
+    per_sample = {"none": 20_000, "python-osc": 320_000, "relay": 230_000, "tqt": 410_000}
+    start_up = {"none": 1_000_000, "python-osc": 5_000_000, "relay": 9_000_000, "tqt": 11_000_000}
+    ran = []
+
+    def total(path, trial, samples):
+        ran.append((path, samples))
+        return start_up[path] + per_sample[path] * samples
+
+    monkeypatch.setattr(lat, "_callgrind_total", total)
+    monkeypatch.setattr(lat.shutil, "which", lambda name: "/usr/bin/valgrind")
+    got = lat.instructions_per_sample("trial.csv.gz", ("python-osc", "relay", "tqt"), samples=100, warmup=30)
+    assert got == {"python-osc": 300_000, "relay": 210_000, "tqt": 390_000}
+    assert sorted(ran) == sorted((p, n) for p in per_sample for n in (30, 130))
+    monkeypatch.setattr(lat.shutil, "which", lambda name: None)
+    assert lat.instructions_per_sample("trial.csv.gz") is None
+
+    names = {"python-osc": "the python-osc relay", "relay": "pointat's relay", "tqt": "tqt"}
+    calls = [CallCount(p, 100.0, 50, n) for p, n in got.items()]
+    text = _instructions(calls, names)
+    assert "the python-osc relay 300 k; pointat's relay 210 k (0.70 ×); tqt 390 k (1.30 ×)" in text
+    assert _instructions([CallCount("tqt", 100.0, 50)], names) == ""  # no counts: no sentence
+
+
+def test_the_counted_child_runs_samples_through_a_real_osc_in_path():
+    """What valgrind runs: real sockets, the real patch, every sample out at the far end."""
+    import socket as socket_
+
+    import benchmarks.latency as lat
+    from benchmarks.work import main
+    from pointat.maths.evaluation import BROAD_SAMPLE
+
+    sent = []
+    real = lat._drain
+
+    def counting(sock: socket_.socket, into: list) -> None:
+        real(sock, sent)
+
+    lat._drain = counting
+    try:
+        lat.run_osc_path("tqt", BROAD_SAMPLE, 51)  # drains after samples 0 and 50
+    finally:
+        lat._drain = real
+    assert len(sent) == 51  # loopback delivers within the send: every output is there to drain
+    assert all(data.startswith(b"/bench/1") for _, data in sent)
+    assert main(["tqt", str(BROAD_SAMPLE), "many"]) == 2
+
+
 def test_a_send_to_a_sleeping_receiver_and_a_burst_of_sends_are_measured_and_reported():
     """The report's 'waking the receiver': three real costs from real sockets, and the sentence on bursts."""
     from benchmarks.report import _throughput_section
