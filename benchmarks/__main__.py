@@ -204,9 +204,13 @@ def main(argv: list[str] | None = None) -> int:
         progress("latency: Python calls per sample on the osc_in path")
         run.calls = latency.python_calls(sample)
         progress("latency: instructions per sample on the osc_in path (valgrind)")
-        counted = latency.instructions_per_sample(first)
+        try:
+            counted = latency.instructions_per_sample(first)
+        except (RuntimeError, OSError, subprocess.SubprocessError) as exc:  # the rest of the run goes on
+            progress(f"latency: instructions not counted: {exc}")
+            counted = None
         if counted is None:
-            progress("latency: valgrind is not installed: no instruction counts")
+            progress("latency: no instruction counts (valgrind is not installed, or it failed)")
         for c in run.calls:
             c.instructions = None if counted is None else counted.get(c.path)
     if "throughput" in parts:
