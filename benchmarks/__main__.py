@@ -209,8 +209,9 @@ def main(argv: list[str] | None = None) -> int:
         except (RuntimeError, OSError, subprocess.SubprocessError) as exc:  # the rest of the run goes on
             progress(f"latency: instructions not counted: {exc}")
             counted = None
-        if counted is None:
-            progress("latency: no instruction counts (valgrind is not installed, or it failed)")
+        else:
+            if counted is None:
+                progress("latency: instructions not counted: valgrind is not installed")
         for c in run.calls:
             c.instructions = None if counted is None else counted.get(c.path)
     if "throughput" in parts:

@@ -858,7 +858,7 @@ class CallCount:
     calls: float  # Python function calls per sample (C functions not counted)
     distinct: int  # different Python functions among them
     #: machine instructions per sample, counted by callgrind (:func:`instructions_per_sample`); None
-    #: where valgrind is not installed
+    #: where valgrind is not installed or the count failed
     instructions: float | None = None
 
 
@@ -936,25 +936,21 @@ def run_osc_path(path: str, trial: str | Path, samples: int) -> None:
         if path == "none":
             src = UdpSource(free_udp_port(), "bundle", sample)
             with contextlib.closing(src):
-                sys.call_tracing(_send_only, (src, samples))
+                sys.call_tracing(_send_and_step, (src, None, hole, samples))
             return
         with osc_path(path, sample, hole.getsockname()[1]) as (src, step):
             sys.call_tracing(_send_and_step, (src, step, hole, samples))
 
 
-def _send_only(src: UdpSource, samples: int) -> None:
+def _send_and_step(src: UdpSource, step: Callable | None, hole: socket.socket, samples: int) -> None:
+    """Send ``samples`` samples, each read and run through by ``step()``; with no ``step``, only sent."""
     for k in range(samples):
         src.tick(k)
         time.sleep(0.0005)
-
-
-def _send_and_step(src: UdpSource, step: Callable, hole: socket.socket, samples: int) -> None:
-    for k in range(samples):
-        src.tick(k)
-        time.sleep(0.0005)
-        step()
-        if k % 50 == 0:
-            _drain(hole, [])
+        if step is not None:
+            step()
+            if k % 50 == 0:
+                _drain(hole, [])
 
 
 def _callgrind_total(path: str, trial: str | Path, samples: int) -> int:
