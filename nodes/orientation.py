@@ -11,8 +11,10 @@ state as it was and is reported on its ``flags`` outlet; nothing downstream ever
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Mapping
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -26,10 +28,12 @@ from pointat.maths.quaternion import (
     nwu_to_ned,
     quat_identity,
 )
-from pointat.maths.tqt import TQTFilter, TQTFlags
+from pointat.maths.tqt import TQTBank, TQTFilter, TQTFlags
 from pointat.message import Message, as_floats, floats, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
+
+log = logging.getLogger("pointat.nodes.orientation")
 
 ORIENTATION = ("vector", "list")
 
@@ -56,15 +60,20 @@ class SampleClock:
 
     def step(self, t: float) -> float:
         last, self._last_t = getattr(self, "_last_t", None), t
-        nominal = 1.0 / self.p.rate
-        if last is None:
-            return nominal
-        dt = t - last
-        if abs(dt - nominal) <= max(1e-6 * nominal, 4.0 * math.ulp(t)):
-            # sensor time from a packet counter (t0 + n / rate) differs from 1/rate by the stamps' rounding
-            # only: the nominal step keeps a filter's per-step coefficients cached, not recomputed
-            return nominal
-        return dt if 0.0 < dt <= self.MAX_GAP else nominal
+        return time_step(last, t, 1.0 / self.p.rate, self.MAX_GAP)
+
+
+def time_step(last: float | None, t: float, nominal: float, max_gap: float) -> float:
+    """The step from stamp ``last`` to ``t``: ``nominal`` when there is no usable previous stamp (none,
+    not before ``t``, or more than ``max_gap`` before it) and when the two differ by rounding only."""
+    if last is None:
+        return nominal
+    dt = t - last
+    if abs(dt - nominal) <= max(1e-6 * nominal, 4.0 * math.ulp(t)):
+        # sensor time from a packet counter (t0 + n / rate) differs from 1/rate by the stamps' rounding
+        # only: the nominal step keeps a filter's per-step coefficients cached, not recomputed
+        return nominal
+    return dt if 0.0 < dt <= max_gap else nominal
 
 
 class Flagged:
@@ -398,6 +407,182 @@ _NOT_REST = ~int(TQTFlags.REST)  # resting is normal, not a status to report
 def _status(flags: TQTFlags) -> str:
     """``mag_disturbed,uninitialised``: the flags that are up, as the ``flags`` outlet reports them."""
     return str(flags.name or flags).lower().replace("|", ",")
+
+
+_NAN3 = (math.nan, math.nan, math.nan)
+
+
+@register("tqt_bank")
+class TQTBankNode(Node):
+    """The ``tqt`` filter for many sensors at once (a body suit, several gloves): one update for all.
+
+    ``sensors=N`` gives sensor ``I`` (1..N) the inlets ``gyroI``, ``accelI`` and ``magI`` (as ``tqt``'s:
+    send the gyro last, it is the hot one) and the outlet ``quatI``.  When every sensor has sent its gyro,
+    all of them are updated together by :class:`pointat.maths.tqt.TQTBank`, one compiled loop over the
+    sensors with numba (``pip install "pointat[fast]"``, robust mode), and each ``quatI`` sends its
+    sensor's orientation, right to left; ``quats`` sends all of them as one vector (4N numbers, sensor 1
+    first, a sensor not yet initialised as the identity).  Each sensor follows the filter of its own
+    ``tqt`` node with the same settings, to rounding, at a fraction of the cost per sample.
+
+    The time step is the first sensor's of the tick (sensor time, as ``tqt``'s).  A sensor that misses a
+    tick (a lost packet: another sensor sends twice, or the tick is complete without it) stays where it
+    was for that tick; one that misses ``MISSES`` ticks in a row is not waited for until it is heard
+    again, so a glove switched off does not hold the others back.  ``flags`` sends ``I status`` when
+    sensor I's status changes: ``ok``, ``missing``, or the filter's flags as ``tqt`` reports them.
+    """
+
+    pure = True
+
+    #: Ticks in a row a sensor may miss before the bank stops waiting for it.
+    MISSES = 5
+    MAX_GAP = SampleClock.MAX_GAP
+
+    params = (
+        Param("sensors", "int", 2, "number of sensors (inlets gyroI, accelI, magI; outlet quatI)", minimum=1),
+        *TQT.params,
+        Param(
+            "backend",
+            "symbol",
+            "auto",
+            "auto (numba when installed and mode=robust), numba or numpy",
+            choices=("auto", "numba", "numpy"),
+        ),
+    )
+    example = """
+node left  scaling
+node right scaling
+node suit  tqt_bank sensors=2
+left.mag -> suit.mag1
+left.accel -> suit.accel1
+left.gyro -> suit.gyro1
+right.mag -> suit.mag2
+right.accel -> suit.accel2
+right.gyro -> suit.gyro2
+"""
+
+    @classmethod
+    def layout(cls, values: Mapping[str, Any]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
+        inlets: list[Inlet] = []
+        outlets: list[Outlet] = []
+        for i in range(1, int(values.get("sensors", 2)) + 1):
+            inlets += [
+                Inlet(f"gyro{i}", ("vector", "list"), f"sensor {i}: angular rate, rad/s", hot=True),
+                Inlet(f"accel{i}", ("vector", "list"), f"sensor {i}: specific force, m/s²", hot=False),
+                Inlet(f"mag{i}", ("vector", "list"), f"sensor {i}: magnetic field", hot=False),
+            ]
+            outlets.append(
+                Outlet(f"quat{i}", "vector", f"sensor {i}: quaternion (w, x, y, z), sensor -> NWU")
+            )
+        outlets += [
+            Outlet("quats", "vector", "every sensor's quaternion, 4N numbers, sensor 1 first"),
+            Outlet(
+                "flags", "list", "I status, when sensor I's status changes (ok, missing, mag_disturbed...)"
+            ),
+        ]
+        return tuple(inlets), tuple(outlets)
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        TQT.validate(values)
+
+    def setup(self) -> None:
+        p, n = self.p, self.p.sensors
+        dip = None if math.isnan(p.dip) else math.radians(p.dip)
+        self.bank = TQTBank(
+            n,
+            p.k or None,
+            rho=p.rho,
+            iterations=p.iterations,
+            mode=p.mode,
+            use_gyro=p.use_gyro,
+            dip=dip,
+            k_heading=p.k_heading,
+            backend=p.backend,
+        )
+        self._gyro = [_NAN3] * n
+        self._accel = [_NAN3] * n
+        self._mag = [_NAN3] * n
+        self._stamp = [0.0] * n  # of each sensor's pending sample
+        self._last: list[float | None] = [None] * n  # of each sensor's previous update
+        self._fresh = [False] * n
+        self._nfresh = 0
+        self._live = [True] * n
+        self._nlive = n
+        self._misses = [0] * n
+        self._reported = ["ok"] * n
+
+    def param_changed(self, name: str) -> None:
+        value = getattr(self.p, name)
+        if name == "k" and value == 0:
+            value = TQTBank.DEFAULT_K[self.p.mode]
+        self.bank.retune(**{name: value})
+
+    def _make_handler(self, index: int, inlet: Inlet) -> Any:
+        sensor, part = divmod(index, 3)
+        return partial((self._on_gyro, self._on_accel, self._on_mag)[part], sensor)
+
+    def _on_accel(self, i: int, msg: Message) -> None:
+        self._accel[i] = as_floats(msg, 3)
+
+    def _on_mag(self, i: int, msg: Message) -> None:
+        self._mag[i] = as_floats(msg, 3)
+
+    def _on_gyro(self, i: int, msg: Message) -> None:
+        gyro = as_floats(msg, 3)
+        if self._fresh[i]:  # its next sample before the tick was complete: update without the missing
+            self._update()
+        if not self._live[i]:
+            self._live[i] = True
+            self._nlive += 1
+            log.info("node '%s': sensor %d is back", self.name, i + 1)
+        self._gyro[i] = gyro
+        self._stamp[i] = msg.time
+        self._fresh[i] = True
+        self._nfresh += 1
+        if self._nfresh >= self._nlive:
+            self._update()
+
+    def _update(self) -> None:
+        """Update every sensor, those with no sample this tick with NaN (they stay as they were)."""
+        n, fresh = self.p.sensors, self._fresh
+        gyro, accel, mag = list(self._gyro), list(self._accel), list(self._mag)
+        dt = None
+        for i in range(n):
+            if fresh[i]:
+                step = time_step(self._last[i], self._stamp[i], 1.0 / self.p.rate, self.MAX_GAP)
+                self._last[i] = self._stamp[i]
+                dt = step if dt is None else dt
+                self._misses[i] = 0
+                continue
+            gyro[i] = accel[i] = mag[i] = _NAN3
+            self._misses[i] += 1
+            if self._live[i] and self._misses[i] >= self.MISSES:
+                self._live[i] = False
+                self._nlive -= 1
+                log.info(
+                    "node '%s': sensor %d missed %d ticks in a row; not waited for until it is heard again",
+                    self.name,
+                    i + 1,
+                    self.MISSES,
+                )
+        q = self.bank.update(np.array(gyro), np.array(accel), np.array(mag), dt).tolist()
+        bits = self.bank.flags.tolist()
+        ready = self.bank.initialised.tolist()
+        stamps, self._fresh, self._nfresh = self._stamp, [False] * n, 0
+        for i in range(n - 1, -1, -1):  # right to left: flags, quats, quatN ... quat1
+            b = bits[i] & _NOT_REST
+            status = "missing" if not fresh[i] else _status(TQTFlags(b)) if b else "ok"
+            if status != self._reported[i]:
+                self._reported[i] = status
+                self.out(n + 1, (i + 1, status), stamps[i])
+        first = next(i for i in range(n) if fresh[i])
+        self.out(n, floats(tuple(x for row in q for x in row), stamps[first]))
+        for i in range(n - 1, -1, -1):
+            if fresh[i] and ready[i]:
+                self.out(i, floats(tuple(q[i]), stamps[i]))
+
+    def do_reset(self) -> None:
+        self.setup()
 
 
 @register("reference")

@@ -549,6 +549,25 @@ class _TQTParams:
     def reset(self, q: ArrayLike | None = None) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 
+    _TUNABLE = ("k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "bias_tau")
+
+    def retune(self, **gains: float) -> None:
+        """Change gains while running (``k``, ``rho``, ``k_heading``, ``acc_tau``...); the state is kept.
+
+        >>> f = TQTFilter()
+        >>> f.retune(k=0.5, k_heading=0.1)
+        >>> f.k, f.k_heading
+        (0.5, 0.1)
+        """
+        for name, value in gains.items():
+            if name not in self._TUNABLE:
+                raise ValueError(f"cannot retune {name!r}; tunable: {', '.join(self._TUNABLE)}")
+            value = float(value)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+            setattr(self, name, value)
+        self._dt = -1.0  # recompute the per-step coefficients
+
 
 class TQTFilter(_TQTParams):
     r"""McGhee / Bachmann's quaternion MARG filter for one sensor, ``mode="robust"`` or ``"paper"``.
@@ -684,25 +703,6 @@ class TQTFilter(_TQTParams):
         self._dip_ref: float | None = self.dip
         self._n = (0.0, 0.0, 0.0) if self.dip is None else (math.cos(self.dip), 0.0, -math.sin(self.dip))
         self._dt = -1.0
-
-    _TUNABLE = ("k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "bias_tau")
-
-    def retune(self, **gains: float) -> None:
-        """Change gains while running (``k``, ``rho``, ``k_heading``, ``acc_tau``...); the state is kept.
-
-        >>> f = TQTFilter()
-        >>> f.retune(k=0.5, k_heading=0.1)
-        >>> f.k, f.k_heading
-        (0.5, 0.1)
-        """
-        for name, value in gains.items():
-            if name not in self._TUNABLE:
-                raise ValueError(f"cannot retune {name!r}; tunable: {', '.join(self._TUNABLE)}")
-            value = float(value)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-            setattr(self, name, value)
-        self._dt = -1.0  # recompute the per-step coefficients
 
     @property
     def q(self) -> tuple[float, float, float, float]:
@@ -1180,6 +1180,12 @@ class TQTBank(_TQTParams):
         )
         self.backend = "numba" if numba else "numpy"
         self._kernel = tqt_compiled.robust_step if numba else None
+        if numba and not tqt_compiled.compiled():
+            # numba compiles the kernel (or loads it from its cache) on its first call, up to a second or
+            # two: here, where a patch loads, not on the first update, where it would stall a live one
+            zeros = np.zeros((self.n, 3))
+            self.update(zeros, zeros, zeros, 0.01)
+            self.reset()
 
     def reset(self, q: ArrayLike | None = None) -> None:
         """Forget everything (all sensors); start from ``q`` or from each sensor's next valid acc / mag pair.

@@ -238,6 +238,12 @@ def _compile() -> Callable[..., Any] | None:
 _compiled: Callable[..., Any] | None = None
 
 
+def compiled() -> bool:
+    """Whether :func:`robust_step` has run (numba compiled it, or loaded it from its cache), so that
+    its next call costs only the update."""
+    return _compiled is not None and bool(getattr(_compiled, "signatures", True))
+
+
 def robust_step(*args: Any) -> None:
     """:func:`_robust_step`, compiled on the first call (numba must be installed: see :func:`available`)."""
     global _compiled

@@ -1,0 +1,180 @@
+"""tqt_bank: many sensors through the tqt filter together, as one node in a patch."""
+
+import logging
+
+import numpy as np
+import pytest
+
+from pointat.errors import PatchError
+from pointat.maths import tqt_compiled
+from pointat.message import floats, method
+from pointat.testing import patch
+
+GLOVE = """
+node g{i} simulate rate=100 seed={i}
+node n{i} offset samples=150
+node u{i} scaling
+node f{i} tqt
+node e{i} collect
+node b{i} collect
+g{i}.adc -> n{i} -> u{i}
+u{i}.mag -> f{i}.mag
+u{i}.accel -> f{i}.accel
+u{i}.gyro -> f{i}.gyro
+u{i}.mag -> bank.mag{i}
+u{i}.accel -> bank.accel{i}
+u{i}.gyro -> bank.gyro{i}
+f{i} -> e{i}
+bank.quat{i} -> b{i}
+"""
+
+
+def gloves(n, backend):
+    """``n`` simulated gloves, each into its own tqt node and into one tqt_bank."""
+    text = f"node bank tqt_bank sensors={n} backend={backend}\nnode all collect\nbank.quats -> all\n"
+    return patch(text + "".join(GLOVE.format(i=i) for i in range(1, n + 1)))
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_each_sensor_of_the_bank_follows_its_own_tqt_node(backend, require_tool):
+    if backend == "numba":
+        require_tool(tqt_compiled.available(), "numba is not installed (pip install '.[fast]')")
+    rt = gloves(3, backend)
+    rt.advance(20.0)
+    for i in (1, 2, 3):
+        alone = rt.nodes[f"e{i}"].messages
+        banked = rt.nodes[f"b{i}"].messages
+        assert len(alone) > 1800 and len(banked) == len(alone)
+        assert [m.time for m in banked] == [m.time for m in alone]
+        diff = np.abs(np.array([m.value for m in banked]) - np.array([m.value for m in alone]))
+        assert diff.max() < 1e-9
+    # quats: every sensor's quaternion in one vector, sensor 1 first
+    last = rt.nodes["all"].values[-1]
+    assert len(last) == 12
+    assert np.allclose(last[4:8], rt.nodes["b2"].values[-1])
+
+
+def bank2(extra=""):
+    rt = patch(
+        "node bank tqt_bank sensors=2 rate=100\nnode q1 collect\nnode q2 collect\nnode flags collect\n"
+        "bank.quat1 -> q1\nbank.quat2 -> q2\nbank.flags -> flags\n" + extra
+    )
+    rt.start()
+    return rt, rt.nodes["bank"]
+
+
+GYRO = (0.0, 0.0, 0.5)  # turning about the vertical at 0.5 rad/s
+
+
+def tick(bank, k, sensors=(1, 2)):
+    """Sample k (t = k / 100 s) from each of ``sensors``: mag, accel, then the hot gyro."""
+    for s in sensors:
+        i = 3 * (s - 1)
+        bank.receive(i + 2, floats((0.2, 0.0, -0.4), k / 100))
+        bank.receive(i + 1, floats((0.0, 0.0, 9.81), k / 100))
+        bank.receive(i, floats(GYRO, k / 100))
+
+
+def test_a_tick_is_sent_when_its_last_sensor_arrives():
+    rt, bank = bank2()
+    tick(bank, 0, sensors=(1,))
+    assert rt.nodes["q1"].values == []  # sensor 2 still to come
+    tick(bank, 0, sensors=(2,))
+    assert len(rt.nodes["q1"].values) == len(rt.nodes["q2"].values) == 1
+
+
+def test_a_lost_packet_leaves_that_sensor_where_it_was_for_one_tick():
+    rt, bank = bank2()
+    for k in range(20):
+        tick(bank, k)
+    held = rt.nodes["q2"].values[-1]
+    tick(bank, 20, sensors=(1,))  # sensor 2's sample 20 is lost
+    tick(bank, 21)  # sensor 1's sample 21 comes first: tick 20 goes out without sensor 2
+    q1, q2 = rt.nodes["q1"].messages, rt.nodes["q2"].messages
+    assert [m.time for m in q1[-2:]] == [0.20, 0.21]
+    assert [m.time for m in q2[-2:]] == [0.19, 0.21]  # nothing for sensor 2 at tick 20
+    assert rt.nodes["flags"].values == [(2, "missing"), (2, "ok")]
+    assert np.isfinite(q2[-1].value).all() and q2[-1].value != held  # it moved on from where it was
+    assert bank.bank.initialised.all()
+
+
+def test_a_silent_sensor_is_not_waited_for_and_is_waited_for_again_when_back(caplog):
+    rt, bank = bank2()
+    caplog.set_level(logging.INFO, "pointat.nodes.orientation")
+    for k in range(10):
+        tick(bank, k)
+    for k in range(10, 30):  # sensor 2 switched off
+        tick(bank, k, sensors=(1,))
+    q1 = rt.nodes["q1"].messages
+    assert q1[-1].time == 0.29  # sample 29 out at once: the bank no longer waits for sensor 2
+    assert "sensor 2 missed 5 ticks in a row" in caplog.text
+    tick(bank, 30, sensors=(2,))  # back, first in tick 30: waited for again, and it waits for sensor 1
+    assert "sensor 2 is back" in caplog.text and rt.nodes["q2"].messages[-1].time == 0.09
+    tick(bank, 30, sensors=(1,))
+    assert q1[-1].time == rt.nodes["q2"].messages[-1].time == 0.30
+    tick(bank, 31, sensors=(1,))
+    assert q1[-1].time == 0.30  # sample 31 of sensor 1 waits for sensor 2's
+    tick(bank, 31, sensors=(2,))
+    assert q1[-1].time == rt.nodes["q2"].messages[-1].time == 0.31
+
+
+def test_bank_gains_are_live_and_the_layout_follows_sensors():
+    rt, bank = bank2()
+    bank.receive(0, method("k_heading", 0.2))
+    assert bank.bank.k_heading == 0.2
+    with pytest.raises(ValueError, match="cannot change while running"):
+        bank.receive(0, method("sensors", 3))
+    assert [i.name for i in bank.in_specs] == ["gyro1", "accel1", "mag1", "gyro2", "accel2", "mag2"]
+    assert [o.name for o in bank.out_specs] == ["quat1", "quat2", "quats", "flags"]
+
+
+def test_bad_bank_wiring_and_settings_name_the_place():
+    with pytest.raises(PatchError, match=r"<test>:3: .*no inlet 'gyro3'; inlets are gyro1 \(0\), accel1"):
+        patch("node bank tqt_bank sensors=2\nnode x tqt\nx -> bank.gyro3\n")
+    with pytest.raises(PatchError, match="sensors"):
+        patch("node bank tqt_bank sensors=0\n")
+    with pytest.raises(PatchError, match="dip"):
+        patch("node bank tqt_bank dip=120\n")
+
+
+def test_the_shipped_three_glove_patch_sends_three_sources_over_osc():
+    """patches/gloves_bank.pat, run as a user runs it: three simulated gloves through one bank, three
+    sources out as OSC to a UDP socket; the gloves follow the same script, so their directions agree."""
+    import socket
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from pythonosc.osc_message import OscMessage
+
+    root = Path(__file__).resolve().parents[2]
+    with (
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as rx,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as c,
+    ):
+        rx.bind(("127.0.0.1", 0))
+        c.bind(("127.0.0.1", 0))
+        port, ctl = rx.getsockname()[1], c.getsockname()[1]
+        c.close()
+        sets = [a for i in (1, 2, 3) for a in ("--set", f"out{i}.port={port}")] + ["--set", f"ctl.port={ctl}"]
+        cmd = [sys.executable, "-m", "pointat.cli", "run", "patches/gloves_bank.pat", "--for", "4", *sets]
+        proc = subprocess.Popen(cmd, cwd=root, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        rx.settimeout(0.5)
+        got: dict[str, list[tuple[float, ...]]] = {}
+        while True:
+            try:
+                msg = OscMessage(rx.recv(1024))
+            except TimeoutError:
+                if proc.poll() is not None:
+                    break
+                continue
+            got.setdefault(msg.address, []).append(tuple(msg.params))
+        err = proc.stderr.read()
+    assert proc.returncode == 0 and "ERROR" not in err and "WARNING" not in err, err
+    assert sorted(got) == ["/pointat/1/aed", "/pointat/2/aed", "/pointat/3/aed"]
+    counts = [len(v) for v in got.values()]
+    assert min(counts) > 150, counts  # 100 Hz for 4 s, less the 1.5 s of gyro nulls
+    n = min(counts)
+    last = np.array([got[f"/pointat/{i}/aed"][n - 1] for i in (1, 2, 3)])
+    assert np.isfinite(last).all()
+    assert np.ptp(last[:, 0]) < 5.0 and np.ptp(last[:, 1]) < 5.0, last  # degrees
