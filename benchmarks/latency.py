@@ -340,10 +340,18 @@ def shown(cmd: list[str]) -> str:
 def mote_patch_text(chain: str, motes: int) -> str:
     """The text of ``benchmarks/patches/mote_CHAIN_N.pat``: one base station, N tagged gloves.
 
+    ``chain`` is ``torre`` or ``tqt`` (a glove's whole chain a glove, ``glove_CHAIN.pat``) or
+    ``tqt_bank`` (each glove's ``offset`` and ``scaling``, then one ``tqt_bank`` for all of them, then
+    each glove's ``glove_bank.pat``: the tqt chain with the filter shared).
+
     >>> print(mote_patch_text("tqt", 1).splitlines()[-1])
     base.m1 -> g1.adc
     """
-    what = {"torre": "the Pointing-at chain (glove_torre.pat)", "tqt": "the tqt chain (glove_tqt.pat)"}[chain]
+    what = {
+        "torre": "the Pointing-at chain (glove_torre.pat)",
+        "tqt": "the tqt chain (glove_tqt.pat)",
+        "tqt_bank": "the tqt chain with one tqt_bank for all the gloves (glove_bank.pat after it)",
+    }[chain]
     ids = ", ".join(str(i) for i in range(1, motes + 1))
     lines = [
         f"# Latency benchmark: {motes} mote{'s' if motes > 1 else ''} on one base station (a pseudo-terminal that the",
@@ -356,15 +364,27 @@ def mote_patch_text(chain: str, motes: int) -> str:
         "",
         f"node base mote ids=[{ids}] rate=1000",
     ]
+    if chain == "tqt_bank":
+        lines.append(f"node bank tqt_bank sensors={motes} rate=1000 mode=robust")
     for i in range(1, motes + 1):
-        lines += [
-            f"node tap{i} unpack f",
-            f"node tag{i} map {_TAG_BASE} {_TAG_BASE + _TAG_PERIOD} 0 100",
-            f"node g{i}   glove_{chain}.pat id={i} port=9000 rate=1000",
-        ]
+        lines += [f"node tap{i} unpack f", f"node tag{i} map {_TAG_BASE} {_TAG_BASE + _TAG_PERIOD} 0 100"]
+        if chain == "tqt_bank":
+            lines += [
+                f"node nulls{i} offset samples=150",
+                f"node units{i} scaling",
+                f"node g{i}   glove_bank.pat id={i} port=9000",
+            ]
+        else:
+            lines.append(f"node g{i}   glove_{chain}.pat id={i} port=9000 rate=1000")
     lines.append("")
     for i in range(1, motes + 1):
-        lines += [f"base.m{i} -> tap{i} -> tag{i} -> g{i}.spread", f"base.m{i} -> g{i}.adc"]
+        lines.append(f"base.m{i} -> tap{i} -> tag{i} -> g{i}.spread")
+        if chain == "tqt_bank":
+            lines.append(f"base.m{i} -> nulls{i} -> units{i}")
+            lines += [f"units{i}.{s} -> bank.{s}{i}" for s in ("mag", "accel", "gyro")]
+            lines.append(f"bank.quat{i} -> g{i}.quat")
+        else:
+            lines.append(f"base.m{i} -> g{i}.adc")
     return "\n".join(lines) + "\n"
 
 
@@ -1075,6 +1095,13 @@ def run_all(
                             partial(run_pointat_mote, chain, rate, motes, ph, sample, workdir),
                         )
                     )
+            # the same 16 gloves with one tqt_bank for all of them (a body suit's way)
+            plan.append(
+                (
+                    "pointat tqt_bank mote x16",
+                    partial(run_pointat_mote, "tqt_bank", rate, 16, ph, sample, workdir),
+                )
+            )
             runs: dict[str, list[LatencyResult]] = {name: [] for name, _ in plan}
             for k in range(rounds):
                 for name, fn in plan:

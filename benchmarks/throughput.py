@@ -37,12 +37,14 @@ from pathlib import Path
 
 import numpy as np
 
+from nodes.orientation import TQT as TQTNode
+from nodes.orientation import TQTBankNode
 from pointat.devices.glove_sim import GloveSimulator
 from pointat.loader import load
 from pointat.maths.evaluation import BROAD_RATE
 from pointat.maths.fusion import ComplementaryFilter
 from pointat.maths.tqt import TQTBank, TQTFilter
-from pointat.message import Message, vector
+from pointat.message import Message, floats, vector
 from pointat.node import Inlet, Node
 from pointat.runtime import Runtime
 
@@ -479,6 +481,42 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
 
     best, med = _rounds(fifteen, nb * k15, rounds)
     out.append(FilterCost("15 x TQTFilter robust", "pointat", best, med, "per sensor-sample"))
+
+    # the same in a patch, as a user wires it: one tqt_bank node, or a tqt node a sensor; three messages
+    # in a sensor-sample (mag, accel, then the hot gyro), its quaternion out to a sink
+    msgs = [
+        [tuple(floats(tuple(X[i][j]), i * dt) for X in (M15, A15, G15)) for j in range(k15)]
+        for i in range(nb)
+    ]
+    for label, note in (
+        ("tqt_bank node, 15 sensors", "per sensor-sample, in a patch: 3 messages in, the quaternion out"),
+        ("15 tqt nodes", "per sensor-sample, in a patch: 3 messages in, the quaternion out"),
+    ):
+
+        def nodes(bank: bool = label.startswith("tqt_bank")) -> None:
+            rt = Runtime(realtime=False)
+            sink = rt.add(_Null("sink"))
+            if bank:
+                node = rt.add(TQTBankNode("bank", {**TQTBankNode.resolve_params(named={"sensors": k15})}))
+                for j in range(k15):
+                    rt.connect(node, 2 + j, sink, 0)  # quatJ
+                feeds = [(node.receive, 3 * j) for j in range(k15)]
+            else:
+                feeds = []
+                for j in range(k15):
+                    node = rt.add(TQTNode(f"f{j}", TQTNode.resolve_params()))
+                    rt.connect(node, 0, sink, 0)
+                    feeds.append((node.receive, 0))
+            rt.start()
+            for i in range(nb):
+                for (receive, gyro), (mm, am, gm) in zip(feeds, msgs[i], strict=True):
+                    receive(gyro + 2, mm)
+                    receive(gyro + 1, am)
+                    receive(gyro, gm)
+            rt.shutdown()
+
+        best, med = _rounds(nodes, nb * k15, rounds)
+        out.append(FilterCost(label, "pointat", best, med, note))
 
     try:
         import ahrs

@@ -15,7 +15,7 @@ import logging
 import math
 from collections.abc import Mapping
 from functools import partial
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -417,24 +417,30 @@ class TQTBankNode(Node):
     """The ``tqt`` filter for many sensors at once (a body suit, several gloves): one update for all.
 
     ``sensors=N`` gives sensor ``I`` (1..N) the inlets ``gyroI``, ``accelI`` and ``magI`` (as ``tqt``'s:
-    send the gyro last, it is the hot one) and the outlet ``quatI``.  When every sensor has sent its gyro,
-    all of them are updated together by :class:`pointat.maths.tqt.TQTBank`, one compiled loop over the
-    sensors with numba (``pip install "pointat[fast]"``, robust mode), and each ``quatI`` sends its
-    sensor's orientation, right to left; ``quats`` sends all of them as one vector (4N numbers, sensor 1
-    first, a sensor not yet initialised as the identity).  Each sensor follows the filter of its own
-    ``tqt`` node with the same settings, to rounding, at a fraction of the cost per sample.
+    send the gyro last, it is the hot one) and the outlet ``quatI``, after the two outlets every bank has:
+    ``quats`` and ``flags``.  When every sensor has sent its gyro, all of them are updated together by
+    :class:`pointat.maths.tqt.TQTBank`, one compiled loop over the sensors with numba (``pip install
+    "pointat[fast]"``, robust mode); each ``quatI`` sends its sensor's orientation, right to left, then
+    ``quats`` all of them as one vector (4N numbers, sensor 1 first, a sensor not yet initialised as the
+    identity).  Each sensor follows the filter of its own ``tqt`` node with the same settings, to
+    rounding, at a fraction of the cost per sample.
 
-    The time step is the first sensor's of the tick (sensor time, as ``tqt``'s).  A sensor that misses a
-    tick (a lost packet: another sensor sends twice, or the tick is complete without it) stays where it
-    was for that tick; one that misses ``MISSES`` ticks in a row is not waited for until it is heard
-    again, so a glove switched off does not hold the others back.  ``flags`` sends ``I status`` when
-    sensor I's status changes: ``ok``, ``missing``, or the filter's flags as ``tqt`` reports them.
+    A tick is one sample from every sensor; it starts with the lowest-numbered sensor that is heard (as
+    a base station that sends its motes in turn delivers them) and is complete with the last.  The time
+    step is the first sensor's of the tick (sensor time, as ``tqt``'s).  A sensor that misses a tick (a
+    lost packet: the next tick starts without it) stays where it was for that tick; one that misses
+    ``MISSES`` ticks in a row is not waited for until it is heard again, so a glove switched off does
+    not hold the others back.  ``flags`` sends ``I status`` when sensor I's status changes: ``ok``,
+    ``missing``, or the filter's flags as ``tqt`` reports them.
     """
 
     pure = True
 
     #: Ticks in a row a sensor may miss before the bank stops waiting for it.
     MISSES = 5
+    #: Pd's stub of the type is drawn for 16 sensors (a body suit), so that it connects as any bank of up
+    #: to 16 does: the ports that do not depend on ``sensors`` come first.
+    stub_values: ClassVar[dict[str, Any]] = {"sensors": 16}
     MAX_GAP = SampleClock.MAX_GAP
 
     params = (
@@ -463,7 +469,12 @@ right.gyro -> suit.gyro2
     @classmethod
     def layout(cls, values: Mapping[str, Any]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
         inlets: list[Inlet] = []
-        outlets: list[Outlet] = []
+        outlets = [
+            Outlet("quats", "vector", "every sensor's quaternion, 4N numbers, sensor 1 first"),
+            Outlet(
+                "flags", "list", "I status, when sensor I's status changes (ok, missing, mag_disturbed...)"
+            ),
+        ]
         for i in range(1, int(values.get("sensors", 2)) + 1):
             inlets += [
                 Inlet(f"gyro{i}", ("vector", "list"), f"sensor {i}: angular rate, rad/s", hot=True),
@@ -473,12 +484,6 @@ right.gyro -> suit.gyro2
             outlets.append(
                 Outlet(f"quat{i}", "vector", f"sensor {i}: quaternion (w, x, y, z), sensor -> NWU")
             )
-        outlets += [
-            Outlet("quats", "vector", "every sensor's quaternion, 4N numbers, sensor 1 first"),
-            Outlet(
-                "flags", "list", "I status, when sensor I's status changes (ok, missing, mag_disturbed...)"
-            ),
-        ]
         return tuple(inlets), tuple(outlets)
 
     @classmethod
@@ -508,8 +513,13 @@ right.gyro -> suit.gyro2
         self._nfresh = 0
         self._live = [True] * n
         self._nlive = n
+        self._lead = 0  # the lowest-numbered live sensor: its sample starts a tick
         self._misses = [0] * n
         self._reported = ["ok"] * n
+        self._bits: np.ndarray | None = None  # the flags of the last update
+        self._complete = False  # whether the last tick had every sensor
+        self._ready = False  # whether every sensor is initialised (then none can stop being)
+        self._initialised = [False] * n
 
     def param_changed(self, name: str) -> None:
         value = getattr(self.p, name)
@@ -529,12 +539,16 @@ right.gyro -> suit.gyro2
 
     def _on_gyro(self, i: int, msg: Message) -> None:
         gyro = as_floats(msg, 3)
-        if self._fresh[i]:  # its next sample before the tick was complete: update without the missing
-            self._update()
         if not self._live[i]:
             self._live[i] = True
             self._nlive += 1
+            self._lead = min(self._lead, i)
             log.info("node '%s': sensor %d is back", self.name, i + 1)
+        # A new tick: this sensor's sample is in the pending one already, or the leader's sample comes
+        # while one is pending (which keeps a tick from holding one sensor's next sample for good, as it
+        # would after sensors started at different times): update the pending tick without the missing.
+        if self._fresh[i] or (i == self._lead and self._nfresh):
+            self._update()
         self._gyro[i] = gyro
         self._stamp[i] = msg.time
         self._fresh[i] = True
@@ -544,14 +558,42 @@ right.gyro -> suit.gyro2
 
     def _update(self) -> None:
         """Update every sensor, those with no sample this tick with NaN (they stay as they were)."""
-        n, fresh = self.p.sensors, self._fresh
+        n, fresh, stamps = self.p.sensors, self._fresh, self._stamp
+        first = fresh.index(True)
+        dt = time_step(self._last[first], stamps[first], 1.0 / self.p.rate, self.MAX_GAP)
+        complete = self._nfresh == n
+        if complete:  # the usual tick: every sensor is in it
+            gyro, accel, mag = self._gyro, self._accel, self._mag
+            self._last, self._misses = list(stamps), [0] * n
+        else:
+            gyro, accel, mag = self._without_missing()
+        q = self.bank.update(np.array(gyro), np.array(accel), np.array(mag), dt)
+        self._fresh, self._nfresh = [False] * n, 0
+        # right to left: quatN ... quat1, flags (only when they may have changed), quats
+        rows = q.tolist()
+        if not self._ready:
+            self._initialised = self.bank.initialised.tolist()
+            self._ready = all(self._initialised)
+        for i in range(n - 1, -1, -1):
+            if fresh[i] and (self._ready or self._initialised[i]):
+                self.out(2 + i, floats(tuple(rows[i]), stamps[i]))
+        bits = self.bank.flags
+        if not (complete and self._complete) or not np.array_equal(bits, self._bits):
+            self._bits = bits
+            for i, b in reversed(list(enumerate((bits & _NOT_REST).tolist()))):
+                status = "missing" if not fresh[i] else _status(TQTFlags(b)) if b else "ok"
+                if status != self._reported[i]:
+                    self._reported[i] = status
+                    self.out(1, (i + 1, status), stamps[i])
+        self._complete = complete
+        self.out(0, floats(tuple(q.ravel().tolist()), stamps[first]))
+
+    def _without_missing(self) -> tuple[list, list, list]:
+        """This tick's samples with NaN for the sensors missing from it; count their misses."""
         gyro, accel, mag = list(self._gyro), list(self._accel), list(self._mag)
-        dt = None
-        for i in range(n):
-            if fresh[i]:
-                step = time_step(self._last[i], self._stamp[i], 1.0 / self.p.rate, self.MAX_GAP)
+        for i in range(self.p.sensors):
+            if self._fresh[i]:
                 self._last[i] = self._stamp[i]
-                dt = step if dt is None else dt
                 self._misses[i] = 0
                 continue
             gyro[i] = accel[i] = mag[i] = _NAN3
@@ -559,27 +601,14 @@ right.gyro -> suit.gyro2
             if self._live[i] and self._misses[i] >= self.MISSES:
                 self._live[i] = False
                 self._nlive -= 1
+                self._lead = next((j for j, live in enumerate(self._live) if live), 0)
                 log.info(
                     "node '%s': sensor %d missed %d ticks in a row; not waited for until it is heard again",
                     self.name,
                     i + 1,
                     self.MISSES,
                 )
-        q = self.bank.update(np.array(gyro), np.array(accel), np.array(mag), dt).tolist()
-        bits = self.bank.flags.tolist()
-        ready = self.bank.initialised.tolist()
-        stamps, self._fresh, self._nfresh = self._stamp, [False] * n, 0
-        for i in range(n - 1, -1, -1):  # right to left: flags, quats, quatN ... quat1
-            b = bits[i] & _NOT_REST
-            status = "missing" if not fresh[i] else _status(TQTFlags(b)) if b else "ok"
-            if status != self._reported[i]:
-                self._reported[i] = status
-                self.out(n + 1, (i + 1, status), stamps[i])
-        first = next(i for i in range(n) if fresh[i])
-        self.out(n, floats(tuple(x for row in q for x in row), stamps[first]))
-        for i in range(n - 1, -1, -1):
-            if fresh[i] and ready[i]:
-                self.out(i, floats(tuple(q[i]), stamps[i]))
+        return gyro, accel, mag
 
     def do_reset(self) -> None:
         self.setup()

@@ -225,6 +225,9 @@ class Node:
     #: path from such a node reaches a node with effects (an output, a file, a print), the runtime does
     #: not feed it at all (:meth:`pointat.runtime.Runtime.prune`).
     pure: ClassVar[bool] = False
+    #: Parameter values the type's Pd stub (:func:`pointat.pdfile.write_stubs`) is drawn for, where the
+    #: ports depend on parameters and the defaults would give too few.
+    stub_values: ClassVar[dict[str, Any]] = {}
     #: Where the class came from (module, entry point or plugin file), for error messages.
     origin: ClassVar[str] = ""
 

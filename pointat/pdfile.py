@@ -41,7 +41,7 @@ that would lose digits is logged as a warning).  Symbols that would read as a nu
 are escaped (``\12``, ``a\=b``); Pd keeps that while the patch is open but drops it when it saves.
 
 **Stubs** (:func:`write_stubs`).  One ``TYPE.pd`` abstraction per pointat-only node type, with its inlets
-and outlets (for the default parameters) and its doc line, so Pd's editor draws and connects the boxes.
+and outlets (for the default parameters, or the type's ``stub_values``) and its doc line, so Pd's editor draws and connects the boxes.
 
 >>> spec = parse_pd("#N canvas 0 50 450 300 12;\n#X obj 10 10 metro 100;\n#X text 10 40 @name out;\n"
 ...                 "#X obj 10 60 print tick;\n#X connect 0 0 2 0;\n", "t.pd")
@@ -789,9 +789,10 @@ def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
 
 # =========================================================================== stubs
 def _default_layout(cls: type[Node]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
-    """Inlets and outlets for the default parameters (the declared ones when that needs a value)."""
+    """Inlets and outlets for the default parameters, or those the type names for its stub
+    (:attr:`~pointat.node.Node.stub_values`); the declared ones when that needs a value."""
     try:
-        return cls.layout({p.name: p.default for p in cls.params})
+        return cls.layout({**{p.name: p.default for p in cls.params}, **cls.stub_values})
     except Exception:  # a required parameter or a layout that validates: fall back to the declaration
         return tuple(cls.inlets), tuple(cls.outlets)
 

@@ -148,3 +148,29 @@ def test_spin_rows_are_goals_of_their_own_against_the_plain_relay():
     spin = "Pointing-at (torre_fusion) --spin 2, osc_in path, 1 kHz: p99 ≤ 1.2 × python-osc relay"
     assert goals[plain][0].startswith("1.50 ×") and goals[plain][1] == "**missed**"
     assert goals[spin][0].startswith("0.90 ×") and goals[spin][1] == "**met**"
+
+
+def test_the_checked_in_mote_patches_are_what_the_benchmark_writes():
+    from benchmarks.latency import PATCHES, mote_patch_text
+
+    names = sorted(p.name for p in PATCHES.glob("mote_*_*.pat") if not p.name.startswith("mote_relay"))
+    assert names == [
+        f"mote_{c}_{n}.pat"
+        for c, n in (("torre", 1), ("torre", 16), ("tqt", 1), ("tqt", 16), ("tqt_bank", 16))
+    ]
+    for name in names:
+        chain, motes = name[5:-4].rsplit("_", 1)
+        assert (PATCHES / name).read_text() == mote_patch_text(chain, int(motes)), name
+
+
+def test_sixteen_gloves_through_one_tqt_bank_are_measured_on_the_mote_path(tmp_path):
+    """Real mote frames for 16 motes into a pseudo-terminal, the whole patch in a child process, every
+    glove's OSC matched to its frame at a UDP socket (the benchmark's own path, briefly)."""
+    from benchmarks.latency import Phases, run_pointat_mote
+    from pointat.maths.evaluation import BROAD_SAMPLE, load_broad
+
+    r = run_pointat_mote("tqt_bank", 200.0, 16, Phases(measure=1.0), load_broad(BROAD_SAMPLE), tmp_path)
+    assert not r.error, r.error
+    assert r.label == "pointat tqt_bank (mote, pty)" and r.motes == 16
+    assert r.expected >= 16 * 150 and r.received == r.expected
+    assert np.isfinite(r.latencies_us).all() and (r.latencies_us > 0).all()

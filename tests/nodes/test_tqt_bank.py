@@ -108,14 +108,26 @@ def test_a_silent_sensor_is_not_waited_for_and_is_waited_for_again_when_back(cap
     q1 = rt.nodes["q1"].messages
     assert q1[-1].time == 0.29  # sample 29 out at once: the bank no longer waits for sensor 2
     assert "sensor 2 missed 5 ticks in a row" in caplog.text
-    tick(bank, 30, sensors=(2,))  # back, first in tick 30: waited for again, and it waits for sensor 1
-    assert "sensor 2 is back" in caplog.text and rt.nodes["q2"].messages[-1].time == 0.09
-    tick(bank, 30, sensors=(1,))
-    assert q1[-1].time == rt.nodes["q2"].messages[-1].time == 0.30
-    tick(bank, 31, sensors=(1,))
-    assert q1[-1].time == 0.30  # sample 31 of sensor 1 waits for sensor 2's
+    tick(bank, 30)  # back, after sensor 1's sample 30 went out alone: waited for from the next tick
+    assert "sensor 2 is back" in caplog.text and q1[-1].time == 0.30
+    tick(bank, 31, sensors=(1,))  # the next tick starts: sensor 2's sample 30 goes out
+    assert rt.nodes["q2"].messages[-1].time == 0.30
+    assert q1[-1].time == 0.30  # and sample 31 of sensor 1 waits for sensor 2's
     tick(bank, 31, sensors=(2,))
     assert q1[-1].time == rt.nodes["q2"].messages[-1].time == 0.31
+
+
+def test_sensors_that_start_at_different_ticks_are_kept_in_step():
+    """Sensor 2 starts 8 ticks after sensor 1 (its nulls took longer, its mote was switched on later):
+    from its first tick on, every update holds sample k of both, not sensor 1's k+1 with sensor 2's k."""
+    rt, bank = bank2()
+    for k in range(8):
+        tick(bank, k, sensors=(1,))
+    for k in range(8, 20):
+        tick(bank, k)
+    q1, q2 = rt.nodes["q1"].messages, rt.nodes["q2"].messages
+    assert [m.time for m in q2] == [k / 100 for k in range(8, 20)]
+    assert [m.time for m in q1[-12:]] == [m.time for m in q2]
 
 
 def test_bank_gains_are_live_and_the_layout_follows_sensors():
@@ -125,7 +137,7 @@ def test_bank_gains_are_live_and_the_layout_follows_sensors():
     with pytest.raises(ValueError, match="cannot change while running"):
         bank.receive(0, method("sensors", 3))
     assert [i.name for i in bank.in_specs] == ["gyro1", "accel1", "mag1", "gyro2", "accel2", "mag2"]
-    assert [o.name for o in bank.out_specs] == ["quat1", "quat2", "quats", "flags"]
+    assert [o.name for o in bank.out_specs] == ["quats", "flags", "quat1", "quat2"]
 
 
 def test_bad_bank_wiring_and_settings_name_the_place():
