@@ -216,6 +216,7 @@ def _latency_section(run: Run) -> list[str]:
         "-sleepgrain 0.1 p50 0.22 / p99 3.4 ms; python-osc relay p50 0.26-0.45 / p99 1.4-1.6 ms.",
         "",
     ]
+    out += _sixteen_gloves(lat)
     out += _where_the_time_goes(lat, per_node=bool(run.throughput and run.throughput.nodes), calls=run.calls)
     if run.handoff is not None and run.handoff.size:
         h = run.handoff
@@ -231,6 +232,34 @@ def _latency_section(run: Run) -> list[str]:
         ]
     out += ["![Latency distribution at 1 kHz, one glove](figures/latency_cdf_1khz.svg)", ""]
     return out
+
+
+def _sixteen_gloves(lat: list[LatencyResult]) -> list[str]:
+    """The 16-mote rows side by side: a tqt chain a glove against one tqt_bank for all of them."""
+    parts = []
+    for rate in (100.0, 1000.0):
+        alone, bank = (_find(lat, "pointat-mote", chain, rate, motes=16) for chain in ("tqt", "tqt_bank"))
+        if alone is None or bank is None or alone.error or bank.error:
+            continue
+        cpu = ""
+        if alone.cpu_fraction is not None and bank.cpu_fraction is not None:
+            cpu = f", CPU {100 * bank.cpu_fraction:.0f} against {100 * alone.cpu_fraction:.0f} %"
+        parts.append(
+            f"at {rate:g} Hz p50 {_ms(bank.p50)} / p99 {_ms(bank.p99)} ms against {_ms(alone.p50)} / "
+            f"{_ms(alone.p99)} ms{cpu}"
+        )
+    if not parts:
+        return []
+    return [
+        "**Sixteen gloves, one filter.**  The `tqt_bank` rows run the same 16 gloves with one `tqt_bank` "
+        "node for all of them (`mote_tqt_bank_16.pat`: each glove's `offset` and `scaling`, the bank, then "
+        "each glove's reference, direction and `osc_out`) instead of a `tqt` node a glove: "
+        + "; ".join(parts)
+        + ".  Every glove's output now waits for the tick's last frame (the bank updates them together), "
+        "which the median shows at low load; the filters' share of the work shrinks, which the tail and "
+        "the CPU show where one core is near its end.",
+        "",
+    ]
 
 
 def _where_the_time_goes(

@@ -174,3 +174,20 @@ def test_sixteen_gloves_through_one_tqt_bank_are_measured_on_the_mote_path(tmp_p
     assert r.label == "pointat tqt_bank (mote, pty)" and r.motes == 16
     assert r.expected >= 16 * 150 and r.received == r.expected
     assert np.isfinite(r.latencies_us).all() and (r.latencies_us > 0).all()
+
+
+def test_the_sixteen_glove_rows_are_set_side_by_side():
+    from benchmarks.report import _sixteen_gloves
+
+    rows = []
+    for chain, values, cpu in (
+        ("tqt", [700.0] * 98 + [30000.0] * 2, 0.75),
+        ("tqt_bank", [600.0] * 100, 0.58),
+    ):
+        r = LatencyResult(chain, "pointat-mote", chain, 1000.0, 16, "cmd")
+        r.latencies_us = np.array(values)
+        r.expected, r.cpu_fraction = 100, cpu
+        rows.append(r)
+    [text, _] = _sixteen_gloves(rows)
+    assert "at 1000 Hz p50 0.60 / p99 0.60 ms against 0.70 / 30.00 ms, CPU 58 against 75 %" in text
+    assert _sixteen_gloves(rows[:1]) == []
