@@ -20,6 +20,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pointat.maths import scalar as sq
+from pointat.maths import tqt_compiled
 from pointat.maths.fusion import GyroIntegrator, RollDistance
 from pointat.maths.quaternion import (
     enu_to_nwu,
@@ -489,6 +490,10 @@ right.gyro -> suit.gyro2
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
         TQT.validate(values)
+        if values["backend"] == "numba" and values["mode"] != "robust":
+            raise ValueError("backend=numba runs mode=robust only (paper: backend=numpy or auto)")
+        if values["backend"] == "numba" and not tqt_compiled.available():
+            raise ValueError('backend=numba needs numba: pip install "pointat[fast]" (or backend=auto)')
 
     def setup(self) -> None:
         p, n = self.p, self.p.sensors

@@ -147,6 +147,8 @@ def test_bad_bank_wiring_and_settings_name_the_place():
         patch("node bank tqt_bank sensors=0\n")
     with pytest.raises(PatchError, match="dip"):
         patch("node bank tqt_bank dip=120\n")
+    with pytest.raises(PatchError, match=r"<test>:1: .*backend=numba runs mode=robust only"):
+        patch("node bank tqt_bank mode=paper backend=numba\n")
 
 
 def test_the_shipped_three_glove_patch_sends_three_sources_over_osc():
