@@ -255,9 +255,9 @@ def _sixteen_gloves(lat: list[LatencyResult]) -> list[str]:
         "node for all of them (`mote_tqt_bank_16.pat`: each glove's `offset` and `scaling`, the bank, then "
         "each glove's reference, direction and `osc_out`) instead of a `tqt` node a glove: "
         + "; ".join(parts)
-        + ".  Every glove's output now waits for the tick's last frame (the bank updates them together), "
-        "which the median shows at low load; the filters' share of the work shrinks, which the tail and "
-        "the CPU show where one core is near its end.",
+        + ".  With the bank every glove's output waits for the tick's last frame, as the bank updates them "
+        "together (with a chain a glove, the first gloves of a delivery go out sooner and the last ones "
+        "later), and the filters' share of the work is smaller: one compiled update for all of them.",
         "",
     ]
 
