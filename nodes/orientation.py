@@ -11,6 +11,7 @@ state as it was and is reported on its ``flags`` outlet; nothing downstream ever
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import math
 from collections.abc import Mapping
@@ -20,7 +21,6 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pointat.maths import scalar as sq
-from pointat.maths import tqt_compiled
 from pointat.maths.fusion import GyroIntegrator, RollDistance
 from pointat.maths.quaternion import (
     enu_to_nwu,
@@ -492,7 +492,9 @@ right.gyro -> suit.gyro2
         TQT.validate(values)
         if values["backend"] == "numba" and values["mode"] != "robust":
             raise ValueError("backend=numba runs mode=robust only (paper: backend=numpy or auto)")
-        if values["backend"] == "numba" and not tqt_compiled.available():
+        # find_spec, not an import: numba costs a quarter of a second and ~50 MB to import, which a patch
+        # pays only when it builds a bank that runs it
+        if values["backend"] == "numba" and importlib.util.find_spec("numba") is None:
             raise ValueError('backend=numba needs numba: pip install "pointat[fast]" (or backend=auto)')
 
     def setup(self) -> None:

@@ -192,3 +192,27 @@ def test_the_shipped_three_glove_patch_sends_three_sources_over_osc():
     last = np.array([got[f"/pointat/{i}/aed"][n - 1] for i in (1, 2, 3)])
     assert np.isfinite(last).all()
     assert np.ptp(last[:, 0]) < 5.0 and np.ptp(last[:, 1]) < 5.0, last  # degrees
+
+
+def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path, require_tool):
+    """numba costs a quarter of a second and ~50 MB to import: listing every node type and checking a
+    bank with backend=numba must not pay it (every patch would); building the bank does."""
+    import subprocess
+    import sys
+
+    require_tool(tqt_compiled.available(), "numba is not installed (pip install '.[fast]')")
+    pat = tmp_path / "bank.pat"
+    pat.write_text("node bank tqt_bank sensors=2 backend=numba\n")
+    code = (
+        "import contextlib, io, sys\n"
+        "from pointat.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        f"    codes = (main(['nodes']), main(['check', {str(pat)!r}]))\n"
+        "before = 'numba' in sys.modules\n"
+        "from pointat.loader import load\n"
+        f"load({str(pat)!r}, realtime=False)\n"
+        "print(codes, before, 'numba' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["(0,", "0)", "False", "True"], out.stdout + out.stderr
