@@ -431,14 +431,19 @@ class TQTBankNode(Node):
     step is the first sensor's of the tick (sensor time, as ``tqt``'s).  A sensor that misses a tick (a
     lost packet: the next tick starts without it) stays where it was for that tick; one that misses
     ``MISSES`` ticks in a row is not waited for until it is heard again, so a glove switched off does
-    not hold the others back.  ``flags`` sends ``I status`` when sensor I's status changes: ``ok``,
-    ``missing``, or the filter's flags as ``tqt`` reports them.
+    not hold the others back.  Sensors that arrive in no fixed order (phones over OSC, each on its own
+    clock) are updated once per sample all the same, some ticks in two updates.  ``flags`` sends ``I
+    status`` when sensor I's status changes: ``ok``, ``missing`` (it missed ``MISSING`` ticks in a row:
+    a single lost packet, or a sample that came out of turn, is not reported), or the filter's flags as
+    ``tqt`` reports them.
     """
 
     pure = True
 
     #: Ticks in a row a sensor may miss before the bank stops waiting for it.
     MISSES = 5
+    #: Ticks in a row a sensor misses before ``flags`` reports it ``missing``.
+    MISSING = 2
     #: Pd's stub of the type is drawn for 16 sensors (a body suit), so that it connects as any bank of up
     #: to 16 does: the ports that do not depend on ``sensors`` come first.
     stub_values: ClassVar[dict[str, Any]] = {"sensors": 16}
@@ -521,7 +526,9 @@ right.gyro -> suit.gyro2
         self._live = [True] * n
         self._nlive = n
         self._lead = 0  # the lowest-numbered live sensor: its sample starts a tick
-        self._misses = [0] * n
+        self._misses = [0] * n  # updates in a row without the sensor (the leader's measure)
+        self._ticks = 0  # ticks started: the leader's samples
+        self._heard = [0] * n  # the tick in which each sensor was last heard
         self._reported = ["ok"] * n
         self._bits: np.ndarray | None = None  # the flags of the last update
         self._complete = False  # whether the last tick had every sensor
@@ -539,9 +546,13 @@ right.gyro -> suit.gyro2
         return partial((self._on_gyro, self._on_accel, self._on_mag)[part], sensor)
 
     def _on_accel(self, i: int, msg: Message) -> None:
+        if self._fresh[i]:  # this sensor's next sample begins while its last is pending: send that first
+            self._update()
         self._accel[i] = as_floats(msg, 3)
 
     def _on_mag(self, i: int, msg: Message) -> None:
+        if self._fresh[i]:
+            self._update()
         self._mag[i] = as_floats(msg, 3)
 
     def _on_gyro(self, i: int, msg: Message) -> None:
@@ -556,6 +567,9 @@ right.gyro -> suit.gyro2
         # would after sensors started at different times): update the pending tick without the missing.
         if self._fresh[i] or (i == self._lead and self._nfresh):
             self._update()
+        if i == self._lead:
+            self._ticks += 1
+        self._heard[i] = self._ticks
         self._gyro[i] = gyro
         self._stamp[i] = msg.time
         self._fresh[i] = True
@@ -564,17 +578,19 @@ right.gyro -> suit.gyro2
             self._update()
 
     def _update(self) -> None:
-        """Update every sensor, those with no sample this tick with NaN (they stay as they were)."""
+        """Update every sensor with a sample this tick; the others stay exactly as they were."""
         n, fresh, stamps = self.p.sensors, self._fresh, self._stamp
         first = fresh.index(True)
         dt = time_step(self._last[first], stamps[first], 1.0 / self.p.rate, self.MAX_GAP)
         complete = self._nfresh == n
+        present = None
         if complete:  # the usual tick: every sensor is in it
             gyro, accel, mag = self._gyro, self._accel, self._mag
             self._last, self._misses = list(stamps), [0] * n
         else:
             gyro, accel, mag = self._without_missing()
-        q = self.bank.update(np.array(gyro), np.array(accel), np.array(mag), dt)
+            present = fresh
+        q = self.bank.update(np.array(gyro), np.array(accel), np.array(mag), dt, present)
         self._fresh, self._nfresh = [False] * n, 0
         # right to left: quatN ... quat1, flags (only when they may have changed), quats
         rows = q.tolist()
@@ -588,6 +604,8 @@ right.gyro -> suit.gyro2
         if not (complete and self._complete) or not np.array_equal(bits, self._bits):
             self._bits = bits
             for i, b in reversed(list(enumerate((bits & _NOT_REST).tolist()))):
+                if not fresh[i] and self._missed(i) < self.MISSING:
+                    continue  # one tick late or lost: not missing yet
                 status = "missing" if not fresh[i] else _status(TQTFlags(b)) if b else "ok"
                 if status != self._reported[i]:
                     self._reported[i] = status
@@ -605,7 +623,7 @@ right.gyro -> suit.gyro2
                 continue
             gyro[i] = accel[i] = mag[i] = _NAN3
             self._misses[i] += 1
-            if self._live[i] and self._misses[i] >= self.MISSES:
+            if self._live[i] and self._missed(i) >= self.MISSES:
                 self._live[i] = False
                 self._nlive -= 1
                 self._lead = next((j for j, live in enumerate(self._live) if live), 0)
@@ -616,6 +634,12 @@ right.gyro -> suit.gyro2
                     self.MISSES,
                 )
         return gyro, accel, mag
+
+    def _missed(self, i: int) -> int:
+        """Ticks in a row sensor i has missed.  Counted in the leader's samples, not in updates: sensors
+        in no fixed order make some ticks two updates, and one that is late in one tick and early in the
+        next has missed none.  The leader itself starts every tick it is in; its misses are updates."""
+        return self._misses[i] if i == self._lead else self._ticks - self._heard[i]
 
     def do_reset(self) -> None:
         self.setup()

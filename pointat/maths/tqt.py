@@ -1242,7 +1242,15 @@ class TQTBank(_TQTParams):
         """Dip references in radians, shape (n,) (NaN until learned)."""
         return np.where(self._mag_known | (self.dip is not None), self._dip_ref, np.nan)
 
-    def update(self, gyro: ArrayLike, acc: ArrayLike, mag: ArrayLike, dt: float) -> np.ndarray:
+    #: The per-sensor state, each array's last axis the sensor: what an absent sensor keeps.
+    _STATE = (
+        "_q", "_initialised", "_flags", "_bias", "_rest_t", "_lp_gyr", "_lp_acc", "_acc_e", "_acc_known",
+        "_mag_norm", "_mag_known", "_dip_ref", "_nref",
+    )  # fmt: skip
+
+    def update(
+        self, gyro: ArrayLike, acc: ArrayLike, mag: ArrayLike, dt: float, present: ArrayLike | None = None
+    ) -> np.ndarray:
         """Advance all sensors by one sample.
 
         Parameters
@@ -1255,12 +1263,30 @@ class TQTBank(_TQTParams):
             Magnetic fields.
         dt : float
             Seconds since the previous sample (common to all sensors).
+        present : array_like of bool, shape (n,), optional
+            Which sensors have a sample in this update (default: all).  An absent sensor is left exactly
+            as it was, its flags included: a lost packet is not a bad sample (which, as in
+            :class:`TQTFilter`, also ends a rest).
 
         Returns
         -------
         numpy.ndarray, shape (n, 4)
             Orientations ``(w, x, y, z)``, sensor -> NWU; never NaN.
         """
+        if present is None:
+            return self._step(gyro, acc, mag, dt)
+        absent = ~np.asarray(present, dtype=bool)
+        if absent.shape != (self.n,):
+            raise ValueError(f"present must have shape ({self.n},), got {absent.shape}")
+        if not absent.any():
+            return self._step(gyro, acc, mag, dt)
+        kept = [getattr(self, name)[..., absent].copy() for name in self._STATE]
+        self._step(gyro, acc, mag, dt)
+        for name, value in zip(self._STATE, kept, strict=True):
+            getattr(self, name)[..., absent] = value
+        return self._q.T.copy()
+
+    def _step(self, gyro: ArrayLike, acc: ArrayLike, mag: ArrayLike, dt: float) -> np.ndarray:
         shape = (self.n, 3)
         g = np.asarray(gyro, dtype=float)
         a = np.asarray(acc, dtype=float)

@@ -567,3 +567,27 @@ def test_bank_backends_agree_from_a_known_start(require_tool):
         q_numpy, q_numba = (bank.update(g, a, m, 0.01) for bank in banks)
         np.testing.assert_allclose(q_numba, q_numpy, atol=1e-12)
         assert banks[0].flags.tolist() == banks[1].flags.tolist()
+
+
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_a_sensor_absent_from_an_update_keeps_all_its_state(backend):
+    """Sensor 2 is in every other update (its packets split from the others'): it follows a filter fed
+    only its own samples, rest and bias included; marked NaN instead, every absence would end its rest."""
+    run = synthetic(seed=4, seconds=8.0, rest=4.0, noise=True, bias=(0.005, -0.008, 0.003))
+    dt, gyro, acc, mag = run[0], run[2], run[3], run[4]
+    bank = TQTBank(2, backend=backend)
+    alone = TQTFilter()
+    rested = False
+    for i in range(len(gyro)):
+        both = np.array([gyro[i], gyro[i]]), np.array([acc[i], acc[i]]), np.array([mag[i], mag[i]])
+        bank.update(*both, dt, present=[True, False])  # sensor 1's sample of tick i
+        flags_1 = int(bank.flags[0])
+        q = bank.update(*both, dt, present=[False, True])  # sensor 2's, a moment later
+        want = alone.update(gyro[i], acc[i], mag[i], dt)
+        np.testing.assert_allclose(q[1], want, atol=1e-12)
+        assert int(bank.flags[1]) == int(alone.flags) and int(bank.flags[0]) == flags_1
+        rested |= bool(alone.flags & TQTFlags.REST)
+    assert rested  # the run has the rest this is about
+    np.testing.assert_allclose(bank.bias[1], alone.bias, atol=1e-12)
+    with pytest.raises(ValueError, match=r"present must have shape \(2,\)"):
+        bank.update(*both, dt, present=[True])
