@@ -591,3 +591,13 @@ def test_a_sensor_absent_from_an_update_keeps_all_its_state(backend):
     np.testing.assert_allclose(bank.bias[1], alone.bias, atol=1e-12)
     with pytest.raises(ValueError, match=r"present must have shape \(2,\)"):
         bank.update(*both, dt, present=[True])
+
+
+def test_what_an_absent_sensor_keeps_is_all_the_bank_state():
+    """``TQTBank._STATE`` names every per-sensor array: one added to the filter and not to it would change
+    under a sensor absent from an update."""
+    n = 3
+    bank = TQTBank(n, backend="numpy")
+    bank.update(np.zeros((n, 3)), np.tile([0.0, 0.0, G], (n, 1)), np.tile(FIELD, (n, 1)), 0.01)
+    per_sensor = {k for k, v in vars(bank).items() if isinstance(v, np.ndarray) and v.shape[-1:] == (n,)}
+    assert per_sensor == set(TQTBank._STATE)
