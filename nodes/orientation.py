@@ -585,12 +585,11 @@ right.gyro -> suit.gyro2
         complete = self._nfresh == n
         present = None
         if complete:  # the usual tick: every sensor is in it
-            gyro, accel, mag = self._gyro, self._accel, self._mag
             self._last, self._misses = list(stamps), [0] * n
-        else:
-            gyro, accel, mag = self._without_missing()
+        else:  # the missing sensors' inputs are their last samples, which the bank leaves unused
+            self._count_missing()
             present = fresh
-        q = self.bank.update(np.array(gyro), np.array(accel), np.array(mag), dt, present)
+        q = self.bank.update(np.array(self._gyro), np.array(self._accel), np.array(self._mag), dt, present)
         self._fresh, self._nfresh = [False] * n, 0
         # right to left: quatN ... quat1, flags (only when they may have changed), quats
         rows = q.tolist()
@@ -613,15 +612,13 @@ right.gyro -> suit.gyro2
         self._complete = complete
         self.out(0, floats(tuple(q.ravel().tolist()), stamps[first]))
 
-    def _without_missing(self) -> tuple[list, list, list]:
-        """This tick's samples with NaN for the sensors missing from it; count their misses."""
-        gyro, accel, mag = list(self._gyro), list(self._accel), list(self._mag)
+    def _count_missing(self) -> None:
+        """Count the misses of the sensors missing from this tick; stop waiting for a silent one."""
         for i in range(self.p.sensors):
             if self._fresh[i]:
                 self._last[i] = self._stamp[i]
                 self._misses[i] = 0
                 continue
-            gyro[i] = accel[i] = mag[i] = _NAN3
             self._misses[i] += 1
             if self._live[i] and self._missed(i) >= self.MISSES:
                 self._live[i] = False
@@ -633,7 +630,6 @@ right.gyro -> suit.gyro2
                     i + 1,
                     self.MISSES,
                 )
-        return gyro, accel, mag
 
     def _missed(self, i: int) -> int:
         """Ticks in a row sensor i has missed.  Counted in the leader's samples, not in updates: sensors
