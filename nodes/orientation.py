@@ -430,10 +430,10 @@ class TQTBankNode(Node):
     a base station that sends its motes in turn delivers them) and is complete with the last.  The time
     step is the first sensor's of the tick (sensor time, as ``tqt``'s).  A sensor that misses a tick (a
     lost packet: the next tick starts without it) stays where it was for that tick; one that misses
-    ``MISSES`` ticks in a row is not waited for until it is heard again, so a glove switched off does
+    5 ticks in a row (``MISSES``) is not waited for until it is heard again, so a glove switched off does
     not hold the others back.  Sensors that arrive in no fixed order (phones over OSC, each on its own
     clock) are updated once per sample all the same, some ticks in two updates.  ``flags`` sends ``I
-    status`` when sensor I's status changes: ``ok``, ``missing`` (it missed ``MISSING`` ticks in a row:
+    status`` when sensor I's status changes: ``ok``, ``missing`` (it missed 2 ticks in a row, ``MISSING``:
     a single lost packet, or a sample that came out of turn, is not reported), or the filter's flags as
     ``tqt`` reports them.
     """

@@ -254,3 +254,11 @@ def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path, require_
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["(0,", "0)", "False", "True"], out.stdout + out.stderr
+
+
+def test_the_help_gives_the_tick_counts_the_node_uses():
+    from nodes.orientation import TQTBankNode
+
+    doc = " ".join(TQTBankNode.__doc__.split())
+    assert f"misses {TQTBankNode.MISSES} ticks in a row (``MISSES``)" in doc
+    assert f"missed {TQTBankNode.MISSING} ticks in a row, ``MISSING``" in doc
