@@ -19,6 +19,7 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import cProfile
 import gc
 import gzip
@@ -250,6 +251,35 @@ PUSHED = "ADC vectors pushed into the chain"
 PUSHED_NO_WAKE = "ADC vectors pushed, OSC to a socket nobody waits on"
 
 
+def _spy(node: Node) -> list[tuple[int, Message]]:
+    """Record every data message ``node`` gets from now on, (inlet, message), in the list returned.
+
+    Data reaches a node by ``receive`` from outside and by its per-inlet delivery from an upstream
+    ``out`` (:meth:`pointat.node.Node.out`): both doors are watched.
+    """
+    log: list[tuple[int, Message]] = []
+
+    def tap(index: int, fn: Callable[[Message], None]) -> Callable[[Message], None]:
+        def spy(msg: Message) -> None:
+            log.append((index, msg))
+            fn(msg)
+
+        return spy
+
+    if node._deliver is node._handlers:  # receive ends in the same handlers that out calls
+        node._handlers[:] = [tap(i, fn) for i, fn in enumerate(node._handlers)]
+    else:  # the type has its own receive, and out calls it
+        receive = node.receive
+
+        def spy_receive(index: int, msg: Message) -> None:
+            log.append((index, msg))
+            receive(index, msg)
+
+        node.receive = spy_receive  # type: ignore[method-assign]
+        node._deliver[:] = [functools.partial(spy_receive, i) for i in range(len(node._deliver))]
+    return log
+
+
 def push_rate(chain: str, messages: list[Message], port: int, record: bool = False, how: str = PUSHED):
     """(b) ADC vectors straight into the chain's first node; optionally record every node's inputs."""
     rt = _load_chain(chain, port)
@@ -261,13 +291,7 @@ def push_rate(chain: str, messages: list[Message], port: int, record: bool = Fal
     if record:
         for name, node in rt.nodes.items():
             if name.startswith("g/"):
-                recorded[name] = []
-
-                def spy(index: int, msg: Message, _orig=node.receive, _log=recorded[name]) -> None:
-                    _log.append((index, msg))
-                    _orig(index, msg)
-
-                node.receive = spy  # type: ignore[method-assign]
+                recorded[name] = _spy(node)
     body = messages[200:]
     size = len(body) // CHUNKS
     wall = math.inf

@@ -4,6 +4,7 @@ import numpy as np
 
 from benchmarks.latency import LatencyResult, pool
 from benchmarks.report import _by_round
+from pointat.message import make
 
 
 def _round(values, error="", cpu=0.1, rss=1000):
@@ -191,3 +192,22 @@ def test_the_sixteen_glove_rows_are_set_side_by_side():
     [text, _] = _sixteen_gloves(rows)
     assert "at 1000 Hz p50 0.60 / p99 0.60 ms against 0.70 / 30.00 ms, CPU 58 against 75 %" in text
     assert _sixteen_gloves(rows[:1]) == []
+
+
+def test_recording_a_chain_sees_every_message_each_node_gets():
+    # node_costs replays what each node received: the spy must watch out's direct delivery as well
+    from benchmarks.latency import udp_hole
+    from benchmarks.throughput import _adc_messages, _spy, push_rate
+    from pointat.testing import patch
+
+    with udp_hole() as hole:
+        _, recorded, _ = push_rate("torre", _adc_messages(260), hole.getsockname()[1], record=True)
+    counts = {name: len(msgs) for name, msgs in recorded.items()}
+    assert counts["g/nulls"] == 60  # the 260 less the 200 of the warm-up, one ADC vector each
+    assert counts["g/torre/fuse"] == 2 * 60  # gyro orientation and accel/mag orientation
+    assert counts["g/out"] == 3 * 60  # azimuth, elevation, distance
+    # a type with its own receive (trigger) is watched at that door
+    rt = patch("node src msg 1\nnode t trigger f f\nnode c collect\nsrc -> t\nt.0 -> c\n")
+    seen = _spy(rt.nodes["t"])
+    rt.nodes["src"].receive(0, make(None))
+    assert [(i, m.value) for i, m in seen] == [(0, 1.0)] and rt.nodes["c"].values == [1.0]

@@ -328,3 +328,80 @@ def test_tqt_k_0_live_is_the_modes_own_gain_and_a_rate_of_0_is_refused_everywher
     for node in ("gyro_integrator", "complementary", "tqt", "mote", "simulate"):
         with pytest.raises(PatchError, match="parameter 'rate' expects a number > 0; got 0"):
             patch(f"node n {node} rate=0\n")
+
+
+class Stamp(Node):
+    """Records what it receives and the node's time while handling it; a method ``poke`` too."""
+
+    type_name = "stamp_test"
+    inlets = (Inlet("in", ("any",)), Inlet("cold", ("float",)))
+    outlets = (Outlet("out", "any"),)
+
+    def setup(self):
+        self.seen = []
+
+    def on_in(self, msg):
+        self.seen.append((msg.kind, msg.value, msg.time, self.time))
+        self.out(0, msg)
+
+    def do_poke(self, *args):
+        self.seen.append(("poke", args, None, self.time))
+
+
+class Overrides(Stamp):
+    """A type that takes every message in its own ``receive`` and hands data on to the base's."""
+
+    type_name = "overrides_test"
+
+    def receive(self, index, msg):
+        self.seen.append(("receive", index, msg.kind))
+        super().receive(index, msg)
+
+
+def _wired(*nodes):
+    from pointat.runtime import Runtime
+
+    rt = Runtime(realtime=False)
+    for node in nodes:
+        rt.add(node)
+    for a, b in zip(nodes, nodes[1:], strict=False):
+        rt.connect(a, 0, b, 0)
+    rt.start()
+    return rt
+
+
+def test_out_delivers_data_with_its_time_and_methods_by_receive():
+    src, dst = Stamp("src"), Stamp("dst")
+    _wired(src, dst)
+    src.out(0, make(2.5, time=7.0))
+    src.out(0, method("poke", 1, time=8.0))
+    src.out(0, make("hi", time=9.0))
+    assert dst.seen == [
+        ("float", 2.5, 7.0, 7.0),  # the node's time is the message's while it handles it
+        ("poke", (1,), None, 8.0),
+        ("symbol", "hi", 9.0, 9.0),
+    ]
+
+
+def test_a_type_that_overrides_receive_gets_every_message_there_and_can_call_the_base():
+    src, mid, dst = Stamp("src"), Overrides("mid"), Stamp("dst")
+    _wired(src, mid, dst)
+    src.out(0, make(1.0, time=2.0))
+    src.out(0, method("poke"))
+    assert mid.seen == [
+        ("receive", 0, "float"),
+        ("float", 1.0, 2.0, 2.0),
+        ("receive", 0, "poke"),
+        ("poke", (), None, 0.0),
+    ]
+    assert [m[:3] for m in dst.seen] == [("float", 1.0, 2.0)]  # on through the base's receive and out
+
+
+def test_a_loop_without_a_runtime_is_a_feedback_error_too():
+    from pointat.errors import FeedbackError
+
+    a, b = Stamp("a"), Stamp("b")
+    a._targets[0].append((b, 0))
+    b._targets[0].append((a, 0))
+    with pytest.raises(FeedbackError, match="feedback loop: recursion too deep at node"):
+        a.receive(0, make(1.0))
