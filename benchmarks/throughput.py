@@ -19,8 +19,8 @@
 from __future__ import annotations
 
 import contextlib
-import functools
 import cProfile
+import functools
 import gc
 import gzip
 import logging
