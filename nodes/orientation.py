@@ -42,6 +42,10 @@ ORIENTATION = ("vector", "list")
 def _as_quat(msg: Message) -> sq.Quat:
     """A unit quaternion (floats) from a quaternion or a rotation-matrix message; NaN is an error."""
     values = as_floats(msg, 4, 9)
+    if len(values) == 4:
+        w, x, y, z = values
+        if abs(w * w + x * x + y * y + z * z - 1.0) <= 1e-15:  # unit already (every node's output): as is
+            return values  # (False for NaN and infinity, which go on to the error below)
     if not math.isfinite(sum(values)):  # any NaN or infinity makes the sum one
         raise ValueError("orientation has NaN or infinite values")
     return sq.matrix_quat(values) if len(values) == 9 else sq.normalize(values)

@@ -66,3 +66,15 @@ def test_leave_above_enter_is_refused_at_load_and_live():
     with pytest.raises(ValueError, match="leave < enter"):
         rt.nodes["roll"].set_param("leave", 80.0)
     assert rt.nodes["roll"].p.leave == 45.0  # nothing changed
+
+
+def test_an_orientation_in_is_a_unit_quaternion_and_nan_or_infinity_is_refused():
+    from nodes.orientation import _as_quat
+
+    unit = (0.5, 0.5, -0.5, 0.5)
+    assert _as_quat(floats(unit)) is unit  # a unit quaternion (what the nodes send) passes as it is
+    assert _as_quat(floats((2.0, 0.0, 0.0, 0.0))) == (1.0, 0.0, 0.0, 0.0)
+    assert _as_quat(floats((0.0, 0.0, 0.0, 1.0 + 1e-9))) == (0.0, 0.0, 0.0, 1.0)  # off by more: normalised
+    for bad in ((math.nan, 0.0, 0.0, 1.0), (math.inf, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, math.nan)):
+        with pytest.raises(ValueError, match="NaN or infinite"):
+            _as_quat(floats(bad))
