@@ -98,7 +98,24 @@ class Offset(Node):
             elif self._n == 1:
                 self.out(1, ("calibrating", self.p.samples))
             return
-        self.out(0, floats(tuple([c - n for c, n in zip(counts, self.nulls, strict=True)]), msg.time))
+        c, n = counts, self.nulls  # written out: a third of the time of a zip over the nine channels
+        self.out(
+            0,
+            floats(
+                (
+                    c[0] - n[0],
+                    c[1] - n[1],
+                    c[2] - n[2],
+                    c[3] - n[3],
+                    c[4] - n[4],
+                    c[5] - n[5],
+                    c[6] - n[6],
+                    c[7] - n[7],
+                    c[8] - n[8],
+                ),
+                msg.time,
+            ),
+        )
 
 
 @register("scaling")

@@ -163,6 +163,15 @@ def euler(q: Sequence[float]) -> tuple[float, float, float]:
     return yaw, math.asin(s), roll
 
 
+def roll(q: Sequence[float]) -> float:
+    """The roll of :func:`euler` alone (radians, about the hand's own x axis; 0 at pitch +-90 degrees)."""
+    w, x, y, z = q
+    s = 2.0 * (w * y - z * x)
+    if s >= 1.0 - 1e-12 or s <= -1.0 + 1e-12:
+        return 0.0
+    return math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+
+
 def _wrap_pi(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 

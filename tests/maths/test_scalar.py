@@ -63,3 +63,10 @@ def test_euler_azimuth_and_axis_angle_match_numpy():
     for pitch in (math.pi / 2, -math.pi / 2):
         q = Q.euler_to_quat(0.7, pitch, 0.0)
         assert S.euler(q) == pytest.approx([float(a) for a in Q.quat_to_euler(q)], abs=1e-6)
+
+
+def test_roll_is_eulers_roll_including_at_the_poles():
+    poles = [Q.euler_to_quat(0.7, p, 0.4) for p in (math.pi / 2, -math.pi / 2)]
+    for q in [*QUATS, *poles]:
+        assert S.roll(q) == S.euler(q)[2]
+    assert S.roll(poles[0]) == 0.0

@@ -78,3 +78,36 @@ def test_an_orientation_in_is_a_unit_quaternion_and_nan_or_infinity_is_refused()
     for bad in ((math.nan, 0.0, 0.0, 1.0), (math.inf, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, math.nan)):
         with pytest.raises(ValueError, match="NaN or infinite"):
             _as_quat(floats(bad))
+
+
+def test_azi_ele_and_roll_distance_on_one_outlet_each_get_their_own_direction():
+    # the two share the last azimuth_elevation computed; with other axes and poles each must still get
+    # what it alone would compute, the hand straight up included (where the previous azimuth holds)
+    rt = patch(
+        """
+node src  reference
+node dir  azi_ele axis=[0, 1, 0] pole=5
+node roll roll_distance pole=1
+node az   collect
+node el   collect
+node raz  collect
+src -> dir
+src -> roll
+dir.azimuth -> az
+dir.elevation -> el
+roll.azimuth -> raz
+"""
+    )
+    rng = np.random.default_rng(3)
+    quats = [jittered(pointing(e, 0.0, a), 2.0, rng) for e, a in ((10, 30), (40, -60), (88, 0), (89.5, 10))]
+    for k, q in enumerate(quats):
+        rt.nodes["src"].receive(0, floats(tuple(q), k / 100.0))  # out unchanged: no reference set
+    prev_dir = prev_roll = None
+    for k, q in enumerate(quats):
+        az, el = sq.azimuth_elevation(q, (0.0, 1.0, 0.0), prev_dir, 5.0)
+        assert (rt.nodes["az"].values[k], rt.nodes["el"].values[k]) == pytest.approx((az, el), abs=1e-12)
+        prev_dir = az
+        raz, _ = sq.azimuth_elevation(q, previous=prev_roll, pole_deg=1.0)
+        assert rt.nodes["raz"].values[k] == pytest.approx(raz, abs=1e-12)
+        prev_roll = raz
+    assert rt.nodes["az"].values != rt.nodes["raz"].values
