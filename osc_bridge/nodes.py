@@ -487,9 +487,12 @@ dir.azimuth -> out.azimuth
         self.state[3] = as_float(msg)
 
     def on_azimuth(self, msg: Message) -> None:
-        if msg.kind == "bang":
+        kind = msg.kind
+        if kind == "float":  # the per-sample case
+            self.state[0] = float(msg.value)
+        elif kind == "bang":
             pass  # send the current state again, whatever the pacing says
-        elif msg.kind == "list":
+        elif kind == "list":
             values = [float(v) for v in msg.value[:4]]
             if not values:
                 raise ValueError("empty list")
@@ -499,7 +502,7 @@ dir.azimuth -> out.azimuth
         update = tuple(self.state)
         if not math.isfinite(sum(update)):  # NaN or infinity anywhere makes the sum so
             raise ValueError(f"not sent: not a finite number in {update}")
-        if msg.kind == "bang":
+        if kind == "bang":
             self._release(update)
         else:
             self.offer(update)
@@ -507,12 +510,13 @@ dir.azimuth -> out.azimuth
     # update policy -------------------------------------------------------------
     def offer(self, update: tuple[float, ...]) -> None:
         """Apply send-on-change, deadband and rate limit to one update, then send it (or hold it)."""
-        if (self.p.change or self.p.deadband > 0) and self._last is not None:
-            if _moved(self._last, update) <= self.p.deadband:
+        p = self.p
+        if (p.change or p.deadband > 0) and self._last is not None:
+            if _moved(self._last, update) <= p.deadband:
                 self._held = None  # the hand came back: nothing newer to deliver
                 return
-        if self.p.rate > 0:
-            due = self._last_time + 1.0 / self.p.rate
+        if p.rate > 0:
+            due = self._last_time + 1.0 / p.rate
             if self.now < due:
                 self._held = update
                 if self._timer is None:

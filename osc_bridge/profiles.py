@@ -116,12 +116,24 @@ def fold_front(a: float) -> float:
     return a
 
 
+# The clamps are comparisons, not min(max()): these run for every update osc_out sends.
+def _dist(s: Source) -> float:
+    d = s.dist
+    return d if 0.0 <= d <= 90.0 else (90.0 if d > 90.0 else 0.0)
+
+
 def _dist01(s: Source) -> float:
-    return 1.0 - min(max(s.dist, 0.0), 90.0) / 90.0
+    return 1.0 - _dist(s) / 90.0
 
 
 def _el(s: Source) -> float:
-    return min(max(s.el, -90.0), 90.0)
+    e = s.el
+    return e if -90.0 <= e <= 90.0 else (90.0 if e > 90.0 else -90.0)
+
+
+def _spread(s: Source) -> float:
+    v = s.spread
+    return v if 0.0 <= v <= 100.0 else (100.0 if v > 100.0 else 0.0)
 
 
 def _xyz(s: Source) -> tuple[float, float, float]:
@@ -146,10 +158,10 @@ FIELDS: dict[str, Field] = {
     "az_right": Field(lambda s: wrap180(-s.az), "f", "azimuth, deg, + right, -180..180"),
     "az360": Field(lambda s: s.az % 360.0, "f", "azimuth, deg, + left, 0..360"),
     "el": Field(_el, "f", "elevation, deg, + up"),
-    "dist": Field(lambda s: min(max(s.dist, 0.0), 90.0), "f", "roll distance, 0 far .. 90 near"),
+    "dist": Field(_dist, "f", "roll distance, 0 far .. 90 near"),
     "dist01": Field(_dist01, "f", "ADM-OSC distance, 1 far (loudspeakers) .. 0 centre"),
     "dist_m": Field(lambda s: s.radius * _dist01(s), "f", "distance in metres (radius x dist01)"),
-    "spread": Field(lambda s: min(max(s.spread, 0.0), 100.0), "f", "VBAP spread, 0..100"),
+    "spread": Field(_spread, "f", "VBAP spread, 0..100"),
     "x": Field(lambda s: _xyz(s)[0], "f", "x, + right, radius dist01"),
     "y": Field(lambda s: _xyz(s)[1], "f", "y, + front, radius dist01"),
     "z": Field(lambda s: _xyz(s)[2], "f", "z, + up, radius dist01"),
@@ -165,7 +177,9 @@ def _value(field: str | int | float, source: Source) -> int | float:
     return field  # a constant
 
 
-def _getter(field: str | int | float) -> Callable[[Source], int | float]:
+def _getter(field: str | int | float, n: int) -> Callable[[Source], int | float]:
+    if field == "n":  # fixed for a compiled encoder: a constant
+        field = n
     if isinstance(field, str):
         f = FIELDS[field]
         return (lambda s, fn=f.fn: int(fn(s))) if f.tag == "i" else f.fn
@@ -229,7 +243,7 @@ class Profile:
         """
         msgs = self.messages if messages is None else messages
         return tuple(
-            (template.format(n=n), tags, tuple(_getter(f) for f in fields))
+            (template.format(n=n), tags, tuple(_getter(f, n) for f in fields))
             for (template, fields), tags in zip(msgs, self.type_tags(msgs), strict=True)
         )
 
