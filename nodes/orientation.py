@@ -59,12 +59,13 @@ class SampleClock:
     """Time steps from message time stamps, with ``1/rate`` when there is no usable previous stamp."""
 
     MAX_GAP = 1.0
+    _last_t: float | None = None  # (a class default: a node that never called reset_clock has none)
 
     def reset_clock(self) -> None:
-        self._last_t: float | None = None
+        self._last_t = None
 
     def step(self, t: float) -> float:
-        last, self._last_t = getattr(self, "_last_t", None), t
+        last, self._last_t = self._last_t, t
         return time_step(last, t, 1.0 / self.p.rate, self.MAX_GAP)
 
 
@@ -74,7 +75,8 @@ def time_step(last: float | None, t: float, nominal: float, max_gap: float) -> f
     if last is None:
         return nominal
     dt = t - last
-    if abs(dt - nominal) <= max(1e-6 * nominal, 4.0 * math.ulp(t)):
+    off = abs(dt - nominal)
+    if off <= 1e-6 * nominal or off <= 4.0 * math.ulp(t):  # (the ulp for stamps many days large)
         # sensor time from a packet counter (t0 + n / rate) differs from 1/rate by the stamps' rounding
         # only: the nominal step keeps a filter's per-step coefficients cached, not recomputed
         return nominal
@@ -85,9 +87,10 @@ class Flagged:
     """Report a filter's status on its ``flags`` outlet when it changes (``ok`` when all is well)."""
 
     FLAGS_OUTLET = 1
+    _status = "ok"
 
     def report(self, status: str) -> None:
-        if status != getattr(self, "_status", "ok"):
+        if status != self._status:
             self._status = status
             self.out(self.FLAGS_OUTLET, status)
 
@@ -207,19 +210,16 @@ class AccMagMatrix(Flagged, Node):
         if mag is None:
             self.report("bad_accmag")
             return
-        a, m = as_floats(msg, 3), as_floats(mag, 3)
-        C = sq.accmag_matrix(a, m)
-        if C is None:
+        triad = sq.accmag_triad(as_floats(msg, 3), as_floats(mag, 3))
+        if triad is None:
             self.report("bad_accmag")
             return
-        na, nm = math.hypot(*a), math.hypot(*m)
+        C, na, nm, sin_dip = triad
         p = self.p
         if p.accel_tolerance and abs(na - p.gravity) > p.accel_tolerance * p.gravity:
             self.report("accelerating")
             return
-        dip = math.degrees(
-            math.asin(max(-1.0, min(1.0, -(a[0] * m[0] + a[1] * m[1] + a[2] * m[2]) / (na * nm))))
-        )
+        dip = math.degrees(math.asin(sin_dip if -1.0 <= sin_dip <= 1.0 else (1.0 if sin_dip > 0 else -1.0)))
         if self._norm_ref is None:
             self._norm_ref, self._dip_ref = nm, dip
         elif (p.mag_tolerance and abs(nm - self._norm_ref) > p.mag_tolerance * self._norm_ref) or (

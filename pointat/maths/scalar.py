@@ -17,7 +17,9 @@ from collections.abc import Sequence
 
 __all__ = [
     "Quat",
+    "accmag_matrix",
     "accmag_quat",
+    "accmag_triad",
     "axis_angle",
     "azimuth_elevation",
     "euler",
@@ -27,6 +29,7 @@ __all__ = [
     "multiply",
     "normalize",
     "quat_matrix",
+    "roll",
     "rotate",
     "slerp",
 ]
@@ -103,8 +106,13 @@ def matrix_quat(m: Sequence[float]) -> Quat:
     else:
         s = 2.0 * math.sqrt(max(1.0 + m22 - m00 - m11, 0.0))
         q = ((m10 - m01) / s, (m02 + m20) / s, (m12 + m21) / s, 0.25 * s)
-    q = normalize(q)
-    return q if q[0] >= 0.0 else (-q[0], -q[1], -q[2], -q[3])
+    w, x, y, z = q  # normalised here, with the sign (normalize's work without its call)
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    if not (n > 0.0 and math.isfinite(n)):
+        raise ValueError(f"cannot normalise the quaternion {q}")
+    if w < 0.0:
+        n = -n
+    return (w / n, x / n, y / n, z / n)
 
 
 def slerp(p: Sequence[float], q: Sequence[float], t: float) -> Quat:
@@ -125,6 +133,15 @@ def slerp(p: Sequence[float], q: Sequence[float], t: float) -> Quat:
 def accmag_matrix(acc: Sequence[float], mag: Sequence[float]) -> tuple[float, ...] | None:
     """TRIAD sensor -> NWU matrix (row major) from gravity and the field, as
     :func:`pointat.maths.fusion.accmag_matrix`; ``None`` when undefined (zero, NaN, parallel)."""
+    r = accmag_triad(acc, mag)
+    return None if r is None else r[0]
+
+
+def accmag_triad(
+    acc: Sequence[float], mag: Sequence[float]
+) -> tuple[tuple[float, ...], float, float, float] | None:
+    """:func:`accmag_matrix` with what checking the sample takes, worked out on the way: (matrix,
+    ``|acc|``, ``|mag|``, sine of the field's dip below the horizon); ``None`` when undefined."""
     ax, ay, az = acc
     mx, my, mz = mag
     na = math.sqrt(ax * ax + ay * ay + az * az)
@@ -139,7 +156,7 @@ def accmag_matrix(acc: Sequence[float], mag: Sequence[float]) -> tuple[float, ..
         return None
     wx, wy, wz = wx / nw, wy / nw, wz / nw
     nx, ny, nz = wy * uz - wz * uy, wz * ux - wx * uz, wx * uy - wy * ux  # north = west x up
-    return (nx, ny, nz, wx, wy, wz, ux, uy, uz)
+    return (nx, ny, nz, wx, wy, wz, ux, uy, uz), na, nm, -(ux * mx + uy * my + uz * mz)
 
 
 def accmag_quat(acc: Sequence[float], mag: Sequence[float]) -> Quat | None:

@@ -43,9 +43,14 @@ def test_accmag_matches_triad_and_refuses_bad_vectors():
     for _ in range(200):
         acc, mag = rng.normal(size=3), rng.normal(size=3)
         assert S.accmag_matrix(acc, mag) == pytest.approx(accmag_matrix(acc, mag).ravel().tolist(), abs=1e-12)
+        C, na, nm, sin_dip = S.accmag_triad(acc, mag)
+        assert C == S.accmag_matrix(acc, mag)
+        assert (na, nm) == pytest.approx((np.linalg.norm(acc), np.linalg.norm(mag)), rel=1e-14)
+        assert sin_dip == pytest.approx(-np.dot(acc, mag) / (na * nm), abs=1e-14)
     assert S.accmag_matrix((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)) is None
     assert S.accmag_matrix((0.0, 0.0, 1.0), (0.0, 0.0, 2.0)) is None
     assert S.accmag_matrix((math.nan, 0.0, 1.0), (1.0, 0.0, 0.0)) is None
+    assert S.accmag_triad((0.0, 0.0, 1.0), (0.0, 0.0, 2.0)) is None
     with pytest.raises(ValueError):
         S.normalize((0.0, 0.0, 0.0, 0.0))
 
