@@ -150,7 +150,10 @@ dir.azimuth -> pan -> show
         self._map = self._range_map(vars(self.p))
 
     def on_in(self, msg: Message) -> None:
-        self.out(0, _like(msg, self._map(_numbers(msg))))
+        if msg.kind == "float":  # one number, per sample
+            self.out(0, make(self._map.number(msg.value), msg.time))
+        else:
+            self.out(0, _like(msg, self._map(_numbers(msg))))
 
     def do_input(self, *args: Any) -> None:
         lo, hi = _pair("input", args)

@@ -257,6 +257,20 @@ class RangeMap:
             raise ValueError(f"the mapped value is not finite (input {x!r} is too far out of range)")
         return y
 
+    def number(self, x: float) -> float:
+        """:meth:`__call__` for one float, with the same result and errors: the per-sample path of the
+        ``map`` node (no type dispatch, no array).
+
+        >>> RangeMap(0.0, 1000.0, 0.0, 100.0).number(250.0)
+        25.0
+        """
+        if not math.isfinite(x):
+            raise ValueError(f"input is NaN or infinite: {x!r}")
+        y = self._map(x)
+        if not math.isfinite(y):
+            raise ValueError(f"the mapped value is not finite (input {x!r} is too far out of range)")
+        return y
+
     def _map(self, x: Value) -> Value:
         u = (x - self.in_lo) / (self.in_hi - self.in_lo)
         if self.clip:

@@ -368,3 +368,17 @@ def test_deadband_passes_only_real_moves():
     assert d.update([0, 1.1]) is False and d.update([0, 1.1000001]) is True
     with pytest.raises(ValueError):
         d.width = -1.0
+
+
+@pytest.mark.parametrize("curve", ["linear", "exp", "log", "pow"])
+@pytest.mark.parametrize("clip", [False, True])
+@pytest.mark.parametrize("invert", [False, True])
+def test_range_map_number_is_call_for_one_float(curve, clip, invert):
+    m = RangeMap(-90.0, 90.0, 0.0, 127.0, curve=curve, clip=clip, invert=invert, curvature=-3.0, gamma=0.5)
+    for x in (-200.0, -90.0, -12.5, 0.0, 33.0, 90.0, 1e3):
+        assert m.number(x) == m(x)
+    for bad in (math.nan, math.inf):
+        with pytest.raises(ValueError, match="NaN or infinite"):
+            m.number(bad)
+    with pytest.raises(ValueError, match="not finite"):
+        RangeMap(0.0, 1e-300, 0.0, 1e300).number(1e300)
