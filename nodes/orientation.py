@@ -41,14 +41,18 @@ ORIENTATION = ("vector", "list")
 
 def _as_quat(msg: Message) -> sq.Quat:
     """A unit quaternion (floats) from a quaternion or a rotation-matrix message; NaN is an error."""
-    values = as_floats(msg, 4, 9)
-    if len(values) == 4:
+    values = msg.value
+    n = len(values) if msg.kind == "vector" else 0
+    if n != 4 and n != 9:  # a list, or the wrong size: converted, or the error that says so
+        values = as_floats(msg, 4, 9)
+        n = len(values)
+    if n == 4:
         w, x, y, z = values
         if abs(w * w + x * x + y * y + z * z - 1.0) <= 1e-15:  # unit already (every node's output): as is
             return values  # (False for NaN and infinity, which go on to the error below)
     if not math.isfinite(sum(values)):  # any NaN or infinity makes the sum one
         raise ValueError("orientation has NaN or infinite values")
-    return sq.matrix_quat(values) if len(values) == 9 else sq.normalize(values)
+    return sq.matrix_quat(values) if n == 9 else sq.normalize(values)
 
 
 def _matrix(q: sq.Quat, time: float) -> Message:
