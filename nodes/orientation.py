@@ -798,7 +798,8 @@ class AziEle(Node):
 
     def on_quat(self, msg: Message) -> None:
         self._az, el = _pointing(_as_quat(msg), self.p.axis, self._az, self.p.pole)
-        self.emit(self._az, el)
+        self.out(1, el)  # right to left, as emit does (written out: a call less per sample)
+        self.out(0, self._az)
 
 
 @register("roll_distance")
@@ -862,7 +863,8 @@ class RollDistanceNode(Node):
         if mode != self._mode:
             self._mode = mode
             self.out(2, mode)
-        self.emit(az_out, dist)
+        self.out(1, dist)  # right to left, as emit does
+        self.out(0, az_out)
 
 
 _FRAMES = {
