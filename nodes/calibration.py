@@ -99,23 +99,12 @@ class Offset(Node):
                 self.out(1, ("calibrating", self.p.samples))
             return
         c, n = counts, self.nulls  # written out: a third of the time of a zip over the nine channels
-        self.out(
-            0,
-            floats(
-                (
-                    c[0] - n[0],
-                    c[1] - n[1],
-                    c[2] - n[2],
-                    c[3] - n[3],
-                    c[4] - n[4],
-                    c[5] - n[5],
-                    c[6] - n[6],
-                    c[7] - n[7],
-                    c[8] - n[8],
-                ),
-                msg.time,
-            ),
-        )
+        d = (
+            c[0] - n[0], c[1] - n[1], c[2] - n[2],
+            c[3] - n[3], c[4] - n[4], c[5] - n[5],
+            c[6] - n[6], c[7] - n[7], c[8] - n[8],
+        )  # fmt: skip
+        self.out(0, floats(d, msg.time))
 
 
 @register("scaling")

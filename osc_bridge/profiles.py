@@ -116,10 +116,11 @@ def fold_front(a: float) -> float:
     return a
 
 
-# The clamps are comparisons, not min(max()): these run for every update osc_out sends.
+# The clamps are comparisons, not min(max()): these run for every update osc_out sends.  (NaN passes
+# through them as it does through min and max.)
 def _dist(s: Source) -> float:
     d = s.dist
-    return d if 0.0 <= d <= 90.0 else (90.0 if d > 90.0 else 0.0)
+    return 90.0 if d > 90.0 else 0.0 if d < 0.0 else d
 
 
 def _dist01(s: Source) -> float:
@@ -128,12 +129,12 @@ def _dist01(s: Source) -> float:
 
 def _el(s: Source) -> float:
     e = s.el
-    return e if -90.0 <= e <= 90.0 else (90.0 if e > 90.0 else -90.0)
+    return 90.0 if e > 90.0 else -90.0 if e < -90.0 else e
 
 
 def _spread(s: Source) -> float:
     v = s.spread
-    return v if 0.0 <= v <= 100.0 else (100.0 if v > 100.0 else 0.0)
+    return 100.0 if v > 100.0 else 0.0 if v < 0.0 else v
 
 
 def _xyz(s: Source) -> tuple[float, float, float]:

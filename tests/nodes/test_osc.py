@@ -932,3 +932,13 @@ def test_decode_packet_says_malformed_with_a_value_error_and_never_reads_garbage
             continue
         assert got == _python_osc(data)  # what is accepted, python-osc reads the same way
     assert rejected > 500  # the damage is mostly caught
+
+
+def test_the_field_clamps_are_min_max_including_nan():
+    from osc_bridge.profiles import FIELDS, Source
+
+    for v in (-1e9, -200.0, -90.0, -0.5, 0.0, 45.0, 90.0, 99.0, 100.0, 1e9, math.nan):
+        s = Source(1, 0.0, v, v, v)
+        expected = (min(max(v, -90.0), 90.0), min(max(v, 0.0), 90.0), min(max(v, 0.0), 100.0))
+        got = (FIELDS["el"].fn(s), FIELDS["dist"].fn(s), FIELDS["spread"].fn(s))
+        assert str(got) == str(expected)  # (as text: nan == nan)
