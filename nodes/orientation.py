@@ -223,7 +223,7 @@ class AccMagMatrix(Flagged, Node):
         if p.accel_tolerance and abs(na - p.gravity) > p.accel_tolerance * p.gravity:
             self.report("accelerating")
             return
-        dip = math.degrees(math.asin(sin_dip if -1.0 <= sin_dip <= 1.0 else (1.0 if sin_dip > 0 else -1.0)))
+        dip = math.degrees(math.asin(sin_dip))
         if self._norm_ref is None:
             self._norm_ref, self._dip_ref = nm, dip
         elif (p.mag_tolerance and abs(nm - self._norm_ref) > p.mag_tolerance * self._norm_ref) or (

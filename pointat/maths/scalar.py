@@ -141,7 +141,7 @@ def accmag_triad(
     acc: Sequence[float], mag: Sequence[float]
 ) -> tuple[tuple[float, ...], float, float, float] | None:
     """:func:`accmag_matrix` with what checking the sample takes, worked out on the way: (matrix,
-    ``|acc|``, ``|mag|``, sine of the field's dip below the horizon); ``None`` when undefined."""
+    ``|acc|``, ``|mag|``, sine of the field's dip below the horizon, in [-1, 1]); ``None`` when undefined."""
     ax, ay, az = acc
     mx, my, mz = mag
     na = math.sqrt(ax * ax + ay * ay + az * az)
@@ -156,7 +156,9 @@ def accmag_triad(
         return None
     wx, wy, wz = wx / nw, wy / nw, wz / nw
     nx, ny, nz = wy * uz - wz * uy, wz * ux - wx * uz, wx * uy - wy * ux  # north = west x up
-    return (nx, ny, nz, wx, wy, wz, ux, uy, uz), na, nm, -(ux * mx + uy * my + uz * mz)
+    sin_dip = -(ux * mx + uy * my + uz * mz)  # of two unit vectors: within [-1, 1] but for rounding
+    sin_dip = 1.0 if sin_dip > 1.0 else -1.0 if sin_dip < -1.0 else sin_dip
+    return (nx, ny, nz, wx, wy, wz, ux, uy, uz), na, nm, sin_dip
 
 
 def accmag_quat(acc: Sequence[float], mag: Sequence[float]) -> Quat | None:

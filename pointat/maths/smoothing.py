@@ -248,11 +248,10 @@ class RangeMap:
         Raises ``ValueError`` if ``x`` or the result is not finite.
         """
         x = _value(x, "input")
-        if type(x) is float:  # one number, per sample: float arithmetic overflows to inf, never warns
+        if type(x) is float:  # one number: float arithmetic overflows to inf, never warns
+            return self.number(x)
+        with np.errstate(over="ignore", invalid="ignore"):
             y = self._map(x)
-        else:
-            with np.errstate(over="ignore", invalid="ignore"):
-                y = self._map(x)
         if not _all_finite(y):
             raise ValueError(f"the mapped value is not finite (input {x!r} is too far out of range)")
         return y

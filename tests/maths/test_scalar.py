@@ -47,6 +47,9 @@ def test_accmag_matches_triad_and_refuses_bad_vectors():
         assert C == S.accmag_matrix(acc, mag)
         assert (na, nm) == pytest.approx((np.linalg.norm(acc), np.linalg.norm(mag)), rel=1e-14)
         assert sin_dip == pytest.approx(-np.dot(acc, mag) / (na * nm), abs=1e-14)
+        assert -1.0 <= sin_dip <= 1.0
+    steep = S.accmag_triad((0.0, 0.0, 9.8), (1e-5, 0.0, -0.5))  # a field nearly straight down
+    assert steep is not None and -1.0 <= steep[3] <= 1.0 and steep[3] == pytest.approx(1.0)
     assert S.accmag_matrix((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)) is None
     assert S.accmag_matrix((0.0, 0.0, 1.0), (0.0, 0.0, 2.0)) is None
     assert S.accmag_matrix((math.nan, 0.0, 1.0), (1.0, 0.0, 0.0)) is None
