@@ -52,11 +52,28 @@ def _as_quat(msg: Message) -> sq.Quat:
             return values  # (False for NaN and infinity, which go on to the error below)
     if not math.isfinite(sum(values)):  # any NaN or infinity makes the sum one
         raise ValueError("orientation has NaN or infinite values")
-    return sq.matrix_quat(values) if n == 9 else sq.normalize(values)
+    return _matrix_quat(values) if n == 9 else sq.normalize(values)
+
+
+#: The matrix :func:`_matrix` built last and the quaternion it was built from (with w >= 0, as
+#: :func:`~pointat.maths.scalar.matrix_quat` gives it).  Torre's chain turns ``complementary``'s matrix
+#: back into a quaternion at once (``matrix2quat``): that node reads it here instead of working it out
+#: again (0.9 µs).  Only that very tuple matches (compared by identity), and one assignment replaces the
+#: pair, so another thread's runtime never sees half of one.
+_made: tuple[tuple[float, ...] | None, sq.Quat] = (None, (1.0, 0.0, 0.0, 0.0))
 
 
 def _matrix(q: sq.Quat, time: float) -> Message:
-    return floats(sq.quat_matrix(q), time)
+    global _made
+    m = sq.quat_matrix(q)
+    _made = (m, q if q[0] >= 0.0 else (-q[0], -q[1], -q[2], -q[3]))
+    return floats(m, time)
+
+
+def _matrix_quat(m: tuple[float, ...]) -> sq.Quat:
+    """:func:`~pointat.maths.scalar.matrix_quat` of finite ``m``, read back if :func:`_matrix` built it."""
+    made = _made
+    return made[1] if m is made[0] else sq.matrix_quat(m)
 
 
 class SampleClock:
@@ -717,7 +734,7 @@ class Matrix2Quat(Node):
         m = as_floats(msg, 9)  # raises for anything but a matrix: a quaternion here is a wiring mistake
         if not math.isfinite(sum(m)):
             raise ValueError("orientation has NaN or infinite values")
-        self.out(0, floats(sq.matrix_quat(m), msg.time))
+        self.out(0, floats(_matrix_quat(m), msg.time))
 
 
 @register("quat2matrix")

@@ -531,7 +531,9 @@ dir.azimuth -> out.azimuth
 
     def _release(self, update: tuple[float, ...]) -> None:
         self._held = None
-        self._last, self._last_time = update, self.now
+        self._last = update
+        if self.p.rate > 0:  # the time only paces (a rate set later finds an old one: the next goes at once)
+            self._last_time = self.now
         self.updates += 1
         az, el, dist, spread = update
         src = Source(self.p.source or self.profile.first, az, el, dist, spread, self.p.radius)

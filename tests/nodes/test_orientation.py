@@ -120,3 +120,29 @@ roll.azimuth -> raz
         assert rt.nodes["raz"].values[k] == pytest.approx(raz, abs=1e-12)
         prev_roll = raz
     assert rt.nodes["az"].values != rt.nodes["raz"].values
+
+
+def test_matrix2quat_reads_back_the_quaternion_of_a_matrix_made_here_and_only_of_that_one():
+    # complementary -> matrix2quat (Torre's chain) reads back the quaternion the matrix was made from;
+    # a matrix made anywhere else is worked out, and w >= 0 either way
+    rt = patch(
+        """
+node q2m quat2matrix
+node m2q matrix2quat
+node out collect
+q2m -> m2q -> out
+"""
+    )
+    rng = np.random.default_rng(5)
+    quats = [tuple(q / np.linalg.norm(q)) for q in rng.normal(size=(20, 4))]
+    for k, q in enumerate(quats):
+        rt.nodes["q2m"].receive(0, floats(q, k / 100.0))  # made here: read back
+        m = sq.quat_matrix(quats[-1 - k])  # made after it, elsewhere: worked out
+        rt.nodes["m2q"].receive(0, floats(m, k / 100.0))
+    got = rt.nodes["out"].values
+    for k, q in enumerate(quats):
+        for w in (got[2 * k], got[2 * k + 1]):
+            assert w[0] >= 0.0
+        assert got[2 * k] == pytest.approx(q if q[0] >= 0 else tuple(-c for c in q), abs=1e-15)
+        other = quats[-1 - k]
+        assert got[2 * k + 1] == pytest.approx(sq.matrix_quat(sq.quat_matrix(other)), abs=1e-15)
