@@ -478,18 +478,18 @@ dir.azimuth -> out.azimuth
 
     # inlets ------------------------------------------------------------------
     def on_elevation(self, msg: Message) -> None:
-        self.state[1] = as_float(msg)
+        self.state[1] = msg.value if msg.kind == "float" else as_float(msg)  # (per sample: a call less)
 
     def on_distance(self, msg: Message) -> None:
-        self.state[2] = as_float(msg)
+        self.state[2] = msg.value if msg.kind == "float" else as_float(msg)
 
     def on_spread(self, msg: Message) -> None:
         self.state[3] = as_float(msg)
 
     def on_azimuth(self, msg: Message) -> None:
         kind = msg.kind
-        if kind == "float":  # the per-sample case
-            self.state[0] = float(msg.value)
+        if kind == "float":  # the per-sample case (a float message holds a float)
+            self.state[0] = msg.value
         elif kind == "bang":
             pass  # send the current state again, whatever the pacing says
         elif kind == "list":
