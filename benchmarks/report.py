@@ -343,7 +343,7 @@ def _throughput_section(tp: ThroughputResults) -> list[str]:
         "as it goes — the glove's own cost is in it, and the 'chain only' column takes it out; (b) ADC "
         "vectors pushed straight into the chain's first node; (c) the shipped `patches/replay_*.pat` with "
         "`replay speed=0` of a BROAD recording on the real-time runtime (source thread → bounded queue → "
-        "scheduler thread; fusion half only, the recording is in SI units).  (a) and (b): the fastest of "
+        "scheduler thread, 64 rows a hand-over at this speed; fusion half only, the recording is in SI units).  (a) and (b): the fastest of "
         "5 equal chunks.  (b′) is (b) with the OSC going to a socket that no process sleeps on: what the "
         "chain costs without the system waking the receiver.",
         "",

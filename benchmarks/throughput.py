@@ -415,10 +415,10 @@ def replay_rate(chain: str, trial: Path, rows: int, port: int) -> PatchRate:
         marks: dict[str, float] = {}
         orig_emit, orig_done = src._emit, src._done  # type: ignore[attr-defined]
 
-        def emit(i: int) -> None:
+        def emit(i: int, j: int) -> None:
             if i == 0:
                 marks["first"] = time.perf_counter()
-            orig_emit(i)
+            orig_emit(i, j)
 
         def done() -> None:
             marks["done"] = time.perf_counter()

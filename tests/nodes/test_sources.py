@@ -138,6 +138,42 @@ glove.truth -> sink
     assert np.array_equal(got[37].value, sim.sample(37).q)  # full precision
 
 
+def test_replay_as_fast_as_it_goes_sends_every_row_right_to_left_in_order(tmp_path):
+    # at speed=0 rows go over in batches (Replay.BATCH): 150 rows are two full batches and a part;
+    # each row still sends its truth (when it has one), mag, accel, then gyro, all with the row's time
+    f = tmp_path / "trial.csv"
+    head = "t,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,mag_x,mag_y,mag_z,qw,qx,qy,qz"
+    rows = []
+    for i in range(150):
+        truth = "nan,nan,nan,nan" if i % 7 == 3 else f"1,0,0,{i / 1000}"
+        rows.append(f"{i / 100},{i},{i + 0.25},0,0,0,9.8,{i},0,-40,{truth}")
+    f.write_text(head + "\n" + "\n".join(rows) + "\n")
+    rt = patch(
+        f"""
+node src replay file={f} speed=0
+node all collect
+node truth collect
+src.gyro -> all
+src.accel -> all
+src.mag -> all
+src.truth -> all
+src.truth -> truth
+""",
+        realtime=True,
+    )
+    rt.run(10)
+    got = rt.nodes["all"].messages
+    expected = []
+    for i in range(150):
+        t = i / 100
+        if i % 7 != 3:
+            expected.append(((1.0, 0.0, 0.0, i / 1000), t))
+        expected += [((float(i), 0.0, -40.0), t), ((0.0, 0.0, 9.8), t), ((float(i), i + 0.25, 0.0), t)]
+    assert [(m.value, m.time) for m in got] == expected
+    assert rt.nodes["src"].emitted == 150
+    assert len(rt.nodes["truth"].messages) == 150 - len(range(3, 150, 7))
+
+
 def test_ndjson_keeps_every_kind(tmp_path):
     out = tmp_path / "rec.ndjson"
     rt = patch(f"node m msg set 3 , 1.5 , bang , hello\nnode sink record file={out}\nm -> sink\n")
