@@ -151,9 +151,8 @@ class PatchRate:
     samples: int
     seconds: float
     source_us: float = 0.0  # per-sample cost of the source, subtracted for "chain only"
-    chunk_seconds: list[float] = field(
-        default_factory=list
-    )  # every chunk's wall time, where there are several
+    #: Every chunk's wall time, where there are several (``seconds`` is the fastest one's).
+    chunk_seconds: list[float] = field(default_factory=list)
 
     @property
     def median_us(self) -> float | None:
@@ -663,7 +662,7 @@ def run_all(
     n_filter = 5000 if quick else 20000
     rounds = 3 if quick else 5
     messages = _adc_messages(n_push + 200)
-    per_chain: dict[str, list[PatchRate]] = {chain: [] for chain in CHAINS}
+    simulated: dict[str, PatchRate] = {}
     replays: dict[str, PatchRate] = {}
     pushes: dict[tuple[str, str], list[PatchRate]] = {}
     with udp_sink() as port, udp_hole() as hole:
@@ -688,7 +687,7 @@ def run_all(
             progress(f"throughput: {chain} chain")
             r = simulate_rate(chain, sim_seconds, port)
             r.source_us = sim_us
-            per_chain[chain].append(r)
+            simulated[chain] = r
             _, recorded, nodes = push_rate(chain, messages, port, record=True)
             res.nodes += node_costs(chain, recorded, nodes, n_push, port)
             res.hotspots[chain] = profile_chain(chain, messages, port)
@@ -706,7 +705,7 @@ def run_all(
     for chain in CHAINS:  # the table's order: (a), (b), (b'), (c)
         pushed = PatchRate.pooled(pushes[(chain, PUSHED)])
         res.chain_totals[chain] = pushed.us_per_sample
-        res.patches += [*per_chain[chain], pushed, PatchRate.pooled(pushes[(chain, PUSHED_NO_WAKE)])]
+        res.patches += [simulated[chain], pushed, PatchRate.pooled(pushes[(chain, PUSHED_NO_WAKE)])]
         if chain in replays:
             res.patches.append(replays[chain])
     return res
