@@ -22,6 +22,17 @@ def test_multiply_rotate_and_matrices_match_numpy():
         assert S.matrix_quat(S.quat_matrix(p)) == pytest.approx(Q.quat_positive(p).tolist(), abs=1e-12)
 
 
+def test_polar_step_is_newton_schulz_and_pulls_a_drifted_matrix_back_to_the_rotation():
+    for q in QUATS[:50]:
+        R = Q.quat_to_matrix(q)
+        drifted = R + 1e-7 * rng.normal(size=(3, 3))
+        step = np.array(S.polar_step(drifted.ravel().tolist())).reshape(3, 3)
+        np.testing.assert_allclose(step, 0.5 * drifted @ (3.0 * np.eye(3) - drifted.T @ drifted), atol=1e-15)
+        # quadratic: a 1e-7 departure from orthogonality leaves ~1e-14
+        assert np.abs(step.T @ step - np.eye(3)).max() < 1e-12 < np.abs(drifted.T @ drifted - np.eye(3)).max()
+        assert S.polar_step(R.ravel().tolist()) == pytest.approx(R.ravel().tolist(), abs=1e-15)
+
+
 def test_matrix_quat_is_robust_at_half_turns():
     for axis in np.eye(3):
         R = Q.quat_to_matrix(Q.quat_from_axis_angle(axis, math.pi))
