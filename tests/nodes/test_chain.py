@@ -330,3 +330,62 @@ def test_reframe_matches_the_reference_conversions(pair, positive):
         assert (got[:, 0] >= 0).all()
     else:
         assert (got[:, 0] < 0).any()  # the sign as it comes: some of the random ones have w < 0
+
+
+def _numpy_calls(frame, event, arg, seen):
+    """A profile hook: note every numpy function called (Python-level, or numpy's C functions and methods)."""
+    if event == "call":
+        if "numpy" in frame.f_code.co_filename:
+            seen.append(frame.f_code.co_name)
+    elif event == "c_call":
+        owner = getattr(arg, "__self__", None)
+        module = getattr(arg, "__module__", None) or type(owner).__module__
+        if module and module.split(".")[0] == "numpy":
+            seen.append(arg.__name__)
+
+
+@pytest.mark.parametrize("fusion", ["torre_fusion", "tqt_fusion"])
+def test_the_per_sample_path_calls_no_numpy(fusion):
+    """From the ADC vector to the OSC datagram every sample is plain floats: a numpy call costs a few
+    microseconds warm and far more in a process that slept between samples, and a periodic one (a
+    re-orthonormalisation every 100 samples) sits right at the p99 of the latency."""
+    import socket
+    import sys
+
+    from pointat.devices.glove_sim import GloveSimulator
+    from pointat.message import vector
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as hole:
+        hole.bind(("127.0.0.1", 0))
+        rt = patch(
+            f"""
+node nulls offset samples=100
+node units scaling
+node f {LIB / fusion}.pat rate=1000
+node out osc_out host=127.0.0.1 port={hole.getsockname()[1]}
+nulls -> units
+units.mag -> f.mag
+units.accel -> f.accel
+units.gyro -> f.gyro
+f.azimuth -> out.azimuth
+f.elevation -> out.elevation
+f.distance -> out.distance
+"""
+        )
+        rt.start()
+        sim = GloveSimulator(rate_hz=1000.0, seed=3)
+        adc = [vector(s.frame.channels, k / 1000.0) for k, s in enumerate(sim.samples(700))]
+        first = rt.nodes["nulls"]
+        for m in adc[:300]:  # the nulls are averaged, the filters are started
+            first.receive(0, m)
+        sent = rt.nodes["out"].sent
+        seen: list[str] = []
+        sys.setprofile(lambda frame, event, arg: _numpy_calls(frame, event, arg, seen))
+        try:
+            for m in adc[300:]:  # 400 samples: the integrator's renormalisation (every 100) is among them
+                first.receive(0, m)
+        finally:
+            sys.setprofile(None)
+        rt.shutdown()
+    assert rt.nodes["out"].sent - sent == 400  # every sample went the whole way
+    assert seen == []
