@@ -93,7 +93,8 @@ def machine_info() -> dict[str, str]:
     except (OSError, ValueError, IndexError):
         pass
     commit = _git("rev-parse", "--short", "HEAD")
-    dirty = bool(_git("status", "--porcelain"))
+    # changed code; not an untracked report written inside the tree
+    dirty = bool(_git("status", "--porcelain", "--untracked-files=no"))
     info = {
         "CPU": f"{cpu}, {os.cpu_count()} logical cores" + (" (virtual machine)" if _virtual() else ""),
         "memory": mem or "?",
