@@ -1,11 +1,15 @@
 """The Pointing-at chain on the simulated glove, against its ground truth."""
 
+import socket
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from pointat.devices.glove_sim import GloveSimulator
 from pointat.maths.quaternion import matrix_to_quat, quat_angle
+from pointat.message import vector
 from pointat.testing import patch
 
 LIB = Path(__file__).resolve().parents[2] / "patches" / "lib"
@@ -20,10 +24,14 @@ glove.adc -> nulls -> units
 """
 
 
+def units_into(fusion):
+    """The wires from node ``units`` (a ``scaling``) to node ``fusion``'s mag, accel and gyro inlets."""
+    return "".join(f"units.{s} -> {fusion}.{s}\n" for s in ("mag", "accel", "gyro"))
+
+
 def glove_into(fusion, seed, text):
     """The simulated glove's front end into node ``fusion``'s mag, accel and gyro inlets, plus ``text``."""
-    wires = "".join(f"units.{s} -> {fusion}.{s}\n" for s in ("mag", "accel", "gyro"))
-    return patch(FRONT_END.format(seed=seed) + text + wires)
+    return patch(FRONT_END.format(seed=seed) + text + units_into(fusion))
 
 
 def fusion_half(fusion, seed, text):
@@ -349,12 +357,6 @@ def test_the_per_sample_path_calls_no_numpy(fusion):
     """From the ADC vector to the OSC datagram every sample is plain floats: a numpy call costs a few
     microseconds warm and far more in a process that slept between samples, and a periodic one (a
     re-orthonormalisation every 100 samples) sits right at the p99 of the latency."""
-    import socket
-    import sys
-
-    from pointat.devices.glove_sim import GloveSimulator
-    from pointat.message import vector
-
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as hole:
         hole.bind(("127.0.0.1", 0))
         rt = patch(
@@ -364,28 +366,28 @@ node units scaling
 node f {LIB / fusion}.pat rate=1000
 node out osc_out host=127.0.0.1 port={hole.getsockname()[1]}
 nulls -> units
-units.mag -> f.mag
-units.accel -> f.accel
-units.gyro -> f.gyro
 f.azimuth -> out.azimuth
 f.elevation -> out.elevation
 f.distance -> out.distance
 """
+            + units_into("f")
         )
         rt.start()
         sim = GloveSimulator(rate_hz=1000.0, seed=3)
         adc = [vector(s.frame.channels, k / 1000.0) for k, s in enumerate(sim.samples(700))]
         first = rt.nodes["nulls"]
-        for m in adc[:300]:  # the nulls are averaged, the filters are started
-            first.receive(0, m)
-        sent = rt.nodes["out"].sent
         seen: list[str] = []
-        sys.setprofile(lambda frame, event, arg: _numpy_calls(frame, event, arg, seen))
         try:
-            for m in adc[300:]:  # 400 samples: the integrator's renormalisation (every 100) is among them
+            for m in adc[:300]:  # the nulls are averaged, the filters are started
                 first.receive(0, m)
+            sent = rt.nodes["out"].sent
+            sys.setprofile(lambda frame, event, arg: _numpy_calls(frame, event, arg, seen))
+            try:
+                for m in adc[300:]:  # 400 samples: the integrator's renormalisation (every 100) is among them
+                    first.receive(0, m)
+            finally:
+                sys.setprofile(None)
         finally:
-            sys.setprofile(None)
-        rt.shutdown()
+            rt.shutdown()
     assert rt.nodes["out"].sent - sent == 400  # every sample went the whole way
     assert seen == []
