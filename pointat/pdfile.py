@@ -24,13 +24,19 @@ has no escape and reads as one (``-3``, ``0.5``, ``1e+10``); ``+5``, ``inf`` and
   ``graph``, which pointat does not know.  ``[inlet]``/``[outlet]`` objects of the top canvas (a Pd
   abstraction file) lead nowhere.
 
+**Comments.**  The comments of the top canvas (all but the ``@name`` ones), read top to bottom, become the
+patch's header comment (:attr:`~pointat.spec.PatchSpec.doc`), which a native patch writes as its leading
+``#`` lines; comments inside subpatches are left out.
+
 **Node names.**  A comment ``@name NODENAME`` names the next box of its canvas (pointat writes one just
 above each box).  A box without one is named ``TYPE_INDEX`` (``metro_1``, ``osc_3`` for ``osc~``); a
 subpatch is named by its ``pd NAME``.  Names are reduced to letters, digits and ``_`` (``/`` separates
 subpatch levels) and made unique with a ``_2``, ``_3``... suffix.
 
 **Writing** (:func:`write_pd`).  Box 0 is ``[declare -path pointat-stubs]`` (Pd then finds the stub
-abstractions written by :func:`write_stubs` next to the patch).  Each node is a ``@name`` comment and,
+abstractions written by :func:`write_stubs` next to the patch).  The patch's header comment is drawn above
+the nodes, a comment a line (blank lines dropped; written after the nodes' boxes, so that it moves no box
+index).  Each node is a ``@name`` comment and,
 20 px below it, the node's box.  Columns follow the topological depth of the wires (sources on the
 left), at least 160 px apart and wider for long boxes; within a column, rows 50 px apart are ordered by
 the mean row of each node's inputs.  Pd's own types (metro, delay, trigger, pack, unpack, route, send,
@@ -93,6 +99,7 @@ _TOP = 40
 _COLUMN = 160
 _ROW = 50
 _NAME_DY = 20
+_LINE = 18  # a header comment's line
 
 
 # =========================================================================== reading: tokens and records
@@ -102,6 +109,7 @@ class _Record:
 
     line: int
     messages: list[list[Any]]
+    words: list[str] = field(default_factory=list)  # the record's tokens as written (escapes undone)
 
     @property
     def atoms(self) -> list[Any]:
@@ -132,6 +140,7 @@ def _records(text: str, path: str) -> list[_Record]:
     records: list[_Record] = []
     messages: list[list[Any]] = []
     atoms: list[Any] = []
+    words: list[str] = []
     buf: list[str] = []
     escaped = False
     key: bool | None = None  # whether the token's first '=' was unescaped
@@ -142,6 +151,8 @@ def _records(text: str, path: str) -> list[_Record]:
         nonlocal escaped, key
         if buf:
             atoms.append(_atom("".join(buf), escaped, bool(key)))
+            if not messages:
+                words.append("".join(buf))
             buf.clear()
         escaped, key = False, None
 
@@ -167,8 +178,8 @@ def _records(text: str, path: str) -> list[_Record]:
         elif c == ";":
             flush()
             messages.append(atoms)
-            records.append(_Record(start, messages))
-            messages, atoms = [], []
+            records.append(_Record(start, messages, words))
+            messages, atoms, words = [], [], []
         elif c == ",":
             flush()
             messages.append(atoms)
@@ -187,6 +198,18 @@ def _records(text: str, path: str) -> list[_Record]:
 
 def _plain(atom: Any) -> Any:
     return str(atom) if isinstance(atom, str) else atom
+
+
+def _comment_text(words: Sequence[str]) -> str:
+    """A comment's words as the text Pd shows: apart, with ``,`` and ``;`` against the word before.
+
+    >>> _comment_text(["send", "mag", ",", "then", "gyro", "1.", "0.50"])
+    'send mag, then gyro 1. 0.50'
+    """
+    text = ""
+    for word in words:
+        text += word if not text or word in (",", ";") else " " + word
+    return text
 
 
 def _show(atoms: Sequence[Any]) -> str:
@@ -253,6 +276,7 @@ class _Reader:
         self.root: _Canvas | None = None
         self.boxes: list[_Box] = []  # every box, in file order
         self.connects: list[_Connect] = []
+        self.comments: list[tuple[float, float, str]] = []  # the top canvas' comments: y, x, text
 
     # ------------------------------------------------------------------ records
     def problem(self, line: int, message: str, box: int | None = None) -> None:
@@ -312,6 +336,8 @@ class _Reader:
                         f"two '{NAME_TAG}' comments in a row (line {canvas.pending[1]} and this one)"
                     )
                 canvas.pending = (str(words[1]), rec.line)
+            elif words and canvas is self.root:
+                self.comments.append((float(atoms[3]), float(atoms[2]), _comment_text(rec.words[4:])))
         elif kind == "obj":
             cls = atoms[4] if len(atoms) > 4 else None
             if cls is None or cls == "declare":
@@ -429,7 +455,7 @@ class _Reader:
         assert self.root is not None
         used: set[str] = set()
         self.name(self.root, "", used)
-        spec = PatchSpec(path=self.path)
+        spec = PatchSpec(path=self.path, doc="\n".join(text for _y, _x, text in sorted(self.comments)))
         for b in self.boxes:
             if b.role == "node" and not b.dead:
                 spec.nodes.append(
@@ -771,17 +797,21 @@ def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
         chars = max(chars, *(len(NAME_TAG) + 1 + len(o.decl.name) for o in outs if o.column == col), 0)
         xs.append(xs[-1] + max(_COLUMN, chars * _CHAR + 40))
     width = min(max(450, xs[-1] + _MARGIN), 1600)
+    header = [ln for ln in spec.doc.splitlines() if ln.strip()]
+    top = _TOP + ((len(header) + 1) * _LINE if header else 0)
     rows = max((o.row for o in outs), default=0) + 1
-    height = min(max(300, _TOP + rows * _ROW + _MARGIN), 1000)
+    height = min(max(300, top + rows * _ROW + _MARGIN), 1000)
     lines = [
         f"#N canvas 0 50 {width} {height} {_FONT};",
         f"#X declare -path {STUB_FOLDER};",
         f"#X obj {_MARGIN} 10 declare -path {STUB_FOLDER};",
     ]
     for o in outs:
-        x, y = xs[o.column], _TOP + o.row * _ROW
+        x, y = xs[o.column], top + o.row * _ROW
         lines.append(f"#X text {x} {y} {NAME_TAG} {_escape(o.decl.name)};")
         lines.append(f"#X {o.kind} {x} {y + _NAME_DY} {' '.join(o.atoms)}".rstrip() + ";")
+    for k, line in enumerate(header):
+        lines.append(f"#X text {_MARGIN} {_TOP + k * _LINE} {_comment(line)}, f {max(len(line), 20)};")
     for a, o, b, i in wires:
         lines.append(f"#X connect {2 + 2 * a} {o} {2 + 2 * b} {i};")
     return "\n".join(lines) + "\n"
@@ -798,14 +828,21 @@ def _default_layout(cls: type[Node]) -> tuple[tuple[Inlet, ...], tuple[Outlet, .
 
 
 def _comment(text: str) -> str:
-    r"""Words of a comment: ``,`` and ``;`` as separate escaped atoms, ``$`` and ``\`` escaped."""
+    r"""Words of a comment: ``,`` and ``;`` as separate escaped atoms, ``$`` escaped, and a word that
+    reads as a number escaped too, so that Pd keeps it as it is written (``1.`` stays ``1.``).  Pd has no
+    braces in a comment and drops a backslash when it saves one: braces become parentheses, backslashes go.
+
+    >>> _comment("1. send mag, then $1 \\-> {x}")
+    '\\1. send mag \\, then \\$1 -> (x)'
+    """
     atoms: list[str] = []
-    for word in text.replace("{", "(").replace("}", ")").split():
+    for word in text.replace("{", "(").replace("}", ")").replace("\\", "").split():
         for part in re.split(r"([,;])", word):
             if part in (",", ";"):
                 atoms.append("\\" + part)
             elif part:
-                atoms.append(re.sub(r"([\\$])", r"\\\1", part))
+                part = part.replace("$", "\\$")
+                atoms.append("\\" + part if _NUMBER.match(part) else part)
     return " ".join(atoms)
 
 

@@ -14,7 +14,7 @@ import pytest
 
 from pointat.errors import PatchError
 from pointat.loader import build, check, expand
-from pointat.patchfile import parse_patch, read_patch
+from pointat.patchfile import parse_patch, read_patch, write_patch
 from pointat.pdfile import STUB_FOLDER, VANILLA, parse_pd, read_pd, write_pd, write_stubs
 from pointat.registry import default_registry
 from pointat.spec import PatchSpec
@@ -279,6 +279,33 @@ def test_round_trip_native_to_pd_to_native_keeps_the_graph(name, tmp_path):
     assert graph(back) == graph(spec)
     assert check(back, REG).wires == check(spec, REG).wires  # written in the same order
     assert [n.name for n in back.nodes] == [n.name for n in expand(spec).nodes]
+    assert back.doc == as_pd_shows(spec.doc)
+    assert parse_patch(write_patch(back)).doc == back.doc  # and on to a native patch's header
+
+
+def as_pd_shows(doc: str) -> str:
+    """A header comment as Pd shows it: a comment a line, blank lines gone, words one space apart, a space
+    after ``,`` and ``;``, braces (which Pd cannot have) as parentheses, no backslash (Pd drops them)."""
+    lines = (
+        re.sub(r"\s*([,;])", r"\1 ", ln).replace("{", "(").replace("}", ")").replace("\\", "")
+        for ln in doc.splitlines()
+    )
+    return "\n".join(" ".join(ln.split()) for ln in lines if ln.strip())
+
+
+def test_top_level_comments_become_the_header_top_to_bottom_and_others_do_not():
+    spec = parse_pd(
+        HEAD
+        + "#X text 10 90 then the gyro 1. 0.50 \\, last\\; done;\n"
+        + "#X text 10 10 Send mag and accel first, f 60;\n"
+        + "#X text 200 10 (right of it);\n"
+        + "#X text 10 40 @name out;\n"
+        + "#X obj 10 60 print tick;\n"
+        + "#N canvas 0 50 450 300 sub 0;\n#X text 10 10 inside a subpatch;\n#X restore 10 120 pd sub;\n",
+        "c.pd",
+    )
+    assert spec.doc == "Send mag and accel first\n(right of it)\nthen the gyro 1. 0.50, last; done"
+    assert [n.name for n in spec.nodes] == ["out"]
 
 
 def test_writing_uses_positional_atoms_for_pd_types_and_named_ones_for_pointat_types(caplog):
@@ -414,4 +441,6 @@ def test_pd_opens_exported_patches_with_their_stubs_and_saves_the_same_graph(tmp
     assert "couldn't create" not in done.stderr and "connection failed" not in done.stderr, done.stderr
     assert done.stderr.count("saved to:") == len(specs), done.stderr
     for name, spec in specs.items():
-        assert graph(read_pd(tmp_path / f"{name}.pd")) == graph(spec), name
+        saved = read_pd(tmp_path / f"{name}.pd")
+        assert graph(saved) == graph(spec), name
+        assert saved.doc == as_pd_shows(spec.doc), name  # Pd keeps the header comments as they were
