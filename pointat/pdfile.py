@@ -798,7 +798,10 @@ def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
         xs.append(xs[-1] + max(_COLUMN, chars * _CHAR + 40))
     width = min(max(450, xs[-1] + _MARGIN), 1600)
     header = [ln for ln in spec.doc.splitlines() if ln.strip()]
-    top = _TOP + ((len(header) + 1) * _LINE if header else 0)
+    # Pd shows a ';' inside a comment as the end of a line: a comment takes a line more for each
+    heights = [_LINE * (1 + ln.rstrip(" ;").count(";")) for ln in header]
+    header_y = [_TOP + sum(heights[:k]) for k in range(len(header))]
+    top = _TOP + (sum(heights) + _LINE if header else 0)
     rows = max((o.row for o in outs), default=0) + 1
     height = min(max(300, top + rows * _ROW + _MARGIN), 1000)
     lines = [
@@ -810,8 +813,8 @@ def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
         x, y = xs[o.column], top + o.row * _ROW
         lines.append(f"#X text {x} {y} {NAME_TAG} {_escape(o.decl.name)};")
         lines.append(f"#X {o.kind} {x} {y + _NAME_DY} {' '.join(o.atoms)}".rstrip() + ";")
-    for k, line in enumerate(header):
-        lines.append(f"#X text {_MARGIN} {_TOP + k * _LINE} {_comment(line)}, f {max(len(line), 20)};")
+    for y, line in zip(header_y, header, strict=True):
+        lines.append(f"#X text {_MARGIN} {y} {_comment(line)}, f {max(len(line), 20)};")
     for a, o, b, i in wires:
         lines.append(f"#X connect {2 + 2 * a} {o} {2 + 2 * b} {i};")
     return "\n".join(lines) + "\n"

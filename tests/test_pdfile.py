@@ -293,6 +293,16 @@ def as_pd_shows(doc: str) -> str:
     return "\n".join(" ".join(ln.split()) for ln in lines if ln.strip())
 
 
+def test_header_lines_are_drawn_above_the_boxes_a_semicolon_taking_a_line_more():
+    spec = parse_patch("# one; two\n# three\nnode a loadbang\n", "h.pat")
+    text = write_pd(spec, REG)
+    boxes = [line.split(" ", 4) for line in text.splitlines() if line.startswith(("#X text", "#X obj"))]
+    ys = {words[4]: int(words[3]) for words in boxes}
+    assert ys["one \\; two, f 20;"] + 36 == ys["three, f 20;"]  # Pd shows 'one;' and 'two' on two lines
+    assert ys["three, f 20;"] < ys["@name a;"] < ys["loadbang;"]
+    assert parse_pd(text, "h.pd").doc == "one; two\nthree"
+
+
 def test_top_level_comments_become_the_header_top_to_bottom_and_others_do_not():
     spec = parse_pd(
         HEAD
