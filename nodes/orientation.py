@@ -5,8 +5,9 @@ a quaternion ``(w, x, y, z)`` or a 3x3 rotation matrix, mapping sensor to earth 
 reference direction, y west, z up).  Rates are rad/s, accelerations m/s², fields any unit.
 
 Filters take their time step from the messages' time stamps (sensor time), falling back to ``1/rate``
-for the first sample and for gaps over a second.  A bad sample (zero or NaN vector) leaves a filter's
-state as it was and is reported on its ``flags`` outlet; nothing downstream ever sees NaN.
+for the first sample and for gaps over a second.  A bad sample (zero or NaN vector, a gyro rate of
+100 rad/s or more: :data:`~pointat.maths.scalar.MAX_RATE`) leaves a filter's state as it was and is
+reported on its ``flags`` outlet; nothing downstream ever sees NaN.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from pointat.registry import register
 log = logging.getLogger("pointat.nodes.orientation")
 
 ORIENTATION = ("vector", "list")
+_MAX_RATE2 = sq.MAX_RATE * sq.MAX_RATE
 
 
 def _as_quat(msg: Message) -> sq.Quat:
@@ -161,7 +163,7 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
     def on_gyro(self, msg: Message) -> None:
         wx, wy, wz = as_floats(msg, 3)
         dt = self.step(msg.time)
-        if not math.isfinite(wx + wy + wz):
+        if not wx * wx + wy * wy + wz * wz < _MAX_RATE2:  # NaN, infinite, or a glitch (False for NaN)
             self.report("bad_gyro")
             R = self.integrator.flat
         else:

@@ -322,7 +322,8 @@ class GyroIntegrator:
         Raises
         ------
         ValueError
-            On a non-finite rate or a negative or non-finite ``dt``; the state is unchanged.
+            On a rate that is not finite or not below :data:`~pointat.maths.scalar.MAX_RATE`, or a
+            negative or non-finite ``dt``; the state is unchanged.
         """
         wx, wy, wz = rate
         self.step(float(wx), float(wy), float(wz), float(dt))
@@ -348,7 +349,7 @@ class GyroIntegrator:
         Raises
         ------
         ValueError
-            On a non-finite rate or a bad ``dt``; the samples before the bad one have been applied.
+            On a bad rate (as :meth:`step`) or ``dt``; the samples before the bad one have been applied.
         """
         rates = np.asarray(rates, dtype=float)
         if rates.ndim != 2 or rates.shape[1] != 3:
@@ -364,8 +365,10 @@ class GyroIntegrator:
 
         The per-sample path of the ``gyro_integrator`` node; raises ``ValueError`` as :meth:`update` does.
         """
-        if not (math.isfinite(wx) and math.isfinite(wy) and math.isfinite(wz)):
-            raise ValueError(f"angular rate must be finite, got {(wx, wy, wz)}")
+        if not wx * wx + wy * wy + wz * wz < _sq.MAX_RATE * _sq.MAX_RATE:  # (False for NaN)
+            raise ValueError(
+                f"angular rate must be finite and below {_sq.MAX_RATE:g} rad/s, got {(wx, wy, wz)}"
+            )
         if not (math.isfinite(dt) and dt >= 0.0):
             raise ValueError(f"dt must be a finite non-negative number of seconds, got {dt}")
         d00, d01, d02, d10, d11, d12, d20, d21, d22 = self._increment(wx, wy, wz, dt)
@@ -572,12 +575,13 @@ class ComplementaryFilter:
         Raises
         ------
         ValueError
-            On a non-finite gyro rate or a negative ``dt`` (the state is unchanged).
+            On a gyro rate that is not finite or not below :data:`~pointat.maths.scalar.MAX_RATE`, or a
+            negative ``dt`` (the state is unchanged).
         """
         wx, wy, wz = (float(v) for v in np.ravel(gyro))
         dt = float(dt)
-        if not math.isfinite(wx + wy + wz):
-            raise ValueError(f"gyro rate must be finite, got {[wx, wy, wz]}")
+        if not wx * wx + wy * wy + wz * wz < _sq.MAX_RATE * _sq.MAX_RATE:  # (False for NaN)
+            raise ValueError(f"gyro rate must be finite and below {_sq.MAX_RATE:g} rad/s, got {[wx, wy, wz]}")
         if not (math.isfinite(dt) and dt >= 0.0):
             raise ValueError(f"dt must be a finite non-negative number of seconds, got {dt}")
         # the per-sample work runs on plain floats (pointat.maths.scalar): numpy costs more than the maths

@@ -16,6 +16,7 @@ import math
 from collections.abc import Sequence
 
 __all__ = [
+    "MAX_RATE",
     "Quat",
     "accmag_matrix",
     "accmag_quat",
@@ -35,6 +36,11 @@ __all__ = [
 ]
 
 Quat = tuple[float, float, float, float]
+
+#: The fastest angular rate a reading may have, rad/s (5,730 °/s).  No MEMS gyro measures more (the
+#: widest ranges are ±4,000 °/s, 70 rad/s) and no hand turns so fast: a reading at or beyond it is a
+#: glitch (a corrupt packet, a wrong unit), refused like NaN rather than spun into the orientation.
+MAX_RATE = 100.0
 
 
 def multiply(p: Sequence[float], q: Sequence[float]) -> Quat:

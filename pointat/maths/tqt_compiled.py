@@ -28,6 +28,7 @@ from pointat.maths.tqt import (
     _INF,
     _MAG_DISTURBED,
     _MAG_INVALID,
+    _MAX_RATE2,
     _REST,
     _UNINITIALISED,
     _mul_exp,
@@ -96,7 +97,7 @@ def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_
         if not (0.0 < dt < _INF):
             flags[i] = _DT_INVALID | (0 if init[i] else _UNINITIALISED)
             continue
-        g_ok = gx * gx + gy * gy + gz * gz < _INF
+        g_ok = gx * gx + gy * gy + gz * gz < _MAX_RATE2
         a2 = ax * ax + ay * ay + az * az
         a_ok = 0.0 < a2 < _INF
         m2 = mx * mx + my * my + mz * mz

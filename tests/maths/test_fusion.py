@@ -396,3 +396,17 @@ def test_roll_distance_unwraps_as_unwrap_degrees_does_at_the_edges():
         expected = float(unwrap_degrees(az, prev))
         assert rd._unwrapped == expected, (d, rd._unwrapped, expected)
         assert rd.distance == min(max(45.0 + (expected - prev), 0.0), 90.0)
+
+
+@pytest.mark.parametrize("rate", [(1e30, 0.0, 0.0), (math.nan, 0.0, 0.0), (0.0, 0.0, -100.0)])
+def test_integrator_and_complementary_refuse_rates_beyond_max_rate(rate):
+    integ, comp = GyroIntegrator(), ComplementaryFilter(0.2)
+    R, q = integ.R.copy(), comp.q.copy()
+    with pytest.raises(ValueError, match="finite and below 100 rad/s"):
+        integ.step(*rate, 0.01)
+    with pytest.raises(ValueError, match="finite and below 100 rad/s"):
+        comp.update(rate, (0.0, 0.0, G), (20.0, 0.0, -40.0), 0.01)
+    np.testing.assert_array_equal(integ.R, R)
+    np.testing.assert_array_equal(comp.q, q)
+    integ.step(0.0, 0.0, 99.0, 0.01)  # inside: integrated
+    assert not np.allclose(integ.R, R)

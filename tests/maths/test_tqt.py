@@ -14,6 +14,7 @@ from pointat.maths.quaternion import (
     quat_normalize,
     rotvec_to_quat,
 )
+from pointat.maths.scalar import MAX_RATE
 from pointat.maths.tqt import (
     GRAVITY_REF,
     TQTBank,
@@ -406,6 +407,21 @@ def test_bad_dt_does_nothing(mode, dt):
     assert f.flags == TQTFlags.DT_INVALID
 
 
+@pytest.mark.parametrize("mode", ["robust", "paper"])
+@pytest.mark.parametrize("glitch", [(1e30, 0.0, 0.0), (0.0, -MAX_RATE, 0.0), (60.0, 60.0, -60.0)])
+def test_a_gyro_reading_beyond_max_rate_is_refused_as_nan_is(mode, glitch):
+    """A corrupt packet's 1e30 rad/s is not spun into the orientation: the step is the NaN gyro's."""
+    a, b = started(mode), started(mode)
+    qa = a.update(glitch, (0.3, 0.2, G), (20.0, 3.0, -40.0), 0.01)
+    qb = b.update(NAN3, (0.3, 0.2, G), (20.0, 3.0, -40.0), 0.01)
+    assert qa == qb and a.flags == b.flags
+    assert TQTFlags.GYRO_INVALID in a.flags
+    c = started(mode)  # the fastest real gyro (±4000 deg/s) is well inside
+    before = c.q
+    c.update((0.0, 0.99 * MAX_RATE, 0.0), (0.3, 0.2, G), (20.0, 3.0, -40.0), 0.01)
+    assert TQTFlags.GYRO_INVALID not in c.flags and abs(c.q[2] - before[2]) > 0.1
+
+
 def test_nan_gyro_skips_only_the_propagation():
     """Paper mode: a NaN gyro gives exactly what a zero rate gives (corrections still apply)."""
     a, b = started("paper"), started("paper")
@@ -513,6 +529,8 @@ def test_bank_equals_independent_filters(params, require_tool):
         for fill in (np.nan, 0.0):
             idx, who = rng.integers(0, len(arr), 100), rng.integers(0, n, 100)
             arr[idx, who] = fill
+    idx, who = rng.integers(0, len(gyro), 50), rng.integers(0, n, 50)
+    gyro[idx, who] = 1e30  # glitches beyond MAX_RATE: refused by every sensor's filter alike
     acc[:30, 2] = np.nan  # sensor 2 starts late
     bank = TQTBank(n, backend=backend, **params)
     assert bank.backend == ("numpy" if params["mode"] == "paper" else backend)

@@ -146,3 +146,15 @@ q2m -> m2q -> out
         assert got[2 * k] == pytest.approx(q if q[0] >= 0 else tuple(-c for c in q), abs=1e-15)
         other = quats[-1 - k]
         assert got[2 * k + 1] == pytest.approx(sq.matrix_quat(sq.quat_matrix(other)), abs=1e-15)
+
+
+def test_gyro_integrator_reports_a_glitch_and_holds_its_orientation():
+    rt = patch(
+        "node gyro gyro_integrator\nnode out collect\nnode flags collect\ngyro -> out\ngyro.flags -> flags\n"
+    )
+    node = rt.nodes["gyro"]
+    for k, rate in enumerate([(0.0, 0.0, 1.0), (1e30, 0.0, 0.0), (0.0, 0.0, 1.0)]):
+        node.receive(0, floats(rate, k / 100.0))
+    first, held, after = rt.nodes["out"].values
+    assert held == first and after != first
+    assert rt.nodes["flags"].values == ["bad_gyro", "ok"]  # (reported when it changes)
