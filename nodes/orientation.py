@@ -30,6 +30,7 @@ from pointat.maths.quaternion import (
     nwu_to_ned,
     quat_identity,
 )
+from pointat.maths.scalar import MAX_RATE_SQUARED
 from pointat.maths.tqt import TQTBank, TQTFilter, TQTFlags
 from pointat.message import Message, as_floats, floats, vector
 from pointat.node import Inlet, Node, Outlet, Param
@@ -38,7 +39,6 @@ from pointat.registry import register
 log = logging.getLogger("pointat.nodes.orientation")
 
 ORIENTATION = ("vector", "list")
-_MAX_RATE2 = sq.MAX_RATE * sq.MAX_RATE
 
 
 def _as_quat(msg: Message) -> sq.Quat:
@@ -163,7 +163,7 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
     def on_gyro(self, msg: Message) -> None:
         wx, wy, wz = as_floats(msg, 3)
         dt = self.step(msg.time)
-        if not wx * wx + wy * wy + wz * wz < _MAX_RATE2:  # NaN, infinite, or a glitch (False for NaN)
+        if not wx * wx + wy * wy + wz * wz < MAX_RATE_SQUARED:  # NaN, infinite, or a glitch (False for NaN)
             self.report("bad_gyro")
             R = self.integrator.flat
         else:

@@ -365,7 +365,7 @@ class GyroIntegrator:
 
         The per-sample path of the ``gyro_integrator`` node; raises ``ValueError`` as :meth:`update` does.
         """
-        if not wx * wx + wy * wy + wz * wz < _sq.MAX_RATE * _sq.MAX_RATE:  # (False for NaN)
+        if not wx * wx + wy * wy + wz * wz < _sq.MAX_RATE_SQUARED:  # (False for NaN)
             raise ValueError(
                 f"angular rate must be finite and below {_sq.MAX_RATE:g} rad/s, got {(wx, wy, wz)}"
             )
@@ -580,7 +580,7 @@ class ComplementaryFilter:
         """
         wx, wy, wz = (float(v) for v in np.ravel(gyro))
         dt = float(dt)
-        if not wx * wx + wy * wy + wz * wz < _sq.MAX_RATE * _sq.MAX_RATE:  # (False for NaN)
+        if not wx * wx + wy * wy + wz * wz < _sq.MAX_RATE_SQUARED:  # (False for NaN)
             raise ValueError(f"gyro rate must be finite and below {_sq.MAX_RATE:g} rad/s, got {[wx, wy, wz]}")
         if not (math.isfinite(dt) and dt >= 0.0):
             raise ValueError(f"dt must be a finite non-negative number of seconds, got {dt}")

@@ -17,6 +17,7 @@ from collections.abc import Sequence
 
 __all__ = [
     "MAX_RATE",
+    "MAX_RATE_SQUARED",
     "Quat",
     "accmag_matrix",
     "accmag_quat",
@@ -41,6 +42,9 @@ Quat = tuple[float, float, float, float]
 #: widest ranges are ±4,000 °/s, 70 rad/s) and no hand turns so fast: a reading at or beyond it is a
 #: glitch (a corrupt packet, a wrong unit), refused like NaN rather than spun into the orientation.
 MAX_RATE = 100.0
+#: What the per-sample checks compare a reading's squared norm with (``x*x + y*y + z*z < MAX_RATE_SQUARED``
+#: is one comparison, and False for NaN).
+MAX_RATE_SQUARED = MAX_RATE * MAX_RATE
 
 
 def multiply(p: Sequence[float], q: Sequence[float]) -> Quat:

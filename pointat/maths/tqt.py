@@ -63,7 +63,7 @@ from numpy.typing import ArrayLike
 
 from pointat.maths.fusion import accmag_quat
 from pointat.maths.quaternion import quat_multiply, quat_normalize
-from pointat.maths.scalar import MAX_RATE
+from pointat.maths.scalar import MAX_RATE_SQUARED
 
 __all__ = [
     "GRAVITY_REF",
@@ -85,7 +85,6 @@ __all__ = [
 GRAVITY_REF = np.array([0.0, 0.0, 1.0])
 
 _INF = math.inf
-_MAX_RATE2 = MAX_RATE * MAX_RATE  # a gyro reading's squared norm must be below it (NaN is not)
 _TWO_PI = 2.0 * math.pi
 # below this squared half-angle the exponential map uses its Taylor series (error < 1e-18)
 _EXP_TAYLOR = 1e-8
@@ -767,7 +766,7 @@ class TQTFilter(_TQTParams):
         if not 0.0 < dt < _INF:  # also catches NaN
             self._flags = _DT_INVALID | (0 if self._initialised else _UNINITIALISED)
             return (self._w, self._x, self._y, self._z)
-        g_ok = gx * gx + gy * gy + gz * gz < _MAX_RATE2  # NaN compares False
+        g_ok = gx * gx + gy * gy + gz * gz < MAX_RATE_SQUARED  # NaN compares False
         a2 = ax * ax + ay * ay + az * az
         a_ok = 0.0 < a2 < _INF
         m2 = mx * mx + my * my + mz * mz
@@ -1308,7 +1307,7 @@ class TQTBank(_TQTParams):
             g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2]
             a2 = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
             m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
-            g_ok = g2 < _MAX_RATE2
+            g_ok = g2 < MAX_RATE_SQUARED
             a_ok = (a2 > 0.0) & (a2 < _INF)
             m_ok = (m2 > 0.0) & (m2 < _INF)
             flags = np.where(g_ok, 0, _GYRO_INVALID) | np.where(a_ok, 0, _ACC_INVALID)

@@ -20,6 +20,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+from pointat.maths.scalar import MAX_RATE_SQUARED
 from pointat.maths.tqt import (
     _ACC_INVALID,
     _DT_INVALID,
@@ -28,7 +29,6 @@ from pointat.maths.tqt import (
     _INF,
     _MAG_DISTURBED,
     _MAG_INVALID,
-    _MAX_RATE2,
     _REST,
     _UNINITIALISED,
     _mul_exp,
@@ -97,7 +97,7 @@ def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_
         if not (0.0 < dt < _INF):
             flags[i] = _DT_INVALID | (0 if init[i] else _UNINITIALISED)
             continue
-        g_ok = gx * gx + gy * gy + gz * gz < _MAX_RATE2
+        g_ok = gx * gx + gy * gy + gz * gz < MAX_RATE_SQUARED
         a2 = ax * ax + ay * ay + az * az
         a_ok = 0.0 < a2 < _INF
         m2 = mx * mx + my * my + mz * mz
