@@ -30,7 +30,6 @@ from pointat.maths.quaternion import (
     nwu_to_ned,
     quat_identity,
 )
-from pointat.maths.scalar import MAX_RATE_SQUARED
 from pointat.maths.tqt import TQTBank, TQTFilter, TQTFlags
 from pointat.message import Message, as_floats, floats, vector
 from pointat.node import Inlet, Node, Outlet, Param
@@ -162,13 +161,12 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
 
     def on_gyro(self, msg: Message) -> None:
         wx, wy, wz = as_floats(msg, 3)
-        dt = self.step(msg.time)
-        if not wx * wx + wy * wy + wz * wz < MAX_RATE_SQUARED:  # NaN, infinite, or a glitch (False for NaN)
+        try:  # the integrator refuses a NaN, infinite or glitched rate (MAX_RATE); self.step's dt is good
+            R = self.integrator.step(wx, wy, wz, self.step(msg.time))
+            self.report("ok")
+        except ValueError:
             self.report("bad_gyro")
             R = self.integrator.flat
-        else:
-            R = self.integrator.step(wx, wy, wz, dt)
-            self.report("ok")
         self.out(0, floats(R, msg.time))
 
     def on_orientation(self, msg: Message) -> None:

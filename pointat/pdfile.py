@@ -63,6 +63,7 @@ import math
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from itertools import accumulate
 from pathlib import Path
 from typing import Any
 
@@ -799,9 +800,8 @@ def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
     width = min(max(450, xs[-1] + _MARGIN), 1600)
     header = [ln for ln in spec.doc.splitlines() if ln.strip()]
     # Pd shows a ';' inside a comment as the end of a line: a comment takes a line more for each
-    heights = [_LINE * (1 + ln.rstrip(" ;").count(";")) for ln in header]
-    header_y = [_TOP + sum(heights[:k]) for k in range(len(header))]
-    top = _TOP + (sum(heights) + _LINE if header else 0)
+    *header_y, below = accumulate((_LINE * (1 + ln.rstrip(" ;").count(";")) for ln in header), initial=_TOP)
+    top = below + _LINE if header else _TOP
     rows = max((o.row for o in outs), default=0) + 1
     height = min(max(300, top + rows * _ROW + _MARGIN), 1000)
     lines = [
