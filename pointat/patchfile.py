@@ -55,14 +55,15 @@ def read_patch(path: str | Path) -> PatchSpec:
 
 
 def _logical_lines(text: str) -> list[tuple[int, str]]:
-    """(first line number, text) for each statement; joins ``\\`` continuations."""
+    """(first line number, text) for each statement; joins ``\\`` continuations.  A comment line does
+    not continue: its ``\\`` at the end is text (a diagram's branch), not a join with the next line."""
     out: list[tuple[int, str]] = []
     buf, start = "", 0
     for i, raw in enumerate(text.splitlines(), 1):
         line = raw.rstrip()
         if not buf:
             start = i
-        if line.endswith("\\"):
+        if line.endswith("\\") and (buf or not line.lstrip().startswith("#")):
             buf += line[:-1] + " "
             continue
         out.append((start, buf + line))

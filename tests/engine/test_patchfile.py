@@ -240,3 +240,14 @@ def test_a_misspelt_abstraction_is_one_error_with_the_file_it_may_have_meant(tmp
 def test_unreadable_file_is_a_patch_error(tmp_path):
     with pytest.raises(PatchError, match="cannot read patch"):
         read_spec(tmp_path / "nope.pat")
+
+
+def test_a_comment_line_ending_in_a_backslash_does_not_swallow_the_next_line():
+    spec = parse_patch(
+        "# a diagram:\n#   gyro --\\\n#        \\-> fuse\nnode a metro 100  \\\n    interval=50\n",
+        "c.pat",
+    )
+    assert spec.doc.splitlines() == ["a diagram:", "gyro --\\", "\\-> fuse"]
+    assert [(n.name, n.type, n.args, n.params) for n in spec.nodes] == [
+        ("a", "metro", [100], {"interval": 50})
+    ]
