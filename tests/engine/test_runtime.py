@@ -1,6 +1,7 @@
 """The runtime: logical clock, deadline timers, metro drift, sources in threads, clean shutdown."""
 
 import contextlib
+import math
 import signal
 import socket
 import subprocess
@@ -463,6 +464,81 @@ def test_descriptors_watched_by_number_or_object_and_forgotten_once_closed(epoll
         watch.close()
         os.close(r)
         os.close(w)
+
+
+class _RecordingEpoll:
+    """A real epoll whose ``poll`` timeouts are recorded (as milliseconds, rounded up as CPython does)."""
+
+    def __init__(self, epoll):
+        self.epoll, self.asked = epoll, []
+
+    def poll(self, timeout):
+        self.asked.append(math.ceil(round(timeout * 1e9) / 1e6))  # seconds -> ns -> ms, as CPython
+        return self.epoll.poll(timeout)
+
+    def __getattr__(self, name):
+        return getattr(self.epoll, name)
+
+
+@pytest.mark.skipif(not hasattr(__import__("select"), "epoll"), reason="no epoll on this system")
+@pytest.mark.parametrize("timeout", [0.0003, 0.001, 0.0019, 0.0097, 0.02])
+def test_a_sleep_asks_epoll_for_no_more_than_its_timeout_and_the_rest_in_select(monkeypatch, timeout):
+    """epoll counts whole milliseconds, rounded up: asked for 9.7 ms it would sleep 10, and every timer
+    ran up to a millisecond late (p50 0.7 ms at 100 Hz).  The whole milliseconds go to epoll, the rest to
+    a select, which counts microseconds."""
+    import select
+
+    from pointat.runtime import _Descriptors
+
+    watch = _Descriptors(epoll=True)
+    watch._epoll = spy = _RecordingEpoll(watch._epoll)
+    rests = []
+    real_select = select.select
+
+    def recording_select(r, w, x, t):
+        rests.append(t)
+        return real_select(r, w, x, t)
+
+    monkeypatch.setattr(select, "select", recording_select)
+    try:
+        assert watch.select(timeout) == []
+    finally:
+        watch.close()
+    asked = [ms for ms in spy.asked if ms]  # the poll(0) after a select that found input is not a sleep
+    assert asked == ([math.floor(timeout * 1000)] if timeout >= 0.001 else [])
+    assert all(0.0 < t <= timeout - sum(asked) / 1000 + 1e-9 for t in rests)
+    if timeout < 0.001:
+        assert rests == [timeout]  # all of it in select
+
+
+class _BlindEpoll(_RecordingEpoll):
+    """An epoll that sees nothing while it sleeps: every input is left for the select after it."""
+
+    def poll(self, timeout):
+        return super().poll(0.0) if timeout == 0.0 else []
+
+
+@pytest.mark.skipif(not hasattr(__import__("select"), "epoll"), reason="no epoll on this system")
+@pytest.mark.parametrize("blind", [False, True], ids=["in epoll's whole ms", "in the select after them"])
+def test_input_ends_a_sleep_in_either_part(blind):
+    from pointat.runtime import _Descriptors
+
+    watch = _Descriptors(epoll=True)
+    if blind:
+        watch._epoll = _BlindEpoll(watch._epoll)
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        rx.bind(("127.0.0.1", 0))
+        watch.register(rx, "rx")
+        tx.sendto(b"x", rx.getsockname())
+        t0 = time.monotonic()
+        assert watch.select(5.0097) == ["rx"]
+        assert time.monotonic() - t0 < 5.0  # at once, not after the timeout
+    finally:
+        watch.close()
+        rx.close()
+        tx.close()
 
 
 def test_the_scheduler_sleeps_until_the_next_timer_at_most_idle():
