@@ -202,6 +202,9 @@ def main(argv: list[str] | None = None) -> int:
         run.latency = latency.run_all((100.0, 1000.0), phases, sample, progress, rounds)
         progress("latency: the engine's thread -> scheduler hand-off alone, 1 kHz")
         run.handoff = latency.handoff(1000.0, 3.0 if args.quick else 10.0)
+        for rate in (100.0, 1000.0):
+            progress(f"latency: the scheduler's timers against a sleeping Python loop, {rate:g} Hz")
+            run.timers[rate] = latency.timers(rate, 6.0 if args.quick else 20.0)
         progress("latency: Python calls per sample on the osc_in path")
         run.calls = latency.python_calls(sample)
         progress("latency: instructions per sample on the osc_in path (valgrind)")

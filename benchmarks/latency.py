@@ -61,7 +61,7 @@ import numpy as np
 
 from pointat.devices.glove_sim import GloveSimulator
 from pointat.devices.mote_frame import Frame, encode_frame
-from pointat.node import Node
+from pointat.node import Inlet, Node
 from pointat.runtime import Runtime, keep_cpus_awake
 
 log = logging.getLogger("benchmarks.latency")
@@ -868,6 +868,61 @@ def handoff(rate: float, seconds: float) -> np.ndarray:
     rt.run(seconds + 5.0)
     th.join(2.0)
     return np.array(delays[10:], dtype=float)
+
+
+class _Lateness(Node):
+    """Records how late each message arrives: the scheduler's clock now minus the message's time (a
+    ``metro`` tick carries the time it was due)."""
+
+    type_name = "lateness"
+    inlets = (Inlet("in", ("bang",), "a timer's output"),)
+
+    def setup(self) -> None:
+        self.late_us: list[float] = []
+
+    def on_in(self, msg: Any) -> None:
+        self.late_us.append((self.rt.clock.now() - msg.time) * 1e6)  # type: ignore[union-attr]
+
+
+def _metro_lateness(rate: float, seconds: float) -> np.ndarray:
+    """A ``metro`` at ``rate`` Hz on the real-time runtime, ``seconds`` long: µs each tick ran after it
+    was due (the first ticks left out)."""
+    from nodes.control import Loadbang, Metro
+
+    rt = Runtime(realtime=True)
+    start = rt.add(Loadbang("lb"))
+    metro = rt.add(Metro("m", {"interval": 1000.0 / rate}))
+    probe = rt.add(_Lateness("probe"))
+    rt.connect(start, 0, metro, 0)
+    rt.connect(metro, 0, probe, 0)
+    rt.run(seconds)
+    return np.array(probe.late_us[10:], dtype=float)
+
+
+def _sleep_lateness(rate: float, seconds: float) -> np.ndarray:
+    """The floor: a bare Python loop that sleeps (``time.sleep``) until each deadline of a ``rate`` Hz
+    schedule; µs it woke after it (the first ticks left out)."""
+    period = 1.0 / rate
+    start = time.monotonic()
+    late = []
+    for k in range(1, int(seconds * rate)):
+        due = start + k * period
+        wait = due - time.monotonic()
+        if wait > 0.0:
+            time.sleep(wait)
+        late.append((time.monotonic() - due) * 1e6)
+    return np.array(late[10:], dtype=float)
+
+
+def timers(rate: float, seconds: float, rounds: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """How late the runtime's timers run: a ``metro`` at ``rate`` Hz against a bare Python loop sleeping
+    until the same deadlines, ``rounds`` times in turn (``seconds`` each in all).  Returns (metro,
+    sleep) lateness in µs."""
+    metro, floor = [], []
+    for _ in range(rounds):
+        floor.append(_sleep_lateness(rate, seconds / rounds))
+        metro.append(_metro_lateness(rate, seconds / rounds))
+    return np.concatenate(metro), np.concatenate(floor)
 
 
 @dataclass

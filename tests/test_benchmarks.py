@@ -211,3 +211,18 @@ def test_recording_a_chain_sees_every_message_each_node_gets():
     seen = _spy(rt.nodes["t"])
     rt.nodes["src"].receive(0, make(None))
     assert [(i, m.value) for i, m in seen] == [(0, 1.0)] and rt.nodes["c"].values == [1.0]
+
+
+def test_the_scheduler_timers_are_measured_beside_a_sleeping_loop_and_reported():
+    """A real metro on the real-time runtime and a bare sleeping loop, each tick's lateness recorded
+    (never early: a timer runs at or after its time), then the report's table of both."""
+    from benchmarks.latency import timers
+    from benchmarks.report import _timers
+
+    metro, floor = timers(200.0, 0.6, rounds=2)
+    # 0.3 s a round at 200 Hz: ~60 ticks, the first 10 of each round left out
+    assert 80 <= metro.size <= 110 and 80 <= floor.size <= 110
+    assert (metro >= 0.0).all() and (floor >= 0.0).all()
+    text = "\n".join(_timers({200.0: (metro, floor)}))
+    m50, f50 = np.percentile(metro, 50), np.percentile(floor, 50)
+    assert f"| 200 Hz | {m50 / 1000:.2f} |" in text and f"| {m50 / f50:.2f} |" in text
