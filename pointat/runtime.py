@@ -235,7 +235,8 @@ class _Descriptors:
         The wait ends within the system's timer slack of ``timeout`` (50 µs for a normal thread on
         Linux), not at the next whole millisecond: epoll counts its timeout in milliseconds, rounded up,
         and a timer 0.3 ms away would run 0.7 ms late.  So epoll sleeps the whole milliseconds and
-        :meth:`wait` the rest; input wakes either at once, and costs one system call as before.
+        :meth:`wait` the rest.  Input wakes either at once; while epoll sleeps (with no timer due within
+        a millisecond, nearly always) it costs one system call, as before.
         """
         if self._epoll is None:
             return [key.data for key, _ in self._fallback.select(timeout)]
