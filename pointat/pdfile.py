@@ -40,7 +40,9 @@ index).  Each node is a ``@name`` comment and,
 20 px below it, the node's box.  Columns follow the topological depth of the wires (sources on the
 left), at least 160 px apart and wider for long boxes; within a column, rows 50 px apart are ordered by
 the mean row of each node's inputs.  Pd's own types (metro, delay, trigger, pack, unpack, route, send,
-receive, loadbang, print, msg, change) get positional atoms only, as Pd expects; pointat's other types get
+receive, loadbang, print, msg, change) get positional atoms only, as Pd expects (a ``print`` prefix of
+plain words as one atom a word: Pd's ``print`` joins them again, and reading a ``.pd`` file does the
+same with a ``[print]`` box's atoms); pointat's other types get
 ``key=value`` atoms for every parameter that differs from its default.  Such a value is one symbol atom,
 so a float keeps its full precision (Pd writes number atoms with 6 significant digits: a positional float
 that would lose digits is logged as a warning).  Symbols that would read as a number or as ``key=value``
@@ -90,6 +92,9 @@ _NUMBER = re.compile(r"-?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
 _INNER_ESCAPE = re.compile(r"\\([,;$\s\\])")
 _NOT_NAME = re.compile(r"[^A-Za-z0-9_]+")
+# words one space apart, none of which Pd would read as a number, a separator or a dollar argument
+_WORD = r"(?!-?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?(?:\s|\Z))(?![A-Za-z_][A-Za-z0-9_]*=)[^\s\\,;${}]+"
+_WORDS = re.compile(rf"{_WORD}(?: {_WORD})+\Z")
 _ATOM_BOXES = ("floatatom", "symbolatom", "listbox")
 
 # layout of written patches (px, font size 10)
@@ -348,6 +353,8 @@ class _Reader:
             else:
                 box = self.add(canvas, rec, "node", str(cls))
                 self.arguments(box, atoms[5:], rec.line)
+                if cls == "print":
+                    box.args = _print_args(box.args)
                 if cls in ("inlet~", "outlet~"):
                     box.port = "in" if cls == "inlet~" else "out"
         elif kind == "msg":
@@ -563,6 +570,18 @@ def _atom_text(value: Any) -> str:
     return out
 
 
+def _print_args(args: list[Any]) -> list[Any]:
+    """A ``[print]`` box's creation atoms as pointat's ``print`` takes them.
+
+    Pd's ``print`` joins all its atoms into its prefix, one space apart (``[print gyro nulls]`` prints
+    ``gyro nulls: ...``), numbers as Pd shows them.  Two atoms of which the second is 0 or 1 are the
+    prefix and ``time``, the form pointat writes for ``time=true``.
+    """
+    if len(args) < 2 or (len(args) == 2 and type(args[1]) is int and args[1] in (0, 1)):
+        return args
+    return [" ".join(f"{a:g}" if isinstance(a, float) else str(a) for a in args)]
+
+
 def _value_text(value: Any) -> str:
     """A parameter value as :func:`~pointat.patchfile.parse_value` reads it; lists without commas."""
     if isinstance(value, (list, tuple)):
@@ -671,6 +690,9 @@ def _box(decl: NodeDecl, registry: Registry) -> _Out:
         for a in values["content"]:
             _warn_precision(decl.name, "msg", a)
         return _Out(decl, "msg", [_atom_text(a) for a in values["content"]], ins, outs)
+    if cls.type_name == "print" and not values["time"] and _WORDS.match(values["prefix"]):
+        # as Pd reads it: [print gyro nulls] prints "gyro nulls: ...", and its box shows no escapes
+        return _Out(decl, "obj", [decl.type, *values["prefix"].split(" ")], ins, outs)
     if cls.type_name in VANILLA:
         return _Out(decl, "obj", [decl.type, *_positional(cls, values, decl.name)], ins, outs)
     default_ins, default_outs = _default_layout(cls)

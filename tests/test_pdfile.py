@@ -102,6 +102,40 @@ def test_vanilla_objects_load_as_pointat_nodes_and_print_what_pd_printed():
     assert run(spec, 1.0) == pd_printed("vanilla")
 
 
+def test_a_print_box_takes_all_its_words_as_its_prefix_as_pd_does():
+    """Pd joins a [print]'s atoms into its prefix ([print my label] prints "my label: bang"); two atoms of
+    which the second is 0 or 1 are the prefix and time, as pointat writes time=true."""
+    text = HEAD + "#X obj 10 10 loadbang;\n#X obj 10 60 print my label 2.5 here;\n#X connect 0 0 1 0;\n"
+    spec = parse_pd(text, "x.pd")
+    assert spec.node("print_1").args == ["my label 2.5 here"]
+    assert run(spec) == ["my label 2.5 here: bang"]
+    timed = parse_pd(text.replace("my label 2.5 here", "tick 1"), "x.pd")
+    assert REG.get("print").resolve_params(timed.node("print_1").args, {})["time"] is True
+
+
+@pytest.mark.parametrize(
+    ("prefix", "time", "box"),
+    [
+        ("gyro nulls (hold the glove still):", False, "print gyro nulls (hold the glove still):"),
+        ("level 1", False, r"print level\ 1"),  # read as words it would be prefix "level", time=true
+        ("two words", True, r"print two\ words 1"),
+        ("a=b c", False, r"print a\=b\ c"),
+        ("one", False, "print one"),
+    ],
+)
+def test_a_print_prefix_of_words_is_written_as_words_and_reads_back_the_same(prefix, time, box):
+    spec = parse_patch(
+        f'node lb loadbang\nnode p print prefix="{prefix}" time={str(time).lower()}\nlb -> p', "x.pat"
+    )
+    text = write_pd(spec, REG)
+    assert f" {box};" in text
+    back = parse_pd(text, "x.pd")
+    assert REG.get("print").resolve_params(back.node("p").args, back.node("p").params) == {
+        "prefix": prefix,
+        "time": time,
+    }
+
+
 def test_unknown_and_gui_boxes_are_reported_all_at_once_with_their_box():
     spec = read_pd(DATA / "unknown.pd")
     with pytest.raises(PatchError) as info:
@@ -454,3 +488,28 @@ def test_pd_opens_exported_patches_with_their_stubs_and_saves_the_same_graph(tmp
         saved = read_pd(tmp_path / f"{name}.pd")
         assert graph(saved) == graph(spec), name
         assert saved.doc == as_pd_shows(spec.doc), name  # Pd keeps the header comments as they were
+
+
+def test_pd_prints_an_exported_print_box_with_the_prefix_pointat_prints(tmp_path, require_tool):
+    require_tool(shutil.which("pd") is not None, "Pure Data (pd) is not installed")
+    spec = parse_patch('node lb loadbang\nnode p print "gyro nulls (hold still)"\nlb -> p', "x.pat")
+    (tmp_path / "x.pd").write_text(write_pd(spec, REG))
+    done = subprocess.run(
+        [
+            "pd",
+            "-nogui",
+            "-noaudio",
+            "-noprefs",
+            "-stderr",
+            "-open",
+            str(tmp_path / "x.pd"),
+            "-send",
+            "pd quit",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    assert run(spec) == ["gyro nulls (hold still): bang"]
+    assert "gyro nulls (hold still): bang" in done.stderr.splitlines(), done.stderr
