@@ -181,6 +181,10 @@ class _Reader:
         self.watched = True  # False once removed: a reader earlier in the same wake-up may remove it
 
 
+#: The descriptors ``select`` can watch are those below this number (the C library's ``FD_SETSIZE``).
+_FD_SETSIZE = 1024
+
+
 class _Descriptors:
     """The descriptors the scheduler sleeps on, each with its data: ``epoll`` itself where there is one.
 
@@ -191,6 +195,9 @@ class _Descriptors:
 
     def __init__(self, epoll: bool = hasattr(select, "epoll")) -> None:
         self._epoll = select.epoll() if epoll else None
+        # select() takes descriptors below FD_SETSIZE only: an epoll made in a process with more files
+        # open than that sleeps to the millisecond, as epoll does by itself
+        self._fine = self._epoll is not None and self._epoll.fileno() < _FD_SETSIZE
         self._fallback = None if self._epoll is not None else selectors.DefaultSelector()
         self._data: dict[int, Any] = {}  # fd -> data
         # fd -> the object registered, held so that its id stays its own while it is watched; and that
@@ -235,12 +242,13 @@ class _Descriptors:
         The wait ends within the system's timer slack of ``timeout`` (50 µs for a normal thread on
         Linux), not at the next whole millisecond: epoll counts its timeout in milliseconds, rounded up,
         and a timer 0.3 ms away would run 0.7 ms late.  So epoll sleeps the whole milliseconds and
-        :meth:`wait` the rest.  Input wakes either at once; while epoll sleeps (with no timer due within
-        a millisecond, nearly always) it costs one system call, as before.
+        :meth:`wait` the rest.  Input wakes either at once.  Input that comes while epoll sleeps costs
+        one system call, as before; while a timer is due within the millisecond (a 1 kHz ``metro`` or
+        simulated glove: at every sleep), it costs two (``select``, then ``epoll_wait`` at once).
         """
         if self._epoll is None:
             return [key.data for key, _ in self._fallback.select(timeout)]
-        if timeout > 0.0:
+        if timeout > 0.0 and self._fine:
             whole = math.floor(timeout * 1000.0)
             if not whole:
                 return self.wait(timeout)
@@ -250,7 +258,7 @@ class _Descriptors:
                 rest = end - time.monotonic()
                 return self.wait(rest) if rest > 0.0 else []
         else:
-            ready = self._epoll.poll(0.0)  # a signal: retried (PEP 475)
+            ready = self._epoll.poll(max(timeout, 0.0))  # a signal: retried (PEP 475)
         data = self._data
         return [data[fd] for fd, _ in ready if fd in data]
 
@@ -258,7 +266,7 @@ class _Descriptors:
         """As :meth:`select`, in one ``select`` on the epoll descriptor itself (readable when a watched
         one is), which counts microseconds; the spinning scheduler's short waits, and the rest of a
         :meth:`select` after its whole milliseconds."""
-        if self._epoll is None:
+        if not self._fine:
             return self.select(timeout)
         if not select.select([self._epoll.fileno()], [], [], timeout)[0]:
             return []

@@ -541,6 +541,43 @@ def test_input_ends_a_sleep_in_either_part(blind):
         tx.close()
 
 
+@pytest.mark.skipif(not hasattr(__import__("select"), "epoll"), reason="no epoll on this system")
+def test_a_process_with_more_than_1024_files_open_sleeps_to_the_millisecond_and_sees_input():
+    """select() cannot watch a descriptor numbered 1024 or more: an epoll made past that sleeps in epoll
+    alone (to the millisecond) instead of raising 'filedescriptor out of range' and stopping the patch."""
+    import os
+    import resource
+
+    from pointat.runtime import _Descriptors
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard != resource.RLIM_INFINITY and hard < 1200:
+        pytest.skip(f"the hard limit on open files is {hard}")
+    resource.setrlimit(
+        resource.RLIMIT_NOFILE, (max(soft, 1200) if soft != resource.RLIM_INFINITY else soft, hard)
+    )
+    held = []
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        held.append(os.open(os.devnull, os.O_RDONLY))
+        while held[-1] < 1030:
+            held.append(os.dup(held[0]))
+        watch = _Descriptors(epoll=True)
+        assert watch._epoll.fileno() >= 1024
+        rx.bind(("127.0.0.1", 0))
+        watch.register(rx, "rx")
+        assert watch.select(0.0105) == [] and watch.wait(0.0002) == []
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx:
+            tx.sendto(b"x", rx.getsockname())
+        assert watch.select(5.0005) == ["rx"]
+        watch.close()
+    finally:
+        rx.close()
+        for fd in held:
+            os.close(fd)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+
+
 def test_the_scheduler_sleeps_until_the_next_timer_at_most_idle():
     rt = Runtime(realtime=False)
     rt.start()
