@@ -7,7 +7,9 @@ has no escape and reads as one (``-3``, ``0.5``, ``1e+10``); ``+5``, ``inf`` and
 
 * ``#X obj x y CLASS args...`` is a node of type CLASS.  Atoms ``key=value`` (whose ``=`` is not escaped) are
   pointat's named parameters, the value read by :func:`~pointat.patchfile.parse_value`; the other atoms
-  are positional.
+  are positional.  A ``[print]`` box's atoms are its prefix, joined as Pd joins them (``[print my label]``
+  prints ``my label: ...``; ``a=b`` is a word of it), but for ``time=...`` and ``prefix=...``, and for two
+  atoms of which the second is 0 or 1: the prefix and ``time``, the form pointat writes.
 * ``#X msg x y content...`` is a node of type ``msg``; an escaped ``,`` / ``;`` stays a ``","`` / ``";"``
   atom, ``\$1`` becomes ``"$1"``.
 * ``#X floatatom``, ``symbolatom``, ``listbox``, ``#X scalar`` and GUI objects (``bng``, ``tgl``, ``hsl``...)
@@ -352,9 +354,11 @@ class _Reader:
                 self.add(canvas, rec, "port").port = "in" if cls == "inlet" else "out"
             else:
                 box = self.add(canvas, rec, "node", str(cls))
-                self.arguments(box, atoms[5:], rec.line)
-                if cls == "print":
+                if cls == "print":  # "a=b" is a word of Pd's print prefix, but "time=1" sets pointat's
+                    self.arguments(box, atoms[5:], rec.line, keys=("prefix", "time"))
                     box.args = _print_args(box.args)
+                else:
+                    self.arguments(box, atoms[5:], rec.line)
                 if cls in ("inlet~", "outlet~"):
                     box.port = "in" if cls == "inlet~" else "out"
         elif kind == "msg":
@@ -381,9 +385,13 @@ class _Reader:
             canvas.pending = None
         return box
 
-    def arguments(self, box: _Box, atoms: list[Any], line: int) -> None:
+    def arguments(self, box: _Box, atoms: list[Any], line: int, keys: Sequence[str] | None = None) -> None:
+        """The box's creation atoms: ``key=value`` ones as parameters (only ``keys``, when given), the
+        others as positional arguments."""
         for a in atoms:
             m = _KEY.match(a) if isinstance(a, str) and getattr(a, "keyable", True) else None
+            if m is not None and keys is not None and m.group(1) not in keys:
+                m = None
             if m is None:
                 box.args.append(_plain(a))
                 continue
@@ -579,7 +587,7 @@ def _print_args(args: list[Any]) -> list[Any]:
     """
     if len(args) < 2 or (len(args) == 2 and type(args[1]) is int and args[1] in (0, 1)):
         return args
-    return [" ".join(f"{a:g}" if isinstance(a, float) else str(a) for a in args)]
+    return [" ".join(f"{a:g}" if isinstance(a, (int, float)) else str(a) for a in args)]
 
 
 def _value_text(value: Any) -> str:

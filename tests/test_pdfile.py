@@ -103,13 +103,16 @@ def test_vanilla_objects_load_as_pointat_nodes_and_print_what_pd_printed():
 
 
 def test_a_print_box_takes_all_its_words_as_its_prefix_as_pd_does():
-    """Pd joins a [print]'s atoms into its prefix ([print my label] prints "my label: bang"); two atoms of
-    which the second is 0 or 1 are the prefix and time, as pointat writes time=true."""
-    text = HEAD + "#X obj 10 10 loadbang;\n#X obj 10 60 print my label 2.5 here;\n#X connect 0 0 1 0;\n"
+    """Pd joins a [print]'s atoms into its prefix ([print my label] prints "my label: bang"), "a=b" words
+    and numbers too; two atoms of which the second is 0 or 1 are the prefix and time, as pointat writes
+    time=true."""
+    text = (
+        HEAD + "#X obj 10 10 loadbang;\n#X obj 10 60 print my label=2.5 1000000 here;\n#X connect 0 0 1 0;\n"
+    )
     spec = parse_pd(text, "x.pd")
-    assert spec.node("print_1").args == ["my label 2.5 here"]
-    assert run(spec) == ["my label 2.5 here: bang"]
-    timed = parse_pd(text.replace("my label 2.5 here", "tick 1"), "x.pd")
+    assert spec.node("print_1").args == ["my label=2.5 1e+06 here"]  # numbers as Pd shows them
+    assert run(spec) == ["my label=2.5 1e+06 here: bang"]
+    timed = parse_pd(text.replace("my label=2.5 1000000 here", "tick 1"), "x.pd")
     assert REG.get("print").resolve_params(timed.node("print_1").args, {})["time"] is True
 
 
@@ -169,12 +172,11 @@ def test_escapes_in_a_pd_saved_file():
     tqt = spec.node("tqt_1")
     assert tqt.args == [] and tqt.params == {"k": 0.123456789012, "mode": "robust", "rho": 0.5}
     assert spec.node("print_2").args == ["two words"]
-    # a Pd print whose prefix looks like key=value is read as a named parameter, and reported as such
-    assert spec.node("print_3").params == {"a": "b"}
-    with pytest.raises(PatchError) as info:
-        check(spec, REG)
-    [problem] = info.value.problems
-    assert problem.where.box == 3 and "unknown parameter 'a'" in problem.message
+    # a Pd print whose prefix looks like key=value prints it, as Pd does; time=1 is pointat's parameter
+    assert spec.node("print_3").args == ["a=b"] and spec.node("print_3").params == {}
+    check(spec, REG)
+    timed = parse_pd(HEAD + "#X obj 20 140 print a=b time=1 c;\n", "x.pd")
+    assert timed.node("print_0").args == ["a=b c"] and timed.node("print_0").params == {"time": True}
 
 
 def test_subpatch_inlets_are_ordered_by_x_and_ports_wire_through():
