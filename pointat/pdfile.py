@@ -842,7 +842,7 @@ def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
     for o in outs:
         x, y = xs[o.column], top + o.row * _ROW
         lines.append(f"#X text {x} {y} {NAME_TAG} {_escape(o.decl.name)};")
-        lines.append(f"#X {o.kind} {x} {y + _NAME_DY} {' '.join(o.atoms)}".rstrip() + ";")
+        lines.append(" ".join([f"#X {o.kind} {x} {y + _NAME_DY}", *o.atoms]) + ";")
     for y, line in zip(header_y, header, strict=True):
         lines.append(f"#X text {_MARGIN} {y} {_comment(line)}, f {max(len(line), 20)};")
     for a, o, b, i in wires:

@@ -14,7 +14,7 @@ import pytest
 
 from pointat.errors import PatchError
 from pointat.loader import build, check, expand
-from pointat.patchfile import parse_patch, read_patch, write_patch
+from pointat.patchfile import format_value, parse_patch, read_patch, write_patch
 from pointat.pdfile import STUB_FOLDER, VANILLA, parse_pd, read_pd, write_pd, write_stubs
 from pointat.registry import default_registry
 from pointat.spec import PatchSpec
@@ -124,11 +124,14 @@ def test_a_print_box_takes_all_its_words_as_its_prefix_as_pd_does():
         ("two words", True, r"print two\ words 1"),
         ("a=b c", False, r"print a\=b\ c"),
         ("one", False, "print one"),
+        ("a b ", False, r"print a\ b\ "),  # the escaped space before ';' stays (it once made '\;')
+        ("x\\", False, r"print x\\"),
     ],
 )
 def test_a_print_prefix_of_words_is_written_as_words_and_reads_back_the_same(prefix, time, box):
     spec = parse_patch(
-        f'node lb loadbang\nnode p print prefix="{prefix}" time={str(time).lower()}\nlb -> p', "x.pat"
+        f"node lb loadbang\nnode p print prefix={format_value(prefix)} time={str(time).lower()}\nlb -> p",
+        "x.pat",
     )
     text = write_pd(spec, REG)
     assert f" {box};" in text
