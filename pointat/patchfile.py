@@ -41,7 +41,7 @@ _NODE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*\Z")
 _INT = re.compile(r"[+-]?\d+\Z")
 _FLOAT = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+)([eE][+-]?\d+)?\Z")
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
-_BARE = re.compile(r"[A-Za-z_$/.][^\s\[\]\"#=,]*\Z")
+_BARE = re.compile(r"[A-Za-z_$/.][^\s\[\]\"#=,]*(?<!\\)\Z")  # a "\" at the end of a line continues it
 
 
 def read_patch(path: str | Path) -> PatchSpec:

@@ -44,6 +44,14 @@ def test_numbers_keep_full_precision_and_values_round_trip():
         assert parse_value(format_value(v)) == v
 
 
+def test_a_value_ending_in_a_backslash_is_quoted_so_that_it_does_not_continue_the_line():
+    spec = parse_patch('node lb loadbang\nnode q print "x\\\\"\nlb -> q\n', "x.pat")
+    assert spec.node("q").args == ["x\\"]
+    text = write_patch(spec)
+    assert 'print "x\\\\"' in text
+    assert parse_patch(text).node("q").args == ["x\\"] and len(parse_patch(text).wires) == 1
+
+
 def test_write_then_parse_gives_the_same_spec():
     text = 'node a metro 33.333333333333336\nnode b print prefix="x: "\na -> b.0\n'
     spec = parse_patch(text)
