@@ -41,7 +41,9 @@ _NODE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*\Z")
 _INT = re.compile(r"[+-]?\d+\Z")
 _FLOAT = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+)([eE][+-]?\d+)?\Z")
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
-_BARE = re.compile(r"[A-Za-z_$/.][^\s\[\]\"#=,]*(?<!\\)\Z")  # a "\" at the end of a line continues it
+#: A text written without quotes: nothing in it that :func:`tokenize` splits at (``,`` ``;`` ``->`` ``<-``,
+#: brackets, quotes, space) and no ``\`` at its end (at the end of a line, that continues the line).
+_BARE = re.compile(r"(?!.*(?:->|<-))[A-Za-z_$/.][^\s\[\]\"#=,;]*(?<!\\)\Z")
 
 
 def read_patch(path: str | Path) -> PatchSpec:

@@ -42,6 +42,10 @@ m.0 -> lst.1 -> p.0
 def test_numbers_keep_full_precision_and_values_round_trip():
     for v in (0.1 + 0.2, 1e-17, -3, 123456789.123456789, "two words", "sweep", ["a", 1, [2.5]], True, "12"):
         assert parse_value(format_value(v)) == v
+    # texts with what splits a statement in them come back whole, in a node line too
+    for v in ("a;b", "a,b", "x->y", "x<-y", "a[1]", "x\\", 'say "hi"', "a#b", "é;"):
+        assert parse_value(format_value(v)) == v, v
+        assert parse_patch(f"node p print {format_value(v)} true\n").node("p").args == [v, True], v
 
 
 def test_a_value_ending_in_a_backslash_is_quoted_so_that_it_does_not_continue_the_line():
