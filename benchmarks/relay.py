@@ -7,6 +7,8 @@ without a receiver thread in the sender's own process).  With ``--pty PATH`` it 
 path instead: it reads mote frames from a pseudo-terminal with pointat's own frame parser and sends one
 python-osc message per frame, ``/floor ID TAG`` (the sample tag of the frame's gyro x count, as the
 benchmark's mote patches send it), so that the pty's own cost is measured as the UDP floors measure UDP.
+With ``--busy-us N`` the relay spins N µs of busy work on each message before it sends it on: what a
+chain of that cost would add to the floor (the benchmark shows what the 1.2 × goal asks with it).
 
     python -m benchmarks.relay --in-port 9100 --out-port 9101 --for 60
     python -m benchmarks.relay --pty /dev/pts/5 --out-port 9101 --for 60
@@ -34,13 +36,14 @@ def main(argv: list[str] | None = None) -> int:
     src.add_argument("--pty", help="read mote frames from this pseudo-terminal instead")
     ap.add_argument("--out-port", type=int, required=True, help="UDP port to forward to (127.0.0.1)")
     ap.add_argument("--for", dest="seconds", type=float, default=600.0, help="stop after this long")
+    ap.add_argument("--busy-us", type=float, default=0.0, help="busy work a message before it is sent, µs")
     args = ap.parse_args(argv)
     deadline = time.monotonic() + args.seconds
     if args.pty:
         return _pty_relay(args.pty, args.out_port, deadline)
     if args.out_port == 0:
         return _sink(args.in_port, deadline)
-    server = osc_relay(args.in_port, args.out_port)
+    server = osc_relay(args.in_port, args.out_port, args.busy_us)
     server.timeout = 0.2
     try:
         while time.monotonic() < deadline:
@@ -50,12 +53,21 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def osc_relay(in_port: int, out_port: int) -> BlockingOSCUDPServer:
+def osc_relay(in_port: int, out_port: int, busy_us: float = 0.0) -> BlockingOSCUDPServer:
     """python-osc's server on 127.0.0.1:``in_port``, every message it parses sent on by python-osc's client
-    to ``out_port``; ``handle_request()`` relays one datagram."""
+    to ``out_port`` (after ``busy_us`` µs of busy work); ``handle_request()`` relays one datagram."""
     client = SimpleUDPClient("127.0.0.1", out_port)
+    busy = busy_us / 1e6
+
+    def relay(address: str, *values: object) -> None:
+        if busy:
+            end = time.perf_counter() + busy
+            while time.perf_counter() < end:
+                pass
+        client.send_message(address, list(values))
+
     dispatcher = Dispatcher()
-    dispatcher.set_default_handler(lambda address, *values: client.send_message(address, list(values)))
+    dispatcher.set_default_handler(relay)
     return BlockingOSCUDPServer(("127.0.0.1", in_port), dispatcher)
 
 

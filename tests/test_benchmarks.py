@@ -226,3 +226,47 @@ def test_the_scheduler_timers_are_measured_beside_a_sleeping_loop_and_reported()
     text = "\n".join(_timers({200.0: (metro, floor)}))
     m50, f50 = np.percentile(metro, 50), np.percentile(floor, 50)
     assert f"| 200 Hz | {m50 / 1000:.2f} |" in text and f"| {m50 / f50:.2f} |" in text
+
+
+def test_the_python_osc_relay_spins_its_busy_work_before_it_sends():
+    """The floor with a chain's worth of plain work (``--busy-us``): a real relay on 127.0.0.1 holds each
+    message that long, then sends it on unchanged."""
+    import socket
+    import time
+
+    from pythonosc.udp_client import SimpleUDPClient
+
+    from benchmarks.relay import osc_relay
+
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(5.0)
+    server = osc_relay(0, rx.getsockname()[1], busy_us=30_000)
+    try:
+        SimpleUDPClient("127.0.0.1", server.server_address[1]).send_message("/x", [1, 2.5])
+        t0 = time.perf_counter()
+        server.handle_request()
+        assert time.perf_counter() - t0 >= 0.03
+        assert rx.recv(100).startswith(b"/x\0\0,if")
+    finally:
+        server.server_close()
+        rx.close()
+
+
+def test_the_busy_relays_are_set_beside_the_chains():
+    from benchmarks.report import _busy_relays
+
+    def row(family, chain, values):
+        r = LatencyResult(chain, family, chain, 1000.0, 1, "cmd")
+        r.latencies_us, r.expected = np.array(values, dtype=float), len(values)
+        return r
+
+    lat = [  # p50 the first value, p99 the second
+        row("floor", "python-osc", [100.0] * 60 + [200.0] * 40),
+        row("floor", "python-osc+20us", [110.0] * 60 + [250.0] * 40),
+        row("pointat-udp", "tqt", [130.0] * 60 + [300.0] * 40),
+    ]
+    text = _busy_relays(lat)
+    assert "against its own p50 and p99, with 20 µs, p50 +10 µs and p99 1.25 ×." in text
+    assert "tqt (tqt_fusion) p50 +30 µs and p99 1.50 ×." in text
+    assert _busy_relays(lat[:1] + lat[2:]) == ""  # no busy relay measured: nothing to say
