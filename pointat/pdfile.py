@@ -94,9 +94,7 @@ _NUMBER = re.compile(r"-?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
 _INNER_ESCAPE = re.compile(r"\\([,;$\s\\])")
 _NOT_NAME = re.compile(r"[^A-Za-z0-9_]+")
-# words one space apart, none of which Pd would read as a number, a separator or a dollar argument
-_WORD = r"(?!-?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?(?:\s|\Z))(?![A-Za-z_][A-Za-z0-9_]*=)[^\s\\,;${}]+"
-_WORDS = re.compile(rf"{_WORD}(?: {_WORD})+\Z")
+_UNSAFE = re.compile(r"[\s\\,;${}]")  # what a word of Pd's text must not hold to be written as it is
 _ATOM_BOXES = ("floatatom", "symbolatom", "listbox")
 
 # layout of written patches (px, font size 10)
@@ -578,6 +576,16 @@ def _atom_text(value: Any) -> str:
     return out
 
 
+def _plain_words(text: str) -> bool:
+    """Whether ``text`` is two or more words one space apart that Pd keeps as written: none reads as a
+    number (:data:`_NUMBER`) or as ``key=value`` (:data:`_KEY`), none holds a separator, a ``$``, a brace
+    or a backslash."""
+    words = text.split(" ")
+    return len(words) > 1 and all(
+        w and not (_NUMBER.match(w) or _KEY.match(w) or _UNSAFE.search(w)) for w in words
+    )
+
+
 def _print_args(args: list[Any]) -> list[Any]:
     """A ``[print]`` box's creation atoms as pointat's ``print`` takes them.
 
@@ -698,7 +706,7 @@ def _box(decl: NodeDecl, registry: Registry) -> _Out:
         for a in values["content"]:
             _warn_precision(decl.name, "msg", a)
         return _Out(decl, "msg", [_atom_text(a) for a in values["content"]], ins, outs)
-    if cls.type_name == "print" and not values["time"] and _WORDS.match(values["prefix"]):
+    if cls.type_name == "print" and not values["time"] and _plain_words(values["prefix"]):
         # as Pd reads it: [print gyro nulls] prints "gyro nulls: ...", and its box shows no escapes
         return _Out(decl, "obj", [decl.type, *values["prefix"].split(" ")], ins, outs)
     if cls.type_name in VANILLA:
