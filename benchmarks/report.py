@@ -369,8 +369,15 @@ def _where_the_time_goes(
 def _busy_relays(lat: list[LatencyResult]) -> str:
     """The sentence on what the 1.2 x goal asks: the python-osc relay with busy work, beside the chains."""
     floor = _find(lat, "floor", "python-osc", 1000.0)
-    busy = [r for r in lat if r.family == "floor" and r.chain.startswith("python-osc+") and r.rate == 1000.0]
-    busy = [r for r in busy if r.received and not r.error]
+    busy = [
+        r
+        for r in lat
+        if r.family == "floor"
+        and r.chain.startswith("python-osc+")
+        and r.rate == 1000.0
+        and r.received
+        and not r.error
+    ]
     if not (floor and floor.received and busy):
         return ""
     each = "; ".join(
