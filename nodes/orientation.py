@@ -418,7 +418,7 @@ cal.mag -> fuse.mag
         bits = self.filter.flag_bits & _NOT_REST
         if bits != self._bits:  # the status text only when it changes
             self._bits = bits
-            self.report("ok" if not bits else _status(TQTFlags(bits)))
+            self.report("ok" if not bits else _status(bits))
         if self.filter.initialised:
             self.out(0, floats(q, msg.time))
 
@@ -430,9 +430,19 @@ cal.mag -> fuse.mag
 _NOT_REST = ~int(TQTFlags.REST)  # resting is normal, not a status to report
 
 
-def _status(flags: TQTFlags) -> str:
-    """``mag_disturbed,uninitialised``: the flags that are up, as the ``flags`` outlet reports them."""
-    return str(flags.name or flags).lower().replace("|", ",")
+#: (bit, name) of every flag, lowest bit first: the order the ``flags`` outlet names them in.
+_FLAG_NAMES = tuple((int(f), f.name.lower()) for f in TQTFlags.__members__.values() if int(f))
+
+
+def _status(bits: int) -> str:
+    """``uninitialised,mag_disturbed``: the flags that are up, as the ``flags`` outlet reports them.
+
+    Read bit by bit, not from the flag's ``name`` or ``str``, which differ between Python 3.10 and 3.11+.
+
+    >>> _status(TQTFlags.MAG_DISTURBED | TQTFlags.UNINITIALISED)
+    'uninitialised,mag_disturbed'
+    """
+    return ",".join(name for bit, name in _FLAG_NAMES if bits & bit)
 
 
 _NAN3 = (math.nan, math.nan, math.nan)
@@ -630,7 +640,7 @@ right.gyro -> suit.gyro2
             for i, b in reversed(list(enumerate((bits & _NOT_REST).tolist()))):
                 if not fresh[i] and self._missed(i) < self.MISSING:
                     continue  # one tick late or lost: not missing yet
-                status = "missing" if not fresh[i] else _status(TQTFlags(b)) if b else "ok"
+                status = "missing" if not fresh[i] else _status(b) if b else "ok"
                 if status != self._reported[i]:
                     self._reported[i] = status
                     self.out(1, (i + 1, status), stamps[i])
