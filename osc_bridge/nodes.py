@@ -4,8 +4,8 @@ Both speak OSC 1.0 over UDP.  ``osc_out`` encodes every number as float32 (``f``
 int32 (``i``): Pd's ``[oscparse]`` rejects 64-bit doubles.  Its sockets are non-blocking, so a full
 buffer or an absent receiver costs a counted, dropped datagram and never a stalled scheduler.
 ``osc_in`` parses packets itself (:func:`decode_packet`; python-osc's
-:class:`~pythonosc.osc_packet.OscPacket` for the rarer argument types), so a bundle's time tag is read and
-never waited for.
+:class:`~pythonosc.osc_packet.OscPacket` for the rarer argument types), so a bundle's time tag is read past
+and never waited for.
 
 >>> encode_message("/adm/obj/1/aed", [30.0, 0.0, 1.0])[:24]
 b'/adm/obj/1/aed\x00\x00,fff\x00\x00\x00\x00'
@@ -136,18 +136,26 @@ def encode_bundle(datagrams: Sequence[bytes], when: float | None) -> bytes:
 # --------------------------------------------------------------------------- decoding
 #: Fixed-size argument types: struct code and size in bytes (OSC 1.0 and the common 1.1 additions).
 _FIXED = {"i": "i", "f": "f", "d": "d", "h": "q"}
-#: Argument types that carry no bytes.
-_EMPTY = {"T": True, "F": False, "N": None}
-#: Other types python-osc reads (blob, MIDI, time tag, colour, char, arrays, infinitum); any other is an error.
-_RARE = frozenset("bmtrc[]I")
+#: Argument types that carry no bytes (``I``: OSC 1.0's Infinitum, as liblo reads it).
+_EMPTY = {"T": True, "F": False, "N": None, "I": math.inf}
+#: Other types python-osc reads (blob, MIDI, time tag, colour, arrays); any other is an error.  (Not the
+#: char ``c`` nor ``I``: python-osc 1.10 skips them with a warning, and the arguments after them shift.)
+_RARE = frozenset("bmtr[]")
 
 
 @functools.lru_cache(maxsize=256)
 def _arg_plan(tags: str) -> tuple[tuple[str, Any], ...] | None:
     """How to read the arguments of type tags ``tags`` (without the comma): runs of fixed-size numbers as
-    one :class:`struct.Struct`, strings, constants; ``None`` for types left to python-osc."""
+    one :class:`struct.Struct`, strings, chars, constants; ``None`` for types left to python-osc.
+
+    >>> _arg_plan("bfQ")  # after a blob too
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown OSC type tag 'Q'
+    """
     plan: list[tuple[str, Any]] = []
     run = ""
+    rare = False
     for t in tags:
         if t in _FIXED:
             run += _FIXED[t]
@@ -157,15 +165,17 @@ def _arg_plan(tags: str) -> tuple[tuple[str, Any], ...] | None:
             run = ""
         if t in ("s", "S"):
             plan.append(("string", None))
+        elif t == "c":
+            plan.append(("char", _I32))
         elif t in _EMPTY:
             plan.append(("const", _EMPTY[t]))
         elif t in _RARE:
-            return None
+            rare = True  # python-osc reads the message; every tag is still checked here
         else:
             raise ValueError(f"unknown OSC type tag {t!r}")
     if run:
         plan.append(("fixed", struct.Struct(">" + run)))
-    return tuple(plan)
+    return None if rare else tuple(plan)
 
 
 def _read_string(data: bytes, i: int, end: int) -> tuple[str, int]:
@@ -203,6 +213,14 @@ def _decode_message(data: bytes, i: int, end: int, out: list[tuple[str, list[Any
         elif kind == "string":
             text, j = _read_string(data, j, end)
             args.append(text)
+        elif kind == "char":
+            if j + 4 > end:
+                raise ValueError(f"{address}: arguments end past the packet ({end} bytes)")
+            code = how.unpack_from(data, j)[0]
+            if not 0 <= code <= 0x10FFFF:
+                raise ValueError(f"{address}: char argument {code} is not a character")
+            args.append(chr(code))
+            j += 4
         else:
             args.append(how)
     if j > end:
@@ -404,8 +422,16 @@ dir.azimuth -> out.azimuth
         """Check the parameters that types alone do not (so that ``pointat check`` finds mistakes)."""
         profile = PROFILES[values["profile"]]
         if profile.name == "generic":
-            if not str(values["address"]).startswith("/"):
-                raise ValueError(f"address {values['address']!r} must start with '/'")
+            address = str(values["address"])
+            if not address.startswith("/"):
+                raise ValueError(f"address {address!r} must start with '/'")
+            try:
+                address.format(n=0)
+            except (KeyError, IndexError, ValueError) as exc:  # {source}, {0}, a lone '{'
+                raise ValueError(
+                    f"address {address!r}: {{n}} (the source number) is the only field it may name, "
+                    f"and a literal brace is written twice ({{{{ }}}}); {type(exc).__name__}: {exc}"
+                ) from None
             if not values["fields"]:
                 raise ValueError("fields is empty: name at least one argument")
             check_fields(values["fields"])
@@ -683,7 +709,8 @@ class OscIn(Node):
     inside an abstraction (``/pointat/left/ref/set``).  Every other message (pointat's own
     ``/pointat/1/aed`` too) leaves by ``any`` as a method message named by its address, for ``route``.
 
-    Bundle time tags are read, never waited for (a device clock ahead of ours must not stall anything).
+    Bundle time tags are read past, never waited for (a device clock ahead of ours must not stall
+    anything), and not used: every message is stamped with the time its packet arrived.
     Malformed packets are counted (``malformed``) and dropped; the patch keeps running.
     """
 
@@ -736,7 +763,9 @@ phone.quat -> dir
         self._sock: socket.socket | None = None
         self.received = 0
         self.malformed = 0
+        self.unreadable = 0  # sensor messages a rule matched but could not read (also in malformed)
         self.refused = 0
+        self._refused_from: set[str] = set()  # the senders outside allow named in the log
         self.refused_control = 0
 
     def start(self) -> None:
@@ -770,6 +799,8 @@ phone.quat -> dir
 
     #: Datagrams read per wake-up at most, so that a flood cannot starve timers and other sources.
     BURST = 64
+    #: Senders outside ``allow`` named in the log (each once); after that many, refusals are only counted.
+    REFUSED_NAMED = 16
 
     def _readable(self) -> None:
         """Scheduler thread, the socket has data: read what is there (up to :attr:`BURST` datagrams)."""
@@ -787,7 +818,8 @@ phone.quat -> dir
             t = time.monotonic()
             if not self._heard(sender[0]):
                 self.refused += 1
-                if self.refused == 1:
+                if sender[0] not in self._refused_from and len(self._refused_from) < self.REFUSED_NAMED:
+                    self._refused_from.add(sender[0])  # each sender once: a phone on a new address too
                     log.warning("osc_in '%s': ignoring %s (not in allow)", self.name, sender[0])
                 continue
             try:
@@ -826,8 +858,15 @@ phone.quat -> dir
                     outputs.append((outlet, rule.extract(args)))
                 except ValueError as exc:
                     self.malformed += 1
-                    if self.malformed <= 3:
-                        log.warning("osc_in '%s': %s dropped (%s)", self.name, address, exc)
+                    self.unreadable += 1  # its own count: bad packets before it must not silence it
+                    if worth_reporting(self.unreadable):
+                        log.warning(
+                            "osc_in '%s': %s dropped (%s); %d so far",
+                            self.name,
+                            address,
+                            exc,
+                            self.unreadable,
+                        )
             if not outputs:  # no rule, or none could read it (a wildcard map meets /imu/battery)
                 self.out(4, method(address, *args))
             for outlet, values in outputs:

@@ -409,6 +409,13 @@ def test_bad_destinations_are_load_errors():
         patch("node out osc_out profile=generic address=/a fields=[azimuth]")
 
 
+@pytest.mark.parametrize("address", ["/a/{source}", "/a/{n}/{0}", "/a/{n"])
+def test_a_generic_address_may_name_only_n_and_says_so_at_load(address):
+    with pytest.raises(PatchError, match=r"\{n\} \(the source number\) is the only field"):
+        patch(f'node out osc_out profile=generic address="{address}"')
+    assert patch('node out osc_out profile=generic address="/a/{{x}}/{n:02d}"')  # braces written twice
+
+
 def test_a_bad_value_is_dropped_and_the_next_one_goes(started, receivers):
     rx = receivers()
     rt = started(patch(f"node num t f\nnode out osc_out port={rx.port} profile=adm\nnum -> out"))
@@ -764,6 +771,29 @@ def test_allow_list_filters_senders(started):
     assert rt2.nodes["c"].messages[0].kind == "/b"
 
 
+def test_each_refused_sender_is_named_once(started, caplog):
+    rt, imu, addr = in_patch(started, 'allow=["10.1.2.3"]', "")
+    for host in ("127.0.0.1", "127.0.0.2", "127.0.0.1"):  # a second device (a phone on a new address)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx:
+            tx.bind((host, 0))
+            tx.sendto(osc("/a", 1).dgram, addr)
+            assert wait_for(rt, lambda n=imu.refused + 1: imu.refused == n)
+    named = [r.getMessage() for r in caplog.records if "not in allow" in r.getMessage()]
+    assert named == [f"osc_in 'imu': ignoring {h} (not in allow)" for h in ("127.0.0.1", "127.0.0.2")]
+
+
+def test_an_unreadable_sensor_message_is_logged_even_after_bad_packets(started, caplog):
+    rt, imu, addr = in_patch(started, 'map=["/g=gyro"]', "node g collect\nimu.gyro -> g")
+    with sender() as tx:
+        for _ in range(3):
+            tx.sendto(b"abc\n", addr)  # three bad packets: the packet count has had its first three
+        tx.sendto(osc("/g", 1.0, 2.0).dgram, addr)  # one short
+        tx.sendto(osc("/g", 1.0, 2.0, 3.0).dgram, addr)
+        assert wait_for(rt, lambda: rt.nodes["g"].messages)
+    assert imu.malformed == 4 and imu.unreadable == 1
+    assert any("/g dropped" in r.getMessage() and "1 so far" in r.getMessage() for r in caplog.records)
+
+
 def test_live_control_of_a_running_patch():
     rt = patch(
         """
@@ -902,6 +932,30 @@ def _python_osc(data):
     return [(m.message.address, list(m.message.params)) for m in OscPacket(data).messages]
 
 
+def _python_osc_reads_all(data):
+    """Whether python-osc reads every argument of ``data``: it skips the char ``c`` and Infinitum ``I``
+    (with a warning), and the arguments after them shift."""
+    from osc_bridge.nodes import _read_string
+
+    def tags(message):
+        _address, j = _read_string(message, 0, len(message))
+        return _read_string(message, j, len(message))[0] if j < len(message) else ""
+
+    return not any(t in tags(m) for m in _messages(data) for t in "cI")
+
+
+def _messages(data):
+    """The message datagrams of a well-formed packet, a bundle's in order."""
+    if not data.startswith(b"#bundle\x00"):
+        return [data]
+    out, j = [], 16
+    while j < len(data):
+        size = struct.unpack_from(">i", data, j)[0]
+        out += _messages(data[j + 4 : j + 4 + size])
+        j += 4 + size
+    return out
+
+
 def test_decode_packet_reads_what_python_osc_reads():
     from osc_bridge.nodes import decode_packet
 
@@ -930,8 +984,39 @@ def test_decode_packet_says_malformed_with_a_value_error_and_never_reads_garbage
         except ValueError:
             rejected += 1
             continue
-        assert got == _python_osc(data)  # what is accepted, python-osc reads the same way
+        if _python_osc_reads_all(data):
+            assert got == _python_osc(data)  # what is accepted, python-osc reads the same way
     assert rejected > 500  # the damage is mostly caught
+
+
+def _char_then_floats():
+    """``/imu/acc ,cfff 'A' 1 2 3`` (python-osc's builder writes no chars)."""
+    return b"/imu/acc\x00\x00\x00\x00,cfff\x00\x00\x00" + struct.pack(">ifff", ord("A"), 1.0, 2.0, 3.0)
+
+
+def test_decode_packet_reads_chars_and_infinitum_in_place_and_checks_every_tag():
+    from osc_bridge.nodes import decode_packet
+
+    data = _char_then_floats()  # python-osc 1.10 skips the char: [9e-44, 1.0, 2.0]
+    assert decode_packet(data) == [("/imu/acc", ["A", 1.0, 2.0, 3.0])]
+    infinitum = b"/a\x00\x00,Iff\x00\x00\x00\x00" + struct.pack(">ff", 1.0, 2.0)
+    assert decode_packet(infinitum) == [("/a", [math.inf, 1.0, 2.0])]
+    blob_then_unknown = b"/a\x00\x00,bQ\x00" + struct.pack(">i", 4) + b"abcd"
+    with pytest.raises(ValueError, match="unknown OSC type tag 'Q'"):
+        decode_packet(blob_then_unknown)
+    with pytest.raises(ValueError, match="not a character"):
+        decode_packet(b"/a\x00\x00,c\x00\x00" + struct.pack(">i", -5))
+    assert _python_osc_reads_all(infinitum) is False and _python_osc_reads_all(blob_then_unknown[:12]) is True
+
+
+def test_a_char_among_sensor_numbers_is_refused_not_read_shifted(started):
+    rt, imu, addr = in_patch(started, 'map=["/imu/acc=accel"]', "node a collect\nimu.accel -> a")
+    with sender() as tx:
+        tx.sendto(_char_then_floats(), addr)
+        tx.sendto(osc("/imu/acc", 4.0, 5.0, 6.0).dgram, addr)
+        assert wait_for(rt, lambda: rt.nodes["a"].messages)
+    assert rt.nodes["a"].values == [(4.0, 5.0, 6.0)]
+    assert imu.malformed == 1
 
 
 def test_the_field_clamps_are_min_max_including_nan():
