@@ -50,7 +50,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from .errors import FeedbackError, PointatError
+from .errors import FeedbackError, PointatError, worth_reporting
 from .message import Message, make, method
 from .node import Node
 
@@ -423,6 +423,15 @@ class Runtime:
                 self._queue.put_nowait(item)
             except queue.Full:
                 self.dropped += 1
+                if worth_reporting(self.dropped):  # a live source's event lost: never silently
+                    who = f" from node '{node.name}'" if node is not None else ""
+                    log.warning(
+                        "the scheduler's queue is full (%d events): an event%s was dropped (%d so far); "
+                        "the scheduler cannot keep up with the patch's sources",
+                        self._queue.maxsize,
+                        who,
+                        self.dropped,
+                    )
                 return False
             self._wake()
             return True

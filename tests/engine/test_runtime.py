@@ -218,7 +218,7 @@ class Echo(Node):
         self.active = False
 
 
-def test_posting_from_the_scheduler_thread_never_deadlocks():
+def test_posting_from_the_scheduler_thread_never_deadlocks(caplog):
     rt = Runtime(queue_size=8)
     src = rt.add(Echo("echo"))
     out = rt.add(Collect("out"))
@@ -227,6 +227,9 @@ def test_posting_from_the_scheduler_thread_never_deadlocks():
     th.join(10)
     assert not th.is_alive()
     assert len(out.values) == 8 and rt.dropped == 42  # what did not fit was dropped and counted
+    said = [r.getMessage() for r in caplog.records if "queue is full" in r.getMessage()]
+    assert len(said) == 4  # and said, sparingly: the 1st, 2nd, 3rd and 10th of 42
+    assert "(8 events): an event from node 'echo' was dropped (1 so far)" in said[0]
 
 
 class Socketed(Node):
