@@ -87,8 +87,13 @@ _new = tuple.__new__
 
 
 def _atom(x: Any) -> str:
+    """A number as ``print`` shows it: 6 significant digits, below 1e-9 as 0, and ``nan`` as itself.
+
+    >>> " ".join(_atom(x) for x in (0.1 + 0.2, -3e-12, float("nan"), float("-inf"), "x"))
+    '0.3 0 nan -inf x'
+    """
     if isinstance(x, float):
-        return f"{x if abs(x) >= 1e-9 else 0.0:.6g}"
+        return f"{0.0 if abs(x) < 1e-9 else x:.6g}"
     return str(x)
 
 
