@@ -268,6 +268,64 @@ def _decode(data: bytes, i: int, end: int, out: list[tuple[str, list[Any]]], dep
     _decode_message(data, i, end, out)
 
 
+def bundle_time(data: bytes) -> float | None:
+    r"""A bundle's time tag in NTP seconds (since 1900), or None: not a bundle, or "immediately".
+
+    >>> bundle_time(encode_bundle([], 0.5)) - NTP_UNIX_OFFSET
+    0.5
+    >>> bundle_time(encode_bundle([], None)), bundle_time(b"/a\x00\x00,\x00\x00\x00")
+    (None, None)
+    """
+    if len(data) < 16 or not data.startswith(b"#bundle\x00") or data[8:16] == IMMEDIATELY:
+        return None
+    seconds, fraction = _NTP.unpack_from(data, 8)
+    return seconds + fraction / 2**32
+
+
+_NTP = struct.Struct(">II")
+
+
+class TagClock:
+    """One sender's bundle time tags (its own clock) mapped onto our ``time.monotonic()``.
+
+    A tag plus the least *lag* seen (arrival - tag: the clocks' offset and the quickest delivery) is
+    when the sample was taken, as near as we can tell, and never later than it arrived: samples that
+    Wi-Fi delivers in a burst keep the spacing the sender gave them.  The least lag may creep up by
+    :attr:`CREEP` (a sender's clock slower than ours by up to 100 ppm), and starts over when every lag
+    for :attr:`JUMP` seconds has been more than :attr:`JUMP` above it (the sender's clock was set back).
+
+    >>> c = TagClock()
+    >>> [round(c.stamp(tag, arrival), 6) for tag, arrival in [(10.00, 5.003), (10.01, 5.030), (10.02, 5.030)]]
+    [5.003, 5.013, 5.023]
+    """
+
+    CREEP = 1e-4
+    JUMP = 1.0
+
+    def __init__(self) -> None:
+        self.lag: float | None = None
+        self._at = 0.0
+        self._over: tuple[float, float] | None = None  # since when, and the least lag since, lags above
+
+    def stamp(self, tag: float, arrival: float) -> float:
+        """When a packet time-tagged ``tag`` (seconds) that arrived at ``arrival`` (monotonic) was sent."""
+        lag = arrival - tag
+        if self.lag is None or lag <= self.lag:
+            self.lag, self._over = lag, None
+        else:
+            self.lag = min(lag, self.lag + self.CREEP * max(0.0, arrival - self._at))
+            if lag - self.lag <= self.JUMP:
+                self._over = None
+            elif self._over is None:
+                self._over = (arrival, lag)
+            elif arrival - self._over[0] < self.JUMP:
+                self._over = (self._over[0], min(self._over[1], lag))
+            else:  # late by more than a second for a second: the sender's clock was set back
+                self.lag, self._over = min(self._over[1], lag), None
+        self._at = arrival
+        return tag + self.lag
+
+
 # --------------------------------------------------------------------------- helpers
 _LOOPBACK_NAMES = ("localhost",)
 
@@ -709,8 +767,12 @@ class OscIn(Node):
     inside an abstraction (``/pointat/left/ref/set``).  Every other message (pointat's own
     ``/pointat/1/aed`` too) leaves by ``any`` as a method message named by its address, for ``route``.
 
-    Bundle time tags are read past, never waited for (a device clock ahead of ours must not stall
-    anything), and not used: every message is stamped with the time its packet arrived.
+    Bundle time tags are never waited for (a device clock ahead of ours must not stall anything).  Every
+    message is stamped with the time its packet arrived; with ``timetags=true`` a bundle's messages are
+    stamped with its time tag instead, mapped onto pointat's clock for each sender (the tag plus the
+    least delay seen from that sender, so never later than the arrival).  A filter then steps by the
+    sender's own sample spacing when Wi-Fi delivers a few packets at once; plain messages and bundles
+    tagged "immediately" keep their arrival time.
     Malformed packets are counted (``malformed``) and dropped; the patch keeps running.
     """
 
@@ -728,6 +790,13 @@ class OscIn(Node):
         Param("device", "symbol", "none", "sensor format", choices=tuple(SENSORS)),
         Param("map", "list", (), "more sensor messages: /address=outlet or /address=outlet*scale"),
         Param("control", "bool", True, "accept /pointat/NODE/... control messages"),
+        Param(
+            "timetags",
+            "bool",
+            False,
+            "stamp a bundle's messages with its time tag (the sender's clock, mapped onto ours) instead of "
+            "their arrival: samples that Wi-Fi delivers in bursts keep their spacing",
+        ),
     )
     example = """
 node phone osc_in port=9001 device=zigsim host=0.0.0.0 allow=["192.168.1.0/24"]
@@ -766,6 +835,7 @@ phone.quat -> dir
         self.unreadable = 0  # sensor messages a rule matched but could not read (also in malformed)
         self.refused = 0
         self._refused_from: set[str] = set()  # the senders outside allow named in the log
+        self._clocks: dict[tuple[str, int], TagClock] = {}  # timetags: each sender's clock
         self.refused_control = 0
 
     def start(self) -> None:
@@ -816,6 +886,10 @@ phone.quat -> dir
                 log.debug("osc_in '%s': %s", self.name, exc)
                 continue
             t = time.monotonic()
+            if self.p.timetags:
+                tag = bundle_time(data)
+                if tag is not None:
+                    t = self._tag_clock(sender).stamp(tag, t)
             if not self._heard(sender[0]):
                 self.refused += 1
                 if sender[0] not in self._refused_from and len(self._refused_from) < self.REFUSED_NAMED:
@@ -841,6 +915,18 @@ phone.quat -> dir
                 self.malformed += 1
                 if worth_reporting(self.malformed):
                     log.warning("osc_in '%s': packet from %s dropped: %s", self.name, sender[0], exc)
+
+    #: Senders whose clocks are followed at most (``timetags``); more start the memory over.
+    CLOCKS_KEPT = 64
+
+    def _tag_clock(self, sender: tuple[str, int]) -> TagClock:
+        """The clock of a sender (address and port: a device that restarts gets a new one)."""
+        clock = self._clocks.get(sender)
+        if clock is None:
+            if len(self._clocks) >= self.CLOCKS_KEPT:
+                self._clocks.clear()
+            clock = self._clocks[sender] = TagClock()
+        return clock
 
     def _handle(self, messages: list[tuple[str, list[Any]]], t: float) -> None:
         """Scheduler thread: route one packet's messages."""

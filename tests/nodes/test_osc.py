@@ -10,6 +10,7 @@ import socket
 import struct
 import time
 
+import numpy as np
 import pytest
 from pythonosc.osc_bundle_builder import IMMEDIATELY as PY_IMMEDIATELY
 from pythonosc.osc_bundle_builder import OscBundleBuilder
@@ -723,6 +724,48 @@ def test_a_bundle_stamped_an_hour_ahead_is_delivered_at_once(started):
         assert wait_for(rt, lambda: rt.nodes["c"].messages, timeout=1.0)
     assert time.monotonic() - t0 < 1.0
     assert rt.nodes["c"].messages[0].kind == "/later"
+
+
+def test_timetags_stamp_a_burst_with_the_senders_spacing(started):
+    wires = "node g collect\nimu.gyro -> g"
+    rts = [  # on the real clock: arrival times are what the tags are weighed against
+        started(patch(f'node imu osc_in port=0 map=["/g=gyro"] {tags}\n{wires}', realtime=True))
+        for tags in ("timetags=true", "")
+    ]
+    got = [rt.nodes["g"].messages for rt in rts]
+    t0 = time.time()
+    with sender() as tx:
+        for k in range(14):  # 100 Hz by the sender's clock: ten in time, then four held back, sent at once
+            time.sleep(max(0.0, t0 + (0.01 * k if k < 10 else 0.15) - time.time()))
+            for rt in rts:
+                tx.sendto(bundle(t0 + 0.01 * k, osc("/g", float(k), 0.0, 0.0)), rt.nodes["imu"].address)
+                if k < 10:  # read as it comes (a running scheduler does)
+                    assert wait_for(rt, lambda n=k + 1, rt=rt: len(rt.nodes["g"].messages) == n)
+        for rt in rts:
+            tx.sendto(osc("/g", 99.0, 0.0, 0.0).dgram, rt.nodes["imu"].address)  # plain: its arrival
+            assert wait_for(rt, lambda rt=rt: len(rt.nodes["g"].messages) == 15)
+    tagged, by_arrival = ([m.time for m in messages] for messages in got)
+    assert np.diff(tagged[10:14]) == pytest.approx([0.01] * 3, abs=2e-5)  # the burst keeps its spacing
+    assert tagged[13] <= tagged[14]  # stamped no later than it arrived
+    assert np.diff(by_arrival[10:14]).max() < 0.005  # without timetags, squeezed together
+
+
+@pytest.mark.parametrize("ppm", [80, -80])
+def test_tag_clock_follows_a_drifting_sender_and_one_set_back(ppm):
+    from osc_bridge.nodes import TagClock
+
+    rng = np.random.default_rng(3)
+    clock = TagClock()
+    errors = []
+    for k in range(60_000):  # 10 minutes at 100 Hz, the sender's clock off by ppm, deliveries 1-30 ms late
+        taken = 100.0 + 0.01 * k
+        tag = 5000.0 + (taken - 100.0) * (1 - ppm * 1e-6)
+        errors.append(clock.stamp(tag, taken + rng.uniform(0.001, 0.030)) - taken)
+    assert 0.001 <= min(errors[100:]) and max(errors[100:]) < 0.002  # the quickest delivery, + < 1 ms
+    taken += 1.0
+    stamps = [clock.stamp(tag - 3600.0 + 0.01 * i, taken + 0.01 * i + 0.002) for i in range(150)]
+    assert stamps[0] < taken - 3000  # a second of tags an hour behind: taken at their word...
+    assert stamps[-1] == pytest.approx(taken + 1.49, abs=0.003)  # ...then followed again
 
 
 def test_malformed_packets_are_counted_and_survived(started):
