@@ -249,13 +249,21 @@ def cmd_graph(args: argparse.Namespace, registry: Registry) -> int:
     if not args.output:
         sys.stdout.write(text)
         return 0
-    Path(args.output).write_text(text)
+    _write(Path(args.output), text)
     svg = Path(args.output).with_suffix(".svg")
     if write_svg(text, svg):
         print(f"wrote {args.output} and {svg}")
     else:
         print(f"wrote {args.output} (install Graphviz's dot for SVG)")
     return 0
+
+
+def _write(path: Path, text: str) -> None:
+    """Write an output file (UTF-8 on every system), or say clearly why it cannot be written."""
+    try:
+        path.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise PointatError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
 def cmd_nodes(args: argparse.Namespace, registry: Registry) -> int:
@@ -297,12 +305,12 @@ def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
             )
             return 2
         rebase_paths(spec, registry, target.parent)
-        target.write_text(write_pd(spec, registry))
+        _write(target, write_pd(spec, registry))
         if not args.no_stubs:
             write_stubs(target.parent / "pointat-stubs", registry)
     else:
         rebase_paths(spec, registry, target.parent)
-        target.write_text(write_patch(spec))
+        _write(target, write_patch(spec))
     print(f"wrote {target}")
     return 0
 

@@ -50,9 +50,17 @@ def read_patch(path: str | Path) -> PatchSpec:
     """Read a native patch file; :class:`PatchError` lists every syntax problem with its line."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        raw = path.read_bytes()
     except OSError as exc:
         raise PatchError(f"cannot read patch: {exc.strerror or exc}", Where(str(path))) from exc
+    try:
+        text = raw.decode("utf-8-sig")  # a byte-order mark (Windows editors) is not part of the text
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise PatchError(
+            f"not UTF-8 text: byte 0x{raw[exc.start]:02x} cannot be read; save the patch as UTF-8",
+            Where(str(path), line),
+        ) from None
     return parse_patch(text, str(path))
 
 

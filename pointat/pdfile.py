@@ -545,7 +545,7 @@ def read_pd(path: str | Path) -> PatchSpec:
     except OSError as exc:
         raise PatchError(f"cannot read patch: {exc.strerror or exc}", Where(str(path))) from exc
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")  # with or without a byte-order mark
     except UnicodeDecodeError:  # old Pd files are often Latin-1
         text = raw.decode("latin-1")
     return parse_pd(text, str(path))

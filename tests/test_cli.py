@@ -153,6 +153,28 @@ def test_missing_patch_file_is_a_clear_error(tmp_path):
     assert out.returncode == 2 and "cannot read patch" in out.stderr and "Traceback" not in out.stderr
 
 
+def test_text_that_is_not_utf8_or_starts_with_a_bom_and_targets_that_cannot_be_written(tmp_path, capsys):
+    latin = tmp_path / "latin.pat"
+    latin.write_bytes(b'node a loadbang\nnode p print prefix="caf\xe9"\na -> p\n')
+    assert main(["check", str(latin)]) == 2
+    assert f"{latin}:2: error: not UTF-8 text: byte 0xe9 cannot be read" in capsys.readouterr().err
+    bom = tmp_path / "bom.pat"
+    bom.write_bytes(b"\xef\xbb\xbfnode a loadbang\n")  # as some Windows editors save
+    assert main(["check", str(bom)]) == 0
+    assert main(["convert", str(bom), str(tmp_path / "bom.pd"), "--no-stubs"]) == 0
+    pd = tmp_path / "bom.pd"
+    pd.write_bytes(b"\xef\xbb\xbf" + pd.read_bytes())
+    assert main(["check", str(pd)]) == 0
+    capsys.readouterr()
+    for command in (
+        ["convert", str(bom), str(tmp_path / "no" / "x.pd")],
+        ["graph", str(bom), "-o", "/no/x.dot"],
+    ):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert "error: cannot write " in err and "No such file or directory" in err
+
+
 def test_nodes_and_help_cover_every_node_type(capsys):
     assert main(["nodes"]) == 0
     listing = capsys.readouterr().out
