@@ -22,7 +22,7 @@ from .node import Inlet, Node, Outlet, ParamError
 from .patchfile import parse_value, read_patch
 from .registry import Registry, default_registry
 from .runtime import Runtime
-from .spec import NodeDecl, PatchSpec, Wire
+from .spec import NodeDecl, PatchSpec, PortDecl, Wire
 
 __all__ = ["Checked", "build", "check", "expand", "load", "read_spec"]
 
@@ -67,15 +67,14 @@ def _substitute(value: Any, args: Mapping[str, Any], where: Where | None) -> Any
     return parse_value(_DOLLAR.sub(repl, value))
 
 
-def expand(spec: PatchSpec, _stack: tuple[str, ...] = ()) -> PatchSpec:
+def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> PatchSpec:
     """Replace every abstraction instance by its nodes (named ``instance/node``) and rewire to them.
 
     Arguments given to the instance override the abstraction's ``args`` defaults; ``$name`` is replaced
-    in parameter values, ``$0`` by the instance name.
+    in parameter values, ``$0`` by the instance's full name (``left/fuse`` for an instance ``fuse`` inside
+    an instance ``left``: unique in the whole patch, however deep).
     """
-    out = PatchSpec(
-        path=spec.path, args=dict(spec.args), inlets=list(spec.inlets), outlets=list(spec.outlets)
-    )
+    out = PatchSpec(path=spec.path, args=dict(spec.args))
     out.doc = spec.doc
     # (instance, port name) -> [(node, port)] for inlets; -> (node, port) for outlets
     inlet_map: dict[tuple[str, str | int], list[tuple[str, str | int]]] = {}
@@ -87,20 +86,47 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = ()) -> PatchSpec:
             out.nodes.append(decl)
             continue
         try:
-            sub = _instantiate(spec, decl, _stack)
+            sub = _instantiate(spec, decl, _stack, _prefix)
         except PatchError as exc:
             problems += exc.problems
             failed.add(decl.name)  # its wires would only repeat that it has no such inlet or outlet
             continue
         out.nodes += sub.nodes
         out.wires += sub.wires
-        for i, port in enumerate(sub.inlets):
-            for key in (port.name, i):
+        # an inlet's number counts names, not declarations: 'inlet a -> x' twice (a fan-out) is one inlet
+        names = list(dict.fromkeys(port.name for port in sub.inlets))
+        for port in sub.inlets:
+            for key in (port.name, names.index(port.name)):
                 inlet_map.setdefault((decl.name, key), []).append((port.node, port.port))
-        for i, port in enumerate(sub.outlets):
-            for key in (port.name, i):
+        names = list(dict.fromkeys(port.name for port in sub.outlets))
+        for port in sub.outlets:
+            for key in (port.name, names.index(port.name)):
                 outlet_map[(decl.name, key)] = (port.node, port.port)
     instances = {d.name for d in spec.nodes if _is_abstraction(d.type)}
+    # this patch's own inlets and outlets may lead into an abstraction it holds: through to its nodes
+    out.inlets, out.outlets = [], []
+    for port in spec.inlets:
+        if port.node not in instances:
+            out.inlets.append(port)
+        elif port.node not in failed:
+            inner = inlet_map.get((port.node, port.port))
+            if inner is None:
+                problems.append(
+                    Problem(port.where, f"abstraction instance '{port.node}' has no inlet {port.port!r}")
+                )
+                continue
+            out.inlets += [PortDecl(port.name, n, i, port.where) for n, i in inner]
+    for port in spec.outlets:
+        if port.node not in instances:
+            out.outlets.append(port)
+        elif port.node not in failed:
+            if (port.node, port.port) not in outlet_map:
+                problems.append(
+                    Problem(port.where, f"abstraction instance '{port.node}' has no outlet {port.port!r}")
+                )
+                continue
+            n, o = outlet_map[(port.node, port.port)]
+            out.outlets.append(PortDecl(port.name, n, o, port.where))
     for w in spec.wires:
         if w.src in failed or w.dst in failed:
             continue
@@ -131,7 +157,7 @@ def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
     return (Path(parent.path).parent / decl.type).resolve()
 
 
-def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...]) -> PatchSpec:
+def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], outer: str = "") -> PatchSpec:
     base = Path(parent.path).parent
     path = _abstraction_path(parent, decl)
     if not path.exists():
@@ -157,7 +183,7 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...]) -> P
             f"abstraction '{decl.type}' has no argument {unknown[0]!r} (arguments: {', '.join(sub.args) or 'none'})",
             decl.where,
         )
-    args = {**sub.args, **decl.params, "0": decl.name}
+    args = {**sub.args, **decl.params, "0": outer + decl.name}
     prefix = decl.name + "/"
     renamed = PatchSpec(path=sub.path, doc=sub.doc)
     for n in sub.nodes:
@@ -172,7 +198,7 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...]) -> P
         )
     renamed.wires = list(sub.wires)
     renamed.inlets, renamed.outlets = sub.inlets, sub.outlets
-    flat = expand(renamed, (*stack, str(path)))
+    flat = expand(renamed, (*stack, str(path)), outer + prefix)
     for n in flat.nodes:
         n.name = prefix + n.name
     for w in flat.wires:

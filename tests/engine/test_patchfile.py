@@ -222,6 +222,36 @@ def test_abstraction_instantiated_twice_with_arguments(tmp_path):
     check(read_spec(tmp_path / "main.pat"), REG)
 
 
+def test_nested_abstractions_ports_dollar_zero_and_fanned_out_inlets(tmp_path):
+    (tmp_path / "inner.pat").write_text(
+        "inlet in -> s\noutlet out <- r\nnode s send bus=$0-b\nnode r receive bus=$0-b\n"
+    )
+    # outer's ports lead into an instance of inner; its inlet 'go' fans out, so 'stop' is inlet 1
+    (tmp_path / "outer.pat").write_text(
+        "inlet go -> x\ninlet go -> m\ninlet stop -> q\noutlet out <- x.out\n"
+        "node x inner.pat\nnode m metro 100\nnode q print\n"
+    )
+    (tmp_path / "main.pat").write_text(
+        "node lb loadbang\nnode a outer.pat\nnode b outer.pat\nnode p print\n"
+        "lb -> a -> p\nlb -> b.1\nb.out -> p\n"
+    )
+    spec = expand(read_spec(tmp_path / "main.pat"))
+    params = {n.name: n.params for n in spec.nodes}
+    assert params["a/x/s"] == {"bus": "a/x-b"} and params["b/x/r"] == {"bus": "b/x-b"}  # one bus each
+    assert sorted(str(w) for w in spec.wires) == sorted(
+        ["lb.0 -> a/x/s.0", "lb.0 -> a/m.0", "a/x/r.0 -> p.0", "lb.0 -> b/q.0", "b/x/r.0 -> p.0"]
+    )
+    check(read_spec(tmp_path / "main.pat"), REG)
+    (tmp_path / "bad.pat").write_text("inlet in -> x.nosuch\noutlet out <- x.7\nnode x inner.pat\n")
+    (tmp_path / "main2.pat").write_text("node c bad.pat\n")
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "main2.pat"), REG)
+    assert [(p.where.file, p.where.line, p.message) for p in info.value.problems] == [
+        (str(tmp_path / "bad.pat"), 1, "abstraction instance 'x' has no inlet 'nosuch'"),
+        (str(tmp_path / "bad.pat"), 2, "abstraction instance 'x' has no outlet 7"),
+    ]
+
+
 def test_abstraction_errors(tmp_path):
     (tmp_path / "a.pat").write_text("args x=1\nnode m metro $y\n")
     (tmp_path / "loop.pat").write_text("node again loop.pat\n")
