@@ -293,11 +293,22 @@ def check(
             continue
         try:
             values = cls.resolve_params(decl.args, decl.params)
-            for key, value in over.get(decl.name, {}).items():
-                p = cls.param(key)
+        except (ParamError, ValueError) as exc:
+            problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}"))
+            continue
+        refused = False
+        for key, value in over.get(decl.name, {}).items():  # the command line's, not the file's, to blame
+            p = cls.param(key)
+            try:
                 if p is None:
-                    raise ParamError(f"--set: {cls.unknown_param(key)}")
+                    raise ParamError(cls.unknown_param(key))
                 values[key] = p.coerce(value)
+            except (ParamError, ValueError) as exc:
+                problems.append(Problem(None, f"--set {decl.name}.{key}: {label} ({decl.type}): {exc}"))
+                refused = True
+        if refused:
+            continue
+        try:
             _anchor_paths(cls, values, decl, over.get(decl.name, {}))
             cls.validate(values)
             ins, outs = cls.layout(values)

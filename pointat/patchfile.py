@@ -18,7 +18,7 @@ arguments and its ports::
     args   id=1 port=9000                  # arguments with defaults, used as $id, $port
     inlet  reset -> cal.reset              # inlet NAME -> node.inlet (repeat a name to fan out)
     outlet azimuth <- dir.azimuth          # outlet NAME <- node.outlet
-    node   dev mote id=$id                 # $0: the instance's full name (left/dev), unique
+    node   dev mote id=$id                 # $0: this instance's full name, unique
 
 Values: integers, floats (kept at full precision), ``true``/``false``, bare words, ``"quoted text"``,
 and lists in brackets ``[1, 2, 3]``.  A line ending in ``\`` continues on the next one.

@@ -176,6 +176,15 @@ def test_overrides(tmp_path):
     assert checked.nodes["m"].values["interval"] == 20.0
     with pytest.raises(PatchError, match="--set mm.interval: no node named 'mm'"):
         check(spec, REG, [("mm", "interval", 20)])
+    with pytest.raises(PatchError) as info:  # a bad value is the command line's, not the file's line 1
+        check(spec, REG, [("m", "interval", "fast"), ("m", "intervl", 5)])
+    assert [(p.where, p.message) for p in info.value.problems] == [
+        (None, "--set m.interval: node 'm' (metro): parameter 'interval' expects a number; got 'fast'"),
+        (
+            None,
+            "--set m.intervl: node 'm' (metro): unknown parameter 'intervl' (did you mean 'interval'?); parameters: interval",
+        ),
+    ]
 
 
 def test_overrides_reach_an_abstraction_instances_arguments(tmp_path):
