@@ -1,6 +1,8 @@
 """The command line as a user meets it: every shipped patch checks and runs; errors never show a traceback."""
 
 import os
+import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -203,6 +205,18 @@ def test_graph_writes_dot(tmp_path):
     assert out.returncode == 0
     dot = (tmp_path / "g.dot").read_text()
     assert dot.startswith('digraph "pointing_at"') and '"glove" -> "base"' in dot
+
+
+def test_graph_draws_braces_bars_and_quotes_as_text_on_two_lines(tmp_path, capsys, require_tool):
+    require_tool(shutil.which("dot") is not None, "Graphviz's dot is not installed")
+    odd = tmp_path / "odd.pat"
+    odd.write_text(
+        'node out osc_out profile=generic address=/glove/{n}/x\nnode p print prefix="a|b <c> \\\\ \\"q\\""\n'
+    )
+    assert main(["graph", str(odd), "-o", str(tmp_path / "odd.dot")]) == 0, capsys.readouterr().err
+    texts = re.findall(r"<text[^>]*>([^<]*)</text>", (tmp_path / "odd.svg").read_text())
+    assert "out" in texts and "[osc_out profile=generic address=/glove/{n}/x]" in texts  # two lines, not \n
+    assert any(t.startswith("[print prefix=") and "a|b &lt;c&gt;" in t for t in texts)
 
 
 def test_set_overrides_and_reports_unknown_nodes():
