@@ -371,9 +371,10 @@ class TQT(SampleClock, Flagged, Node):
     )
     example = """
 node glove simulate
+node nulls offset samples=150
 node cal   scaling
 node fuse  tqt mode=robust
-glove -> cal
+glove -> nulls -> cal
 cal.gyro -> fuse.gyro
 cal.accel -> fuse.accel
 cal.mag -> fuse.mag

@@ -96,11 +96,13 @@ class Mote(Node):
         ),
     )
     example = """
-node base mote device=/dev/ttyUSB0 ids=[1, 2]
+node base  mote device=/dev/ttyUSB0 ids=[1, 2]
+node nulls1 offset samples=150
+node nulls2 offset samples=150
 node left  scaling
 node right scaling
-base.0 -> left
-base.1 -> right
+base.0 -> nulls1 -> left
+base.1 -> nulls2 -> right
 """
 
     @classmethod
@@ -394,8 +396,9 @@ class Simulate(Node):
     )
     example = """
 node glove simulate rate=100
+node nulls offset samples=150
 node cal   scaling
-glove -> cal
+glove -> nulls -> cal
 """
 
     def setup(self) -> None:
