@@ -204,8 +204,9 @@ node t trigger b f
 
     def receive(self, index: int, msg: Message) -> None:
         self.time = msg.time
-        for i in range(len(self._types) - 1, -1, -1):
-            self.out(i, _convert(self._types[i], msg))
+        values = [_convert(t, msg) for t in self._types]  # all first: one it cannot convert fires none
+        for i in range(len(values) - 1, -1, -1):
+            self.out(i, values[i])
 
 
 @register("pack")

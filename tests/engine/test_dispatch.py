@@ -27,6 +27,26 @@ t.2 -> a
     ]
 
 
+def test_trigger_that_cannot_convert_for_one_outlet_fires_none():
+    rt = patch("""
+node t trigger l s a
+node a collect
+t.0 -> a
+t.1 -> a
+t.2 -> a
+""")
+    t = rt.nodes["t"]
+    with pytest.raises(TypeError, match="expected a symbol"):
+        t.receive(0, make([1.0, 2.0, 3.0]))
+    assert rt.nodes["a"].messages == []  # not the float alone, half a trigger
+    t.receive(0, make("x"))
+    assert [(m.kind, m.value) for m in rt.nodes["a"].messages] == [
+        ("symbol", "x"),
+        ("symbol", "x"),
+        ("list", ("x",)),
+    ]
+
+
 def test_depth_first_and_fan_out_order():
     rt = patch("""
 node t trigger a a
