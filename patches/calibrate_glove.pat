@@ -19,7 +19,9 @@
 #       --set units.calibration=patches/calibration.json
 #
 # The source is the built-in simulated glove (it can do steps 1, 3 and 4: its script turns but never
-# points an accelerometer axis down).  For a real base station:
+# points an accelerometer axis down).  It holds still only from 36 to 43 s after the patch starts (then
+# every 41 s): send step 1 then, e.g. `sleep 37; pointat send 9001 /pointat/cal/rest`; sent while it
+# moves, the step is refused ("moved ...") and may be sent again.  For a real base station:
 #     pointat run patches/calibrate_glove.pat --set glove.output=direct --set base.device=/dev/ttyUSB0
 
 node glove  simulate rate=100 output=pty
