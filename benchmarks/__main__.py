@@ -24,6 +24,9 @@ REPO = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = REPO.parent / "shared" / "data" / "broad"
 QUICK_TRIALS = ("01_", "15_", "32_")
 PARTS = ("latency", "throughput", "accuracy", "memory")
+#: Where the report goes without --out: a quick or partial run never replaces the full run's report.
+FULL_REPORT = REPO / "benchmarks" / "REPORT.md"
+PARTIAL_REPORT = REPO / "benchmarks" / "results" / "REPORT.md"
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -32,7 +35,7 @@ def _parser() -> argparse.ArgumentParser:
         description="pointat's benchmarks: latency and jitter (against a python-osc relay and Pure Data), "
         "throughput and cost per update (against ahrs, imufusion, vqf), accuracy on the BROAD recordings, "
         "and memory; writes a Markdown report with SVG figures.",
-        epilog="quick: about 5 minutes; full: about 28 minutes (2 cores).  Peers: pip install -e '.[bench]'; "
+        epilog="quick: about 5 minutes; full: about 37 minutes (2 cores).  Peers: pip install -e '.[bench]'; "
         "Pure Data: apt-get install puredata-core.",
     )
     ap.add_argument(
@@ -48,14 +51,22 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--out",
         type=Path,
-        default=REPO / "benchmarks" / "REPORT.md",
-        help="the report to write (figures go beside it)",
+        default=None,
+        help="the report to write (figures go beside it); default benchmarks/REPORT.md for a full run, "
+        "benchmarks/results/REPORT.md for --quick or --only (the full report, which the README quotes, stays)",
     )
     ap.add_argument(
         "--only", choices=PARTS, action="append", help="run only this part (repeatable); default: all four"
     )
     ap.add_argument("-v", "--verbose", action="store_true", help="log more")
     return ap
+
+
+def report_path(out: Path | None, quick: bool, only: list[str] | None) -> Path:
+    """``--out``, or where the report goes without it: a quick or partial run never replaces the full one."""
+    if out is not None:
+        return out
+    return PARTIAL_REPORT if quick or only else FULL_REPORT
 
 
 def _version(dist: str) -> str:
@@ -247,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
         "osc_in path sends `[/tag k, /sensors ...]` bundles and adds `route`→`map`.  These taps (a few µs) "
         "are in the measured latency; they are not in the throughput figures."
     )
-    out = args.out
+    out = report_path(args.out, args.quick, args.only)
     out.parent.mkdir(parents=True, exist_ok=True)
     report.write_figures(run, out.parent / "figures")
     out.write_text(report.render(run), encoding="utf-8")

@@ -270,3 +270,14 @@ def test_the_busy_relays_are_set_beside_the_chains():
     assert "against its own p50 and p99, with 20 µs, p50 +10 µs and p99 1.25 ×." in text
     assert "tqt (tqt_fusion) p50 +30 µs and p99 1.50 ×." in text
     assert _busy_relays(lat[:1] + lat[2:]) == ""  # no busy relay measured: nothing to say
+
+
+def test_a_quick_or_partial_run_never_replaces_the_full_report(tmp_path):
+    from benchmarks.__main__ import FULL_REPORT, PARTIAL_REPORT, report_path
+
+    assert FULL_REPORT.name == "REPORT.md" and PARTIAL_REPORT.parent.name == "results"
+    assert report_path(None, False, None) == FULL_REPORT
+    assert report_path(None, True, None) == PARTIAL_REPORT
+    assert report_path(None, False, ["throughput"]) == PARTIAL_REPORT
+    assert report_path(tmp_path / "r.md", True, ["memory"]) == tmp_path / "r.md"
+    assert "/benchmarks/results/" in (FULL_REPORT.parents[1] / ".gitignore").read_text().split()
