@@ -45,6 +45,11 @@ def _is_abstraction(type_name: str) -> bool:
     return type_name.endswith(ABSTRACTION_SUFFIX) or "/" in type_name
 
 
+def _names(args: Mapping[str, Any]) -> str:
+    """The arguments a patch declares ($0, which every instance has, left out)."""
+    return ", ".join(k for k in args if k != "0") or "none"
+
+
 def _substitute(value: Any, args: Mapping[str, Any], where: Where | None) -> Any:
     if isinstance(value, list):
         return [_substitute(v, args, where) for v in value]
@@ -54,14 +59,12 @@ def _substitute(value: Any, args: Mapping[str, Any], where: Where | None) -> Any
     if whole:
         key = whole.group(1)
         if key not in args:
-            raise PatchError(f"${key} is not an argument (arguments: {', '.join(args) or 'none'})", where)
+            raise PatchError(f"${key} is not an argument (arguments: {_names(args)})", where)
         return args[key]
 
     def repl(m: re.Match) -> str:
         if m.group(1) not in args:
-            raise PatchError(
-                f"${m.group(1)} is not an argument (arguments: {', '.join(args) or 'none'})", where
-            )
+            raise PatchError(f"${m.group(1)} is not an argument (arguments: {_names(args)})", where)
         return str(args[m.group(1)])
 
     return parse_value(_DOLLAR.sub(repl, value))
@@ -74,6 +77,8 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> 
     in parameter values, ``$0`` by the instance's full name (``left/fuse`` for an instance ``fuse`` inside
     an instance ``left``: unique in the whole patch, however deep).
     """
+    if not _stack and spec.args:  # an abstraction checked, run or converted on its own: its defaults hold
+        spec = _with_arguments(spec, {**spec.args, "0": Path(spec.path).stem})
     out = PatchSpec(path=spec.path, args=dict(spec.args))
     out.doc = spec.doc
     # (instance, port name) -> [(node, port)] for inlets; -> (node, port) for outlets
@@ -183,21 +188,8 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], oute
             f"abstraction '{decl.type}' has no argument {unknown[0]!r} (arguments: {', '.join(sub.args) or 'none'})",
             decl.where,
         )
-    args = {**sub.args, **decl.params, "0": outer + decl.name}
     prefix = decl.name + "/"
-    renamed = PatchSpec(path=sub.path, doc=sub.doc)
-    for n in sub.nodes:
-        renamed.nodes.append(
-            NodeDecl(
-                n.name,
-                n.type,
-                [_substitute(a, args, n.where) for a in n.args],
-                {k: _substitute(v, args, n.where) for k, v in n.params.items()},
-                n.where,
-            )
-        )
-    renamed.wires = list(sub.wires)
-    renamed.inlets, renamed.outlets = sub.inlets, sub.outlets
+    renamed = _with_arguments(sub, {**sub.args, **decl.params, "0": outer + decl.name})
     flat = expand(renamed, (*stack, str(path)), outer + prefix)
     for n in flat.nodes:
         n.name = prefix + n.name
@@ -206,6 +198,31 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], oute
     for p in (*flat.inlets, *flat.outlets):
         p.node = prefix + p.node
     return flat
+
+
+def _with_arguments(sub: PatchSpec, args: Mapping[str, Any]) -> PatchSpec:
+    """``sub`` with ``$name`` (and ``$0``) replaced by ``args`` in its nodes' values; every unknown one is
+    an error at its line."""
+    renamed = PatchSpec(path=sub.path, doc=sub.doc)
+    problems: list[Problem] = []
+    for n in sub.nodes:
+        try:
+            renamed.nodes.append(
+                NodeDecl(
+                    n.name,
+                    n.type,
+                    [_substitute(a, args, n.where) for a in n.args],
+                    {k: _substitute(v, args, n.where) for k, v in n.params.items()},
+                    n.where,
+                )
+            )
+        except PatchError as exc:
+            problems += exc.problems
+    if problems:
+        raise PatchError(problems)
+    renamed.wires = list(sub.wires)
+    renamed.inlets, renamed.outlets = sub.inlets, sub.outlets
+    return renamed
 
 
 # --------------------------------------------------------------------------- checking
@@ -326,6 +343,23 @@ def check(
                         "warning",
                     )
                 )
+    # an abstraction checked on its own: where its inlets and outlets lead must exist
+    for head, ports, side in (("inlet", flat.inlets, "inlets"), ("outlet", flat.outlets, "outlets")):
+        arrow = "->" if head == "inlet" else "<-"
+        for port in ports:
+            what = f"{head} {port.name} {arrow} {port.node}.{port.port}"
+            if port.node not in names:
+                problems.append(Problem(port.where, f"{what}: no node named '{port.node}'"))
+            elif port.node in result.nodes:
+                r = result.nodes[port.node]
+                if _port_index(getattr(r, side), port.port) is None:
+                    problems.append(
+                        Problem(
+                            port.where,
+                            f"{what}: node '{port.node}' ({r.decl.type}) has no {head} {port.port!r}; "
+                            f"{side} are {_port_list(getattr(r, side))}",
+                        )
+                    )
     fan: dict[tuple[str, int, str], list[Wire]] = {}
     for w in flat.wires:
         ok = True

@@ -261,6 +261,32 @@ def test_nested_abstractions_ports_dollar_zero_and_fanned_out_inlets(tmp_path):
     ]
 
 
+def test_an_abstraction_checked_on_its_own_takes_its_defaults_and_its_ports_are_checked(tmp_path):
+    (tmp_path / "voice.pat").write_text(
+        "args rate=100\ninlet go -> m\nnode m metro $rate\nnode s send bus=$0-x\n"
+    )
+    checked = check(read_spec(tmp_path / "voice.pat"), REG)
+    assert checked.nodes["m"].values["interval"] == 100.0 and checked.nodes["s"].values["bus"] == "voice-x"
+    (tmp_path / "bad.pat").write_text(
+        "args n=1\ninlet in -> pp\ninlet in2 -> m.nosuch\noutlet out <- m.7\nnode m metro $n $nope\n"
+    )
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "bad.pat"), REG)
+    assert [(p.where.line, p.message) for p in info.value.problems] == [
+        (5, "$nope is not an argument (arguments: n)")
+    ]
+    (tmp_path / "bad.pat").write_text(
+        "args n=1\ninlet in -> pp\ninlet in2 -> m.nosuch\noutlet out <- m.7\nnode m metro $n\n"
+    )
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "bad.pat"), REG)
+    assert [(p.where.line, p.message) for p in info.value.problems] == [
+        (2, "inlet in -> pp.0: no node named 'pp'"),
+        (3, "inlet in2 -> m.nosuch: node 'm' (metro) has no inlet 'nosuch'; inlets are on (0), interval (1)"),
+        (4, "outlet out <- m.7: node 'm' (metro) has no outlet 7; outlets are out (0)"),
+    ]
+
+
 def test_abstraction_errors(tmp_path):
     (tmp_path / "a.pat").write_text("args x=1\nnode m metro $y\n")
     (tmp_path / "loop.pat").write_text("node again loop.pat\n")
