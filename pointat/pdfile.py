@@ -234,10 +234,13 @@ class _Box:
     role: str  # "node", "sub", "port" (a control [inlet]/[outlet]) or "none"
     x: float = 0.0
     type: str = ""
+    y: float = 0.0
+    comment: bool = False  # a '#X text' record (never named by an @name)
     args: list[Any] = field(default_factory=list)
     params: dict[str, Any] = field(default_factory=dict)
     port: str = ""  # "in" or "out" for [inlet] [outlet] [inlet~] [outlet~]
-    label: str = ""  # explicit name (@name, or the subpatch's name)
+    label: str = ""  # its @name
+    sub_name: str = ""  # a subpatch's name ('pd NAME'), when it has no @name
     sub: _Canvas | None = None
     name: str = ""  # the final, unique node name
     dead: bool = False  # inside an array's graph: no node
@@ -247,7 +250,8 @@ class _Box:
 class _Canvas:
     line: int
     boxes: list[_Box] = field(default_factory=list)
-    pending: tuple[str, int] | None = None  # a @name waiting for the next box
+    #: its @name comments: (name, line, x, y, how many boxes came before it)
+    labels: list[tuple[str, int, float, float, int]] = field(default_factory=list)
     dead: bool = False  # an array's graph: its content makes no nodes and no wires
 
     def kill(self) -> None:
@@ -337,11 +341,8 @@ class _Reader:
             if words and words[0] == NAME_TAG:
                 if len(words) != 2:
                     raise ValueError(f"expected '{NAME_TAG} NODENAME', got {_show(words)}")
-                if canvas.pending is not None:
-                    raise ValueError(
-                        f"two '{NAME_TAG}' comments in a row (line {canvas.pending[1]} and this one)"
-                    )
-                canvas.pending = (str(words[1]), rec.line)
+                box = canvas.boxes[-1]
+                canvas.labels.append((str(words[1]), rec.line, box.x, box.y, len(canvas.boxes)))
             elif words and canvas is self.root:
                 self.comments.append((float(atoms[3]), float(atoms[2]), _comment_text(rec.words[4:])))
         elif kind == "obj":
@@ -371,16 +372,16 @@ class _Reader:
             log.warning("%s:%d: skipped an unknown record '#X %s'", self.path, rec.line, kind)
 
     def add(self, canvas: _Canvas, rec: _Record, role: str, type_: str = "") -> _Box:
-        """A new box at the end of ``canvas``; a pending ``@name`` goes to it unless it is a comment."""
+        """A new box at the end of ``canvas`` (its ``@name``, if any, is given when the canvas closes)."""
         atoms = rec.atoms
         if len(atoms) < 4 or not all(isinstance(a, (int, float)) for a in atoms[2:4]):
             raise ValueError(f"expected '#X {atoms[1]} X Y ...' with a numeric position, got {_show(atoms)}")
-        box = _Box(len(self.boxes), len(canvas.boxes), rec.line, role, float(atoms[2]), type_)
+        box = _Box(
+            len(self.boxes), len(canvas.boxes), rec.line, role, float(atoms[2]), type_, float(atoms[3])
+        )
+        box.comment = atoms[1] == "text"
         canvas.boxes.append(box)
         self.boxes.append(box)
-        if atoms[1] != "text" and canvas.pending is not None:
-            box.label = canvas.pending[0]
-            canvas.pending = None
         return box
 
     def arguments(self, box: _Box, atoms: list[Any], line: int, keys: Sequence[str] | None = None) -> None:
@@ -414,22 +415,39 @@ class _Reader:
             return
         box = self.add(self.stack[-1], rec, "sub", "pd")
         box.sub = inner
-        if len(rest) > 1 and not box.label:
-            box.label = "_".join(str(a) for a in rest[1:])
+        if len(rest) > 1:
+            box.sub_name = "_".join(str(a) for a in rest[1:])
 
     def close(self, canvas: _Canvas) -> None:
-        if canvas.pending is not None:
-            self.problem(canvas.pending[1], f"'{NAME_TAG} {canvas.pending[0]}' is followed by no box")
-            canvas.pending = None
+        """Give each ``@name`` comment's name to its box: the one right below it, where ``write_pd`` puts
+        them; else (the box was moved in Pd's editor) the next box in the file after the comment that has
+        no name yet.  Pd moves a box it retypes to the end of its canvas, so the file order alone is not
+        enough, and a box moved by hand leaves its comment behind, so the position alone is not either."""
+        boxes = [b for b in canvas.boxes if not b.comment]
+        left = []
+        for label in canvas.labels:
+            _name, _line, x, y, _after = label
+            below = [b for b in boxes if not b.label and abs(b.x - x) < 0.5 and abs(b.y - y - _NAME_DY) < 0.5]
+            if below:
+                below[0].label = label[0]
+            else:
+                left.append(label)
+        for name, line, _x, _y, after in left:
+            nxt = next((b for b in canvas.boxes[after:] if not b.comment and not b.label), None)
+            if nxt is None:
+                self.problem(line, f"'{NAME_TAG} {name}' is followed by no box without a name")
+            else:
+                nxt.label = name
+        canvas.labels.clear()
 
     # ------------------------------------------------------------------ naming and wiring
     def name(self, canvas: _Canvas, prefix: str, used: set[str]) -> None:
         named = [b for b in canvas.boxes if b.role in ("node", "sub")]
         for b in named:
-            if b.label:
-                b.name = _unique(prefix + _sanitize_name(b.label), used)
+            if b.label or b.sub_name:
+                b.name = _unique(prefix + _sanitize_name(b.label or b.sub_name), used)
         for b in named:
-            if not b.label:
+            if not (b.label or b.sub_name):
                 b.name = _unique(f"{prefix}{_sanitize(b.type)}_{b.index}", used)
         for b in named:
             if b.sub is not None:

@@ -276,6 +276,43 @@ def test_names_are_sanitised_and_unique():
     ]
 
 
+def _retyped(pd_text: str, box: int) -> str:
+    """``pd_text`` as Pd saves it after box ``box`` of the top canvas was retyped in its editor: the box
+    record moves to the end of the canvas's boxes, and the connections are renumbered."""
+    lines = pd_text.splitlines()
+    boxes = [i for i, ln in enumerate(lines) if re.match(r"#X (obj|msg|text|floatatom|symbolatom) ", ln)]
+    order = [b for k, b in enumerate(boxes) if k != box] + [boxes[box]]
+    new_index = {boxes.index(b): k for k, b in enumerate(order)}
+
+    def renumber(m: re.Match) -> str:
+        a, o, b, i = map(int, m.groups())
+        return f"#X connect {new_index[a]} {o} {new_index[b]} {i};"
+
+    rest = [
+        re.sub(r"#X connect (\d+) (\d+) (\d+) (\d+);", renumber, ln)
+        for ln in lines
+        if ln.startswith("#X connect")
+    ]
+    head = [ln for ln in lines[: boxes[0]] if not ln.startswith("#X connect")]
+    return "\n".join(head + [lines[b] for b in order] + rest) + "\n"
+
+
+def test_names_survive_a_box_retyped_or_moved_in_pds_editor():
+    spec = parse_patch(
+        "node m1 metro 100\nnode m2 metro 200\nnode p1 print one\nnode p2 print two\nm1 -> p1\nm2 -> p2\n",
+        "e.pat",
+    )
+    text = write_pd(spec, REG)
+    retyped = _retyped(text, 2)  # [metro 100]: the box after the declare and its @name comment
+    assert retyped != text and graph(parse_pd(retyped, "e.pd")) == graph(spec)
+    # moved by hand: the box leaves its @name comment behind, and is still the next box after it
+    moved = re.sub(
+        r"#X obj (\d+) (\d+) metro 200", lambda m: f"#X obj {int(m[1]) + 37} {int(m[2]) + 90} metro 200", text
+    )
+    assert moved != text and graph(parse_pd(moved, "e.pd")) == graph(spec)
+    assert graph(parse_pd(_retyped(moved, 4), "e.pd")) == graph(spec)  # and then retyped
+
+
 def test_malformed_records_name_their_line_all_at_once():
     problems = problems_of(
         HEAD + "#X obj a b metro;\n#X connect 0 0 1;\n#X obj 0 0 print;\n#X connect 0 0 7 0;\n"
