@@ -658,17 +658,28 @@ def _positional(cls: type[Node], values: dict[str, Any], node: str) -> list[str]
         v = values[p.name]
         items = list(v) if isinstance(v, (list, tuple)) else [v]
         for item in items:
+            _warn_precision(node, cls.type_name, item)
             if isinstance(item, float) and p.type == "float" and item.is_integer() and abs(item) < 1e15:
                 atoms.append(str(int(item)))
-                continue
-            _warn_precision(node, cls.type_name, item)
-            atoms.append(_atom_text(item))
+            else:
+                atoms.append(_atom_text(item))
     return atoms
 
 
 def _warn_precision(node: str, type_name: str, value: Any) -> None:
-    """Pd writes number atoms with 6 significant digits: say so when that would change ``value``."""
-    if isinstance(value, float) and math.isfinite(value) and float(f"{value:.6g}") != value:
+    """Pd writes number atoms with 6 significant digits, whole numbers too, and has no infinity or NaN:
+    say so when that would change ``value``."""
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return
+    if not math.isfinite(value):
+        log.warning(
+            "node '%s' (%s): Pd has no number %r: it reads back as the word '%s'",
+            node,
+            type_name,
+            value,
+            value,
+        )
+    elif float(f"{value:.6g}") != value:
         log.warning(
             "node '%s' (%s): Pd keeps 6 significant digits of %r: it becomes %.6g if Pd saves the file",
             node,

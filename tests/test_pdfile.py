@@ -409,6 +409,14 @@ def test_writing_uses_positional_atoms_for_pd_types_and_named_ones_for_pointat_t
         "node 'slow' (metro): Pd keeps 6 significant digits of 33.333333333333336: it becomes 33.3333 if Pd "
         "saves the file"
     ]
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="pointat.pdfile"):  # whole numbers lose digits too
+        write_pd(parse_patch("node d delay 1234567\nnode m msg 16777217 100000 inf\n", "n.pat"), REG)
+    assert [r.message for r in caplog.records] == [
+        "node 'd' (delay): Pd keeps 6 significant digits of 1234567.0: it becomes 1.23457e+06 if Pd saves the file",
+        "node 'm' (msg): Pd keeps 6 significant digits of 16777217: it becomes 1.67772e+07 if Pd saves the file",
+        "node 'm' (msg): Pd has no number inf: it reads back as the word 'inf'",
+    ]
     assert text.startswith("#N canvas 0 50 ")
     assert text.splitlines()[1:3] == [
         f"#X declare -path {STUB_FOLDER};",
