@@ -496,18 +496,29 @@ def _anchor_paths(
 
 
 def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) -> None:
-    """Rewrite relative ``path`` parameters (given by name) so they still point at the same files from a
-    patch saved in ``target_dir`` (``pointat convert`` to another folder)."""
-    source_dir = Path(spec.path).parent
+    """Rewrite relative ``path`` parameters (given by name) and abstraction files so they still point at
+    the same files from a patch saved in ``target_dir`` (``pointat convert`` to another folder).  Each is
+    relative to the file it was written in: an expanded abstraction's nodes to the abstraction's folder."""
+
+    def moved(value: str, decl: NodeDecl) -> str:
+        if Path(value).is_absolute():
+            return value
+        written = (
+            decl.where.file if decl.where is not None and not decl.where.file.startswith("<") else spec.path
+        )
+        return Path(os.path.relpath(Path(written).parent / value, target_dir)).as_posix()
+
     for decl in spec.nodes:
+        if _is_abstraction(decl.type):
+            decl.type = moved(decl.type, decl)
+            continue
         cls = registry.get(decl.type)
         if cls is None:
             continue
         for name, value in decl.params.items():
             p = cls.param(name)
             if p is not None and p.type == "path" and isinstance(value, str) and value:
-                if not Path(value).is_absolute():
-                    decl.params[name] = os.path.relpath(source_dir / value, target_dir)
+                decl.params[name] = moved(value, decl)
 
 
 def _cycles(result: Checked) -> list[Problem]:

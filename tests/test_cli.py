@@ -257,6 +257,21 @@ def test_convert_round_trip_to_pd_and_back_elsewhere_keeps_the_graph(tmp_path):
     assert pointat("check", out).returncode == 0
 
 
+def test_convert_elsewhere_keeps_abstractions_and_their_files_in_reach(tmp_path, capsys):
+    from pointat.loader import check, read_spec
+
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "rec.pat").write_text("inlet in -> r\nnode r record file=take.csv\n")
+    (tmp_path / "top.pat").write_text("node lb loadbang\nnode a lib/rec.pat\nlb -> a\n")
+    for target in (tmp_path / "pd" / "top.pd", tmp_path / "native" / "top.pat"):
+        target.parent.mkdir()
+        assert main(["convert", str(tmp_path / "top.pat"), str(target), "--no-stubs"]) == 0, (
+            capsys.readouterr()
+        )
+        [r] = [r for n, r in check(read_spec(target), default_registry).nodes.items() if n.endswith("r")]
+        assert Path(r.values["file"]).resolve() == tmp_path / "lib" / "take.csv"  # where the .pat records
+
+
 def test_a_node_that_cannot_start_is_an_error_exit_not_a_traceback(tmp_path):
     bad = tmp_path / "p.pat"
     bad.write_text("node src replay file=missing.csv\n")
