@@ -20,8 +20,10 @@ arguments and its ports::
     outlet azimuth <- dir.azimuth          # outlet NAME <- node.outlet
     node   dev mote id=$id                 # $0: this instance's full name, unique
 
-Values: integers, floats (kept at full precision), ``true``/``false``, bare words, ``"quoted text"``,
-and lists in brackets ``[1, 2, 3]``.  A line ending in ``\`` continues on the next one.
+Values: integers, floats (kept at full precision), ``true``/``false``, bare words, ``"quoted text"``
+(in which ``\"`` is a quote and ``\\`` a backslash; any other backslash is itself, as in a Windows path
+``"C:\Takes\one.csv"``), and lists in brackets ``[1, 2, 3]``.  A line ending in ``\`` continues on the
+next one.
 """
 
 from __future__ import annotations
@@ -144,7 +146,7 @@ def tokenize(line: str) -> list[str]:
 
 
 def parse_value(token: str) -> Any:
-    """A value token -> int, float, bool, str or list.
+    r"""A value token -> int, float, bool, str or list.
 
     >>> parse_value("0.1000000000000000055511151231257827")
     0.1
@@ -152,9 +154,11 @@ def parse_value(token: str) -> Any:
     [1, 2.5, 'a']
     >>> parse_value('"two words"')
     'two words'
+    >>> print(parse_value(r'"C:\My Takes\new.csv"'), parse_value(r'"say \"hi\" \\"'))  # only \" and \\ escape
+    C:\My Takes\new.csv say "hi" \
     """
     if token.startswith('"') and token.endswith('"') and len(token) >= 2:
-        return re.sub(r"\\(.)", r"\1", token[1:-1])
+        return re.sub(r'\\([\\"])', r"\1", token[1:-1])
     if token.startswith("["):
         if not token.endswith("]"):
             raise ValueError(f"bad list {token!r}")
