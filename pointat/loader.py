@@ -19,7 +19,7 @@ from typing import Any
 
 from .errors import PatchError, Problem, Where, closest, did_you_mean
 from .node import Inlet, Node, Outlet, ParamError
-from .patchfile import parse_value, read_patch
+from .patchfile import format_value, parse_value, read_patch
 from .registry import Registry, default_registry
 from .runtime import Runtime
 from .spec import NodeDecl, PatchSpec, PortDecl, Wire
@@ -278,6 +278,17 @@ def check(
     """
     registry = registry or default_registry
     problems: list[Problem] = []
+    instances = {d.name for d in spec.nodes if _is_abstraction(d.type)}
+    # an instance's arguments given on the command line: a node inside it that refuses a value says so
+    argued: dict[str, list[str]] = {}
+    for node, arg, value in overrides:
+        if node in instances:
+            argued.setdefault(node, []).append(f"--set {node}.{arg}={format_value(value)}")
+
+    def hint(name: str) -> str:
+        given = argued.get(name.split("/", 1)[0], []) if "/" in name else []
+        return f" (its instance's arguments given: {', '.join(given)})" if given else ""
+
     spec, overrides = _set_arguments(spec, overrides, problems)
     try:
         flat = expand(spec)
@@ -311,7 +322,7 @@ def check(
         try:
             values = cls.resolve_params(decl.args, decl.params)
         except (ParamError, ValueError) as exc:
-            problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}"))
+            problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}{hint(decl.name)}"))
             continue
         refused = False
         for key, value in over.get(decl.name, {}).items():  # the command line's, not the file's, to blame
@@ -330,7 +341,7 @@ def check(
             cls.validate(values)
             ins, outs = cls.layout(values)
         except (ParamError, ValueError) as exc:
-            problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}"))
+            problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}{hint(decl.name)}"))
             continue
         result.nodes[decl.name] = Resolved(decl, cls, values, ins, outs)
         for p in cls.params:

@@ -201,6 +201,11 @@ def test_overrides_reach_an_abstraction_instances_arguments(tmp_path):
         r"argument 'rte' \(arguments: rate; its nodes are set as left/NODE.PARAM\)",
     ):
         check(spec, REG, [("left", "rte", 20)])
+    with pytest.raises(PatchError) as info:  # refused inside the abstraction: the line there, and why
+        check(spec, REG, [("left", "rate", "fast")])
+    [problem] = info.value.problems
+    assert problem.where.file.endswith("voice.pat") and problem.where.line == 3
+    assert problem.message.endswith("got 'fast' (its instance's arguments given: --set left.rate=fast)")
 
 
 def test_abstraction_instantiated_twice_with_arguments(tmp_path):
