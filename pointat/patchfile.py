@@ -2,7 +2,7 @@ r"""pointat's native patch format (``.pat``): text that people write by hand and
 
 ::
 
-    # comments run from '#' to the end of the line
+    # comments run from a '#' that starts a word to the end of the line (a#b is a word)
     node glove  simulate rate=100           # node NAME TYPE [positional...] [param=value...]
     node fuse   tqt k=0.5 rho=0.5 mode=robust
     node dir    azi_ele
@@ -87,7 +87,7 @@ def _logical_lines(text: str) -> list[tuple[int, str]]:
 
 def tokenize(line: str) -> list[str]:
     """Split a statement into tokens: quotes and brackets stay whole, ``->``/``<-`` and the separators
-    ``,`` ``;`` stand alone, ``#`` ends it.
+    ``,`` ``;`` stand alone, a ``#`` that begins a word ends it (``a#b`` is one word).
 
     >>> tokenize('node m msg set 1, bang;bus "a, b" [1, 2]')
     ['node', 'm', 'msg', 'set', '1', ',', 'bang', ';', 'bus', '"a, b"', '[1, 2]']
