@@ -214,7 +214,8 @@ def parse_patch(text: str, path: str = "<patch>") -> PatchSpec:
         where = Where(path, lineno)
         stripped = line.strip()
         if in_header and stripped.startswith("#"):
-            doc_lines.append(stripped.lstrip("#").strip())
+            body = stripped[1:]  # the '#' and one space: a diagram's indentation is part of the text
+            doc_lines.append(body[1:] if body.startswith(" ") else body)
             continue
         if stripped:
             in_header = False
@@ -316,7 +317,8 @@ def _port(port: str | int) -> str:
 
 def write_patch(spec: PatchSpec) -> str:
     """Native text for a patch: header comment, args, ports, nodes (aligned), then wires."""
-    lines = [f"# {ln}".rstrip() for ln in spec.doc.splitlines()] if spec.doc else []
+    lines = [("#" if ln.startswith("#") else "# ") + ln for ln in spec.doc.splitlines()] if spec.doc else []
+    lines = [ln.rstrip() for ln in lines]
     if lines:
         lines.append("")
     if spec.args:

@@ -329,7 +329,9 @@ def test_a_comment_line_ending_in_a_backslash_does_not_swallow_the_next_line():
         "# a diagram:\n#   gyro --\\\n#        \\-> fuse\nnode a metro 100  \\\n    interval=50\n",
         "c.pat",
     )
-    assert spec.doc.splitlines() == ["a diagram:", "gyro --\\", "\\-> fuse"]
+    assert spec.doc.splitlines() == ["a diagram:", "  gyro --\\", "       \\-> fuse"]  # its indentation kept
+    header = "# a diagram:\n#   gyro --\\\n#        \\-> fuse\n## a title\n"
+    assert write_patch(parse_patch(header + "node a metro 100\n", "c.pat")).startswith(header)
     assert [(n.name, n.type, n.args, n.params) for n in spec.nodes] == [
         ("a", "metro", [100], {"interval": 50})
     ]
