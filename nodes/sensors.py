@@ -107,9 +107,15 @@ base.1 -> nulls2 -> right
 
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
-        bad = [i for i in values["ids"] if not (isinstance(i, int) and 0 <= i <= 255)]
+        ids = list(values["ids"])
+        bad = [i for i in ids if not (isinstance(i, int) and 0 <= i <= 255)]
         if bad:
             raise ValueError(f"ids must be mote ids 0..255, got {bad[0]!r}")
+        if not ids:
+            raise ValueError("ids is empty: name the motes to read, e.g. ids=[1, 2]")
+        twice = sorted({i for i in ids if ids.count(i) > 1})
+        if twice:
+            raise ValueError(f"ids names mote {twice[0]} twice: each mote has one outlet")
 
     @classmethod
     def layout(cls, values):

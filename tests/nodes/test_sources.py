@@ -306,3 +306,13 @@ def test_mote_waits_for_a_device_that_is_not_there_yet_without_a_thread_of_its_o
             if fd is not None:
                 os.close(fd)
     assert not th.is_alive()
+
+
+@pytest.mark.parametrize(
+    "ids, said", [("[]", "ids is empty"), ("[1, 2, 1]", "ids names mote 1 twice"), ("[300]", "0..255")]
+)
+def test_mote_ids_must_name_each_mote_once(ids, said):
+    from pointat.errors import PatchError
+
+    with pytest.raises(PatchError, match=said):
+        patch(f"node b mote device=/dev/null ids={ids}")
