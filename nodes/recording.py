@@ -228,8 +228,31 @@ source.mag -> fuse.mag
             self._load_ndjson(path)
         else:
             self._load_csv(path)
+        self._check_times(path)
         self.active = True
         self.spawn(self._pump, "replay")
+
+    def _check_times(self, path: str) -> None:
+        """Say where the time column is not a time line: such rows would go out at once, in a burst."""
+        t = np.asarray(self._times, dtype=float)
+        if len(t) and not np.all(np.isfinite(t)):
+            k = int(np.argmin(np.isfinite(t)))
+            log.warning(
+                "replay '%s': %s: row %d has no time (%s); it goes out at once", self.name, path, k + 1, t[k]
+            )
+        back = np.flatnonzero(np.diff(t) < 0)
+        if len(back):
+            k = int(back[0]) + 1
+            log.warning(
+                "replay '%s': %s: time goes back at row %d (%g after %g; %d such rows), so the rows after it "
+                "go out in a burst: two takes in one file (record append=true)? Replay them as two files",
+                self.name,
+                path,
+                k + 1,
+                t[k],
+                t[k - 1],
+                len(back),
+            )
 
     def _load_csv(self, path: str) -> None:
         header, rows = read_csv_table(path)

@@ -316,3 +316,13 @@ def test_mote_ids_must_name_each_mote_once(ids, said):
 
     with pytest.raises(PatchError, match=said):
         patch(f"node b mote device=/dev/null ids={ids}")
+
+
+def test_replay_says_where_the_time_goes_back(tmp_path, caplog):
+    take = tmp_path / "two_takes.csv"
+    take.write_text("t,gyro_x,gyro_y,gyro_z\n0.0,0,0,0\n0.01,0,0,0\n0.005,0,0,0\n0.015,0,0,0\n")
+    rt = patch(f"node r replay file={take} speed=0\nnode c collect\nr.gyro -> c\n")
+    rt.start()  # said as the file is loaded
+    rt.shutdown()
+    said = [r.getMessage() for r in caplog.records if "time goes back" in r.getMessage()]
+    assert len(said) == 1 and "row 3 (0.005 after 0.01; 1 such rows)" in said[0] and "append=true" in said[0]
