@@ -10,8 +10,9 @@
 #
 # DAW pan on CC10 is 0 = hard left, 64 = centre, 127 = hard right, while pointat's azimuth is
 # POSITIVE LEFT (0 front, -180..180).  So the input range is reversed: range=[90, -90] sends
-# +90 deg (pointing left) as 0, 0 deg (front) as 64 and -90 deg (right) as 127; directions behind you
-# clip to the nearer side.
+# +90 deg (pointing left) as 0, 0 deg (front) as 64 and -90 deg (right) as 127.  fold=true mirrors a
+# direction behind you to the front, as a stereo pan hears it (135 deg, behind left, pans as 45), so
+# turning round pans smoothly back to the centre instead of jumping from hard left to hard right.
 #
 # By default it writes a standard MIDI file, midi_pan.mid next to this patch, so it runs anywhere
 # (no MIDI system needed); message times are the sensor time stamps at 120 bpm, 480 ticks per beat:
@@ -31,7 +32,7 @@ node fuse   complementary crossover=0.2
 node quat   matrix2quat
 node ref    reference mode=heading capture_first=true
 node dir    azi_ele
-node pan    midi_out kind=cc channel=1 number=10 range=[90, -90] file=midi_pan.mid
+node pan    midi_out kind=cc channel=1 number=10 range=[90, -90] fold=true file=midi_pan.mid
 node slow   speedlim 500
 node show   print prefix="azimuth (deg, + left)"
 

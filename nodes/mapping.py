@@ -91,6 +91,11 @@ class Map(Node):
     an input beyond the range extrapolates along the straight line (curves shape only the inside).
     An empty range (in_lo = in_hi or out_lo = out_hi) is an error when the patch loads.
 
+    ``fold=true`` reads the input as an azimuth in degrees and first mirrors one behind the listener to
+    the front half, as a stereo pan hears it: 135 (behind left) maps as 45, 180 as 0.  Turning round
+    then pans smoothly back to the centre; without it a pan map jumps from one side to the other where
+    the azimuth crosses 180.
+
     Numbers give floats; lists and vectors are mapped element by element.  ``input LO HI`` and
     ``output LO HI`` set both ends of a range at once (flipping a range one end at a time would pass
     through an empty one, which is refused).
@@ -116,11 +121,18 @@ class Map(Node):
         Param("gamma", "float", 2.0, "exponent of pow (> 0): > 1 starts slowly, < 1 fast", live=True),
         Param("clip", "bool", False, "keep the output within out_lo..out_hi", live=True),
         Param("invert", "bool", False, "read the input range backwards (in_hi maps to out_lo)", live=True),
+        Param(
+            "fold",
+            "bool",
+            False,
+            "the input is an azimuth (deg): mirror one behind the listener to the front (135 -> 45)",
+            live=True,
+        ),
     )
     example = """
-# azimuth (+ left) to a MIDI pan value (0 left, 127 right), held at the ends
+# azimuth (+ left) to a pan value (0 left, 127 right); behind the listener folded to the front
 node dir  azi_ele
-node pan  map 90 -90 0 127 clip=true
+node pan  map 90 -90 0 127 fold=true
 node show print prefix=pan
 dir.azimuth -> pan -> show
 """
@@ -137,6 +149,7 @@ dir.azimuth -> pan -> show
             gamma=values["gamma"],
             clip=values["clip"],
             invert=values["invert"],
+            fold=values["fold"],
         )
 
     @classmethod

@@ -3,9 +3,9 @@ r"""MIDI for pointat, with mido: ``midi_out`` (directions and gestures to a DAW 
 
 Cheat sheet::
 
-    node pan  midi_out kind=cc number=10 range=[90, -90] file=pan.mid   # azimuth -> CC10 pan, to a file
-    node pan  midi_out kind=cc number=10 range=[90, -90] port="IAC Bus 1"   # ... to a named port
-    node fine midi_out kind=cc14 number=10 range=[90, -90]    # 14-bit: CC10 (MSB) + CC42 (LSB)
+    node pan  midi_out kind=cc number=10 range=[90, -90] fold=true file=pan.mid   # azimuth -> CC10 pan, to a file
+    node pan  midi_out kind=cc number=10 range=[90, -90] fold=true port="IAC Bus 1"   # ... to a named port
+    node fine midi_out kind=cc14 number=10 range=[90, -90] fold=true   # 14-bit: CC10 (MSB) + CC42 (LSB)
     node nrpn midi_out kind=nrpn number=300 range=[-180, 180] # NRPN 99/98 (parameter) + 6/38 (value)
     node bend midi_out kind=pitchbend range=[-45, 45]         # 14-bit pitch bend, centre 0 -> 8192
     node hit  midi_out kind=note number=60                    # 1 / non-zero: note on, 0: note off, bang: a hit
@@ -37,7 +37,10 @@ to 64 and -90 deg (right) to 127:
 .. math:: \mathrm{CC10} = \min\left(127, \left\lfloor 128\,\mathrm{clip}\!\left(\frac{90 - az}{180},
           0, 1\right) + \tfrac12 \right\rfloor\right)
 
-Azimuths behind the listener (\|az\| > 90 deg) clip to the nearer side.  One 7-bit step is
+With ``fold=true`` an azimuth behind the listener is first mirrored to the front half, as a stereo pan
+hears it (:func:`pointat.maths.scalar.fold_front`: 135 deg, behind left, pans as 45; 180 as the
+centre), so a performer turning round pans smoothly back; without it \|az\| > 90 deg clips to the
+nearer side and the pan jumps from hard left to hard right where the azimuth crosses 180.  One 7-bit step is
 180/128 = 1.41 deg (64 covers -0.70..+0.70 deg); with ``kind=cc14`` one step is 180/16384 = 0.011 deg.
 
 **Files.**  With ``file=`` (or when no MIDI system is present and no port was asked for), messages go to a
@@ -62,6 +65,7 @@ import mido
 import mido.ports
 
 from pointat.errors import PointatError
+from pointat.maths.scalar import fold_front
 from pointat.message import Message, as_float, method
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
@@ -663,7 +667,9 @@ class MidiOut(Node):
     held when the patch stops are released.
 
     Azimuth -> DAW pan (CC10: 0 left, 64 centre, 127 right; pointat's azimuth is + left): ``number=10
-    range=[90, -90]``: +90 deg -> 0, 0 deg -> 64, -90 deg -> 127, beyond +-90 deg clipped.
+    range=[90, -90] fold=true``: +90 deg -> 0, 0 deg -> 64, -90 deg -> 127; ``fold`` mirrors an azimuth
+    behind the listener to the front (135 -> 45, 180 -> 64), so turning round pans smoothly back (without
+    it, beyond +-90 deg is clipped and the pan jumps from side to side where the azimuth crosses 180).
 
     Where it goes: ``file=out.mid`` writes a standard MIDI file (format 0; times from the messages'
     time stamps at ``bpm`` and ``ppq``: 1 tick = 60 / (bpm x ppq) s, 1.04 ms at the defaults; valid on
@@ -701,6 +707,13 @@ class MidiOut(Node):
             live=True,
             size=2,
         ),
+        Param(
+            "fold",
+            "bool",
+            False,
+            "the input is an azimuth (deg): mirror one behind the listener to the front (135 -> 45)",
+            live=True,
+        ),
         Param("change", "bool", True, "send only when the MIDI value changes", live=True),
         Param("velocity", "int", 100, "note-on velocity, 1..127 (kind=note)", live=True),
         Param("length", "float", 100.0, "how long a banged note sounds (kind=note)", unit="ms", live=True),
@@ -712,7 +725,7 @@ class MidiOut(Node):
     )
     example = """
 node dir  azi_ele
-node pan  midi_out kind=cc number=10 range=[90, -90] file=pan.mid
+node pan  midi_out kind=cc number=10 range=[90, -90] fold=true file=pan.mid
 dir.azimuth -> pan
 """
 
@@ -775,7 +788,8 @@ dir.azimuth -> pan
                 raise ValueError(f"a note list is 'note velocity' in whole numbers, got {msg.describe()}")
             messages = self.sender.note(int(note), int(velocity))
         else:
-            messages = self.sender.value(as_float(msg))
+            x = as_float(msg)
+            messages = self.sender.value(fold_front(x) if self.p.fold else x)
         self._send(messages, msg.time)
 
     def _strike(self) -> None:

@@ -26,6 +26,7 @@ __all__ = [
     "azimuth_elevation",
     "euler",
     "axis_angle_quat",
+    "fold_front",
     "conjugate",
     "matrix_quat",
     "multiply",
@@ -243,6 +244,25 @@ def azimuth_elevation(
         az = math.degrees(math.atan2(dy, dx))
     az = (az + 180.0) % 360.0 - 180.0
     return (az if az < 180.0 else az - 360.0), elevation
+
+
+def fold_front(deg: float) -> float:
+    """An azimuth (degrees) as a stereo pan hears it: one behind the listener mirrored to the front half.
+
+    The result is in [-90, 90]: ``a`` wrapped to [-180, 180), then 180 - a beyond +90 and -180 - a
+    beyond -90.  Behind-left stays left (135 -> 45) and the mapping is continuous all the way round, so a
+    performer turning through 180 degrees pans smoothly back to the centre instead of jumping from hard
+    left to hard right.  NaN stays NaN.
+
+    >>> [fold_front(a) for a in (0.0, 90.0, 135.0, 180.0, -180.0, -100.0, 450.0)]
+    [0.0, 90.0, 45.0, 0.0, 0.0, -80.0, 90.0]
+    """
+    a = (deg + 180.0) % 360.0 - 180.0
+    if a > 90.0:
+        return 180.0 - a
+    if a < -90.0:
+        return -180.0 - a
+    return a
 
 
 def axis_angle(q: Sequence[float]) -> tuple[float, float, float, float]:

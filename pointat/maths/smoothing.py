@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pointat.maths.quaternion import unwrap_degrees, wrap_degrees
+from pointat.maths.scalar import fold_front
 
 __all__ = [
     "CURVES",
@@ -192,12 +193,15 @@ class RangeMap:
     r"""Scale ``in_lo..in_hi`` to ``out_lo..out_hi`` through a curve, optionally clipped and inverted.
 
     .. math::
+        x \leftarrow \mathrm{fold}(x) \ \text{(fold)}, \qquad
         u = \frac{x - x_{lo}}{x_{hi} - x_{lo}}, \qquad
         u \leftarrow \min(\max(u, 0), 1) \ \text{(clip)}, \qquad
         u \leftarrow 1 - u \ \text{(invert)}, \qquad
         y = y_{lo} + (y_{hi} - y_{lo})\, f(u)
 
-    with :math:`f` from :func:`apply_curve`.  ``invert`` reads the input range backwards (the same as
+    with :math:`f` from :func:`apply_curve`.  ``fold`` reads the input as an azimuth in degrees and
+    mirrors one behind the listener to the front half, as a stereo pan hears it
+    (:func:`pointat.maths.scalar.fold_front`: 135 -> 45, 180 -> 0).  ``invert`` reads the input range backwards (the same as
     swapping ``in_lo`` and ``in_hi``); the curve keeps its shape on the output side.  Either range may
     run downwards (``in_lo > in_hi`` or ``out_lo > out_hi``).  The parameters are checked when the map is
     made: an empty range (``in_lo == in_hi`` or ``out_lo == out_hi``), a non-finite bound, an unknown
@@ -208,6 +212,8 @@ class RangeMap:
     [-1.0, 0.0, 1.0]
     >>> RangeMap(0.0, 1.0, 0.0, 100.0, clip=True, invert=True)(np.array([-1.0, 0.25, 2.0])).tolist()
     [100.0, 75.0, 0.0]
+    >>> RangeMap(90.0, -90.0, 0.0, 127.0, fold=True)(np.array([0.0, 135.0, -170.0])).tolist()
+    [63.5, 31.75, 70.55555555555556]
     >>> RangeMap(1.0, 1.0, 0.0, 1.0)
     Traceback (most recent call last):
     ...
@@ -223,6 +229,7 @@ class RangeMap:
     gamma: float = 2.0
     clip: bool = False
     invert: bool = False
+    fold: bool = False
 
     def __post_init__(self) -> None:
         for name in ("in_lo", "in_hi", "out_lo", "out_hi", "curvature", "gamma"):
@@ -271,6 +278,12 @@ class RangeMap:
         return y
 
     def _map(self, x: Value) -> Value:
+        if self.fold:
+            if isinstance(x, float):
+                x = fold_front(x)
+            else:
+                a = (x + 180.0) % 360.0 - 180.0
+                x = np.where(a > 90.0, 180.0 - a, np.where(a < -90.0, -180.0 - a, a))
         u = (x - self.in_lo) / (self.in_hi - self.in_lo)
         if self.clip:
             u = min(max(u, 0.0), 1.0) if isinstance(u, float) else np.clip(u, 0.0, 1.0)

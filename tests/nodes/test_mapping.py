@@ -69,6 +69,20 @@ def test_map_clip_invert_and_curves():
     assert rt.nodes["out"].values == pytest.approx([20.0, expected, 20000.0], abs=1e-9)
 
 
+def test_map_fold_pans_a_direction_behind_as_a_stereo_pan_hears_it():
+    # turning round through 180: behind-left stays left, and the pan returns smoothly to the centre
+    rt = one("map 90 -90 0 127 fold=true")
+    push(rt, [90.0, 135.0, 179.0, 180.0, -179.0, -135.0, -90.0, 450.0], [0.0] * 8)
+    assert rt.nodes["out"].values == pytest.approx(
+        [0.0, 31.75, 62.794, 63.5, 64.206, 95.25, 127.0, 0.0], abs=1e-3
+    )
+    rt.nodes["x"].receive(0, make((135.0, -170.0), time=1.0))  # a list folds element by element
+    assert out_of(rt)[-1].value == pytest.approx((31.75, 70.5556), abs=1e-4)
+    with pytest.raises(ValueError, match="NaN"):  # still refused, never folded into a value
+        rt.nodes["x"].receive(0, make(float("nan"), 2.0))
+    assert len(out_of(rt)) == 9
+
+
 def test_map_works_element_wise_on_lists_and_vectors():
     rt = one("map 0 10 0 1")
     rt.nodes["x"].receive(0, make((0.0, 5.0, 10.0), time=1.5))

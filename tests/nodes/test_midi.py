@@ -19,6 +19,7 @@ from osc_bridge import midi
 from osc_bridge.midi import MidiFileWriter, MidiSender, MidiUnavailable, scale_to_int
 from pointat.errors import PatchError
 from pointat.maths.quaternion import azimuth_elevation, pointing_direction
+from pointat.maths.scalar import fold_front
 from pointat.message import bang, make, method
 from pointat.testing import patch
 
@@ -39,6 +40,21 @@ def test_cc7_pan_bytes_left_centre_right_and_clipping():
     assert s.value(-170.0) == []  # behind-right clips to 127, already sent
     assert hexes(s.value(45.0)) == ["B0 0A 20"]  # half left: 128 * 0.25 = 32
     assert hexes(s.value(170.0)) == ["B0 0A 00"]  # behind-left clips to hard left
+
+
+def test_fold_turning_round_pans_back_through_the_centre_instead_of_jumping(tmp_path):
+    # a hand turning left from the front round to the back: without fold the pan sits hard left, then
+    # jumps to hard right as the azimuth crosses 180; with fold it returns through the centre
+    turn = [0.0, 45.0, 90.0, 135.0, 179.0, -179.0, -135.0, -90.0]
+    for fold, expected in ((False, [64, 32, 0, 127]), (True, [64, 32, 0, 32, 63, 65, 96, 127])):
+        path = tmp_path / f"fold_{fold}.mid"
+        rt = patch(f'node pan midi_out number=10 range=[90, -90] fold={str(fold).lower()} file="{path}"')
+        rt.advance(0.0)
+        for i, az in enumerate(turn):
+            rt.nodes["pan"].receive(0, make(az, i * 0.1))
+        rt.shutdown()
+        sent = [m.value for m in mido.MidiFile(path).tracks[0] if m.type == "control_change"]
+        assert sent == expected
 
 
 def test_centre_has_a_symmetric_rounding_bin():
@@ -427,5 +443,5 @@ def test_example_pans_with_the_true_azimuth(tmp_path):
             continue
         sample = round(round(t * 100.0) / 100.0, 4)  # ticks are 1/960 s; samples every 10 ms
         az, _ = azimuth_elevation(pointing_direction(truth[sample]))
-        errors.append(abs(value - scale_to_int(float(az), 90.0, -90.0, 127)))
+        errors.append(abs(value - scale_to_int(fold_front(float(az)), 90.0, -90.0, 127)))
     assert len(errors) > 30 and max(errors) <= 2, max(errors)  # 2 steps = 2.8 deg of filter error
