@@ -595,9 +595,70 @@ def _safe_stem(name: str) -> str:
 
 
 # --------------------------------------------------------------------------- nodes
+#: How often a port opened by name is looked for while the patch runs, in seconds: a controller
+#: unplugged mid-show is reported, and opened again when it is plugged back in.
+WATCH_PERIOD = 1.0
+
+
+class _PortWatch:
+    """For a MIDI node with a port opened by name: notice it vanish (a cable pulled mid-show, where the
+    backend itself goes quiet without a word) and open it again when it comes back.
+
+    A thread of its own lists the system's ports every :data:`WATCH_PERIOD` s (listing opens a MIDI
+    client, too slow for the scheduler thread) and hands the list to the scheduler, where the node
+    compares it with the port it has open.  A port back under another client number (ALSA numbers a
+    replugged device anew) is found again by the name the patch gives, as at start.
+    """
+
+    def _watch(self: Any, direction: str) -> None:
+        self._direction = direction
+        self._missing = False
+        if self.p.virtual or not self.p.port:
+            return  # ours (virtual) cannot vanish; "the first port" names nothing to look for again
+        lister = output_names if direction == "output" else input_names
+        rt = self.rt
+
+        def look() -> None:
+            while not rt.stopping.wait(WATCH_PERIOD):
+                try:
+                    names = lister()
+                except (ImportError, OSError):
+                    continue  # the MIDI system itself hiccuped: look again next time
+                rt.post(self, self._ports_seen, names, block=False)
+
+        self.spawn(look, "watch")
+
+    def _ports_seen(self: Any, names: list[str]) -> None:
+        """Scheduler thread: the ports the system has now."""
+        if not self._missing:
+            if self._port_name() in names:
+                return
+            self._missing = True
+            self._lost()
+            log.warning(
+                "%s '%s': MIDI %s port %r is gone (unplugged?); waiting for it to come back",
+                self.type_name,
+                self.name,
+                self._direction,
+                self._port_name(),
+            )
+            return
+        found = _match_port(self.p.port, names)
+        if found is None:
+            return
+        try:
+            self._reopen(found)
+        except MidiUnavailable as exc:  # still appearing: try again next time
+            log.debug("%s", exc)
+            return
+        self._missing = False
+        log.warning("%s '%s': MIDI %s port %r is back", self.type_name, self.name, self._direction, found)
+
+
 class _PortSink:
     def __init__(self, port: mido.ports.BaseOutput):
         self.port = port
+        self.lost = False  # the port vanished (see _PortWatch)
 
     def send(self, msg: mido.Message, time: float) -> None:
         self.port.send(msg)
@@ -652,7 +713,7 @@ _MAPPING_PARAMS = {
 
 
 @register("midi_out")
-class MidiOut(Node):
+class MidiOut(_PortWatch, Node):
     r"""Send values as MIDI: 7-bit or 14-bit CC, NRPN, pitch bend, or notes for gestures.
 
     A number at the inlet is mapped linearly from ``range`` ``[in_lo, in_hi]`` onto the MIDI range of
@@ -678,7 +739,10 @@ class MidiOut(Node):
     ``pointat``) for a DAW to connect to.  Ports need python-rtmidi (``pip install 'pointat[midi]'``) and
     a MIDI system: without them a port is an error at start that says so.  With neither ``port`` nor
     ``file`` the system's first output port is used when there is one, else ``NODE_NAME.mid`` in the
-    working directory (with a warning).  Several midi_out nodes may write the same file.
+    working directory (with a warning).  Several midi_out nodes may write the same file.  A port named
+    by ``port`` is looked for every second while the patch runs: unplugged mid-show, it is reported once
+    and what would go to it is dropped (counted in ``dropped``); plugged back in, it is opened again and
+    the last value is sent again, so the receiver catches up.
     """
 
     inlets = (
@@ -745,10 +809,30 @@ dir.azimuth -> pan
         self._sink: _PortSink | _FileSink | None = None
         self._timer: Timer | None = None
         self.sent = 0
+        self.dropped = 0  # while the port was unplugged
 
     def start(self) -> None:
         self._sink = self._open_sink()
         log.info("midi_out '%s': sending to %s", self.name, self._sink)
+        if isinstance(self._sink, _PortSink):
+            self._watch("output")
+
+    def _port_name(self) -> str:
+        return getattr(self._sink.port, "name", "") if isinstance(self._sink, _PortSink) else ""
+
+    def _lost(self) -> None:
+        """The port vanished: close it; what is sent meanwhile is dropped and counted."""
+        sink = self._sink
+        if isinstance(sink, _PortSink):
+            sink.lost = True
+            try:
+                sink.close()
+            except Exception:  # the backend may refuse to close what is already gone
+                pass
+
+    def _reopen(self, name: str) -> None:
+        self._sink = _PortSink(_open_port(self, "output", name, False, lambda n: open_output(n)))
+        self._send(self.sender.resend(), self.time)  # bring the receiver up to date
 
     def _open_sink(self) -> _PortSink | _FileSink:
         if self.p.file:
@@ -817,6 +901,9 @@ dir.azimuth -> pan
             return
         if self._sink is None:
             raise RuntimeError(f"midi_out '{self.name}' has no open output (see the error at start)")
+        if getattr(self._sink, "lost", False):  # unplugged: said once when it went
+            self.dropped += len(messages)
+            return
         for m in messages:
             self._sink.send(m, time)
             self.sent += 1
@@ -833,6 +920,8 @@ dir.azimuth -> pan
         sink, self._sink = self._sink, None
         if sink is None:
             return
+        if getattr(sink, "lost", False):  # closed when it vanished
+            return
         try:
             for m in self.sender.release():
                 sink.send(m, self.time)
@@ -841,7 +930,7 @@ dir.azimuth -> pan
 
 
 @register("midi_in")
-class MidiIn(Node):
+class MidiIn(_PortWatch, Node):
     """Receive MIDI from a named port: a foot controller's switches and pedals as control messages.
 
     Control changes leave by ``cc`` as a list ``number value`` (route them by number with ``route``);
@@ -849,6 +938,9 @@ class MidiIn(Node):
     anything else (program_change, aftertouch...) by ``other`` as a method message named after its type
     with its data (``program_change 5``).  ``channel`` 1..16 keeps one channel (0: all).  Needs
     python-rtmidi and a MIDI system: without them the node reports at start what to install.
+
+    A port named by ``port`` is looked for every second while the patch runs: unplugged mid-show, it is
+    reported once, and when it is plugged back in it is opened again (the patch keeps running).
     """
 
     outlets = (
@@ -893,6 +985,21 @@ press.0 -> ref.capture
         )
         self.active = True
         log.info("midi_in '%s': listening on %r", self.name, getattr(self._port, "name", name))
+        self._watch("input")
+
+    def _port_name(self) -> str:
+        return getattr(self._port, "name", "") or ""
+
+    def _lost(self) -> None:
+        self.active = False
+        try:
+            self._port.close()
+        except Exception:  # the backend may refuse to close what is already gone
+            pass
+
+    def _reopen(self, name: str) -> None:
+        self._port = _open_port(self, "input", name, False, lambda n: open_input(n, callback=self._on_midi))
+        self.active = True
 
     def _on_midi(self, msg: mido.Message) -> None:
         """Backend thread: hand the message to the scheduler (dropped and counted when it is full)."""

@@ -21,7 +21,7 @@ from pointat.errors import PatchError
 from pointat.maths.quaternion import azimuth_elevation, pointing_direction
 from pointat.maths.scalar import fold_front
 from pointat.message import bang, make, method
-from pointat.testing import patch
+from pointat.testing import patch, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "midi_pan.pat"
@@ -412,6 +412,103 @@ foot.other -> other
     assert rt.nodes["foot"].active
     rt.shutdown()
     assert port.closed and not rt.nodes["foot"].active
+
+
+def _settle(rt, predicate):
+    """Advance the manual clock (which runs what the watch thread posted) until ``predicate`` holds."""
+
+    def step():
+        rt.advance(0.0)
+        return predicate()
+
+    return wait_until(step, timeout=5.0)
+
+
+def test_midi_in_unplugged_mid_show_is_reported_and_reopened_when_it_is_back(monkeypatch, caplog):
+    ports: list[FootPort] = []
+    names = ["FCB1010:FCB1010 MIDI 1 20:0"]
+
+    def fake_open_input(name, *, virtual=False, callback=None):
+        if name not in names:
+            raise OSError(f"no port {name!r}")
+        ports.append(FootPort(name, callback=callback))
+        return ports[-1]
+
+    monkeypatch.setattr(midi, "open_input", fake_open_input)
+    monkeypatch.setattr(midi, "input_names", lambda: list(names))
+    monkeypatch.setattr(midi, "WATCH_PERIOD", 0.01)
+    rt = patch("node foot midi_in port=FCB1010\nnode cc collect\nfoot.cc -> cc")
+    foot = rt.nodes["foot"]
+    caplog.set_level(logging.INFO, logger="pointat.midi")
+    rt.advance(0.0)
+    assert foot.active and ports[0].name == names[0]
+
+    names.clear()  # the cable is pulled
+    assert _settle(rt, lambda: not foot.active)
+    assert ports[0].closed
+    gone = [r.getMessage() for r in caplog.records if "is gone" in r.getMessage()]
+    assert gone == [
+        "midi_in 'foot': MIDI input port 'FCB1010:FCB1010 MIDI 1 20:0' is gone (unplugged?); waiting for it to come back"
+    ]
+
+    names.append("FCB1010:FCB1010 MIDI 1 24:0")  # plugged back in: ALSA gives it a new client number
+    assert _settle(rt, lambda: foot.active)
+    assert [p.name for p in ports] == ["FCB1010:FCB1010 MIDI 1 20:0", "FCB1010:FCB1010 MIDI 1 24:0"]
+    assert any("is back" in r.getMessage() for r in caplog.records)
+    th = threading.Thread(
+        target=ports[1].callback, args=(mido.Message("control_change", control=64, value=127),)
+    )
+    th.start()
+    th.join(timeout=5)
+    assert _settle(rt, lambda: rt.nodes["cc"].values == [(64, 127)])
+    assert len([r for r in caplog.records if "is gone" in r.getMessage()]) == 1  # said once, not every second
+    rt.shutdown()
+    assert ports[1].closed
+
+
+class SynthPort(mido.ports.BaseOutput):
+    """A real mido output port that keeps what it is sent."""
+
+    def _open(self, **kwargs):
+        self.sent = []
+
+    def _send(self, msg):
+        self.sent.append(msg)
+
+
+def test_midi_out_drops_while_unplugged_and_catches_the_receiver_up_when_it_is_back(monkeypatch, caplog):
+    ports: list[SynthPort] = []
+    names = ["Synth:Synth MIDI 1 28:0"]
+
+    def fake_open_output(name, *, virtual=False):
+        if name not in names:
+            raise OSError(f"no port {name!r}")
+        ports.append(SynthPort(name))
+        return ports[-1]
+
+    monkeypatch.setattr(midi, "open_output", fake_open_output)
+    monkeypatch.setattr(midi, "output_names", lambda: list(names))
+    monkeypatch.setattr(midi, "WATCH_PERIOD", 0.01)
+    rt = patch("node vol midi_out kind=cc number=7 range=[0, 1] port=Synth")
+    vol = rt.nodes["vol"]
+    caplog.set_level(logging.WARNING)
+    rt.advance(0.0)
+    vol.receive(0, make(0.5, 0.0))
+    assert hexes(ports[0].sent) == ["B0 07 40"]
+
+    names.clear()
+    assert _settle(rt, lambda: any("is gone" in r.getMessage() for r in caplog.records))
+    vol.receive(0, make(1.0, 0.1))  # the hand moves on while the synth is unplugged: no error, counted
+    assert vol.dropped == 1 and ports[0].closed and hexes(ports[0].sent) == ["B0 07 40"]
+    assert not [r for r in caplog.records if r.levelno >= logging.ERROR]
+
+    names.append("Synth:Synth MIDI 1 32:0")
+    assert _settle(rt, lambda: len(ports) == 2)
+    assert hexes(ports[1].sent) == ["B0 07 7F"]  # the value it missed, sent again when it is back
+    vol.receive(0, make(0.0, 0.2))
+    assert hexes(ports[1].sent) == ["B0 07 7F", "B0 07 00"]
+    rt.shutdown()
+    assert ports[1].closed
 
 
 # --------------------------------------------------------------------------- the example patch
