@@ -321,8 +321,9 @@ am -> fuse.accmag
 class TQT(SampleClock, Flagged, Node):
     """McGhee/Bachmann's quaternion MARG filter: gyro rates corrected by gravity and the magnetic field.
 
-    Gauss-Newton correction with the reduced 3x3 X matrix (Bachmann patent Eq. 29), gain ``k``
-    (crossover k/2pi Hz), magnetometer weight ``rho``.  ``mode=paper`` is the seeds' filter exactly;
+    Gauss-Newton correction with the reduced 3x3 X matrix (Bachmann patent Eq. 29), gain ``k`` (errors
+    decay as e^(-k t); crossover k/2pi Hz in paper mode, lower in robust mode, which low-passes the
+    acceleration over 2 s first: 0.067 Hz at k = 1), magnetometer weight ``rho``.  ``mode=paper`` is the seeds' filter exactly;
     ``mode=robust`` (default) adds heading-only magnetic correction, gyro bias learned at rest, earth-frame
     acceleration averaging and magnetic gating.  ``use_gyro=false`` tracks from accel/mag alone.
     Send the gyro last (the left inlet is hot): mote and scaling nodes output right to left, so wiring

@@ -27,7 +27,8 @@ integrates it *exactly* over one sample (zero-order hold), :math:`\hat q_{n+1} =
 \exp\big(\tfrac{\Delta t}{2}(\omega + 2k\Delta v)\big)`, instead of the seeds' Euler step plus
 normalisation.  The correction then turns the estimate by :math:`\alpha\theta` per step
 (:math:`\alpha = k\Delta t`, VRST Eq. 14), so errors decay as :math:`e^{-kt}` and the complementary
-crossover is :math:`f_c = k / 2\pi` Hz (Theory Eq. 59).
+crossover is :math:`f_c = k / 2\pi` Hz (Theory Eq. 59; in robust mode, which low-passes the acceleration
+first, it is lower: :attr:`TQTFilter.crossover`).
 
 Corrections of the seeds (see also the project's REFERENCE §7)
 ---------------------------------------------------------------
@@ -544,8 +545,33 @@ class _TQTParams:
 
     @property
     def crossover(self) -> float:
-        """Crossover frequency ``k / 2 pi`` in Hz (Theory Eq. 59)."""
-        return crossover_from_gain(self.k)
+        r"""The gravity correction's crossover in Hz: below it the tilt follows the accelerometer, above it
+        the gyro (the -3 dB point of the accelerometer's path to the estimate).
+
+        paper: :math:`k / 2\pi` (Theory Eq. 59).  robust: the acceleration is low-passed in the earth
+        frame (``acc_tau``) before the gain-``k`` correction sees it, two first-order low-passes in a
+        row, so the crossover is lower:
+
+        .. math:: \omega_c^2 = \tfrac12\Big(\sqrt{(k^2 + a^2)^2 + 4k^2a^2} - (k^2 + a^2)\Big), \qquad
+                  a = 1 / \tau_a, \qquad f_c = \omega_c / 2\pi
+
+        (0.067 Hz at the defaults k = 1, acc_tau = 2 s, where k / 2 pi would say 0.16 Hz).  The heading
+        correction of robust mode has its own, :attr:`heading_crossover`.
+
+        >>> round(TQTFilter(1.0, mode="paper").crossover, 4), round(TQTFilter(1.0).crossover, 4)
+        (0.1592, 0.0667)
+        """
+        if self.mode == "paper":
+            return crossover_from_gain(self.k)
+        k2, a2 = self.k * self.k, 1.0 / (self.acc_tau * self.acc_tau)
+        w2 = 0.5 * (math.sqrt((k2 + a2) ** 2 + 4.0 * k2 * a2) - (k2 + a2))
+        return math.sqrt(w2) / _TWO_PI
+
+    @property
+    def heading_crossover(self) -> float:
+        r"""robust mode: the heading correction's crossover in Hz, :math:`k_{heading} / 2\pi` (below it the
+        heading follows the magnetometer, above it the gyro; 0.008 Hz at the default 0.05)."""
+        return crossover_from_gain(self.k_heading)
 
     def reset(self, q: ArrayLike | None = None) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
@@ -566,6 +592,8 @@ class _TQTParams:
             value = float(value)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+            if value == 0.0 and name in ("acc_tau", "bias_tau"):  # time constants: as the constructor says
+                raise ValueError(f"{name} must be > 0, got {value!r}")
             setattr(self, name, value)
         self._dt = -1.0  # recompute the per-step coefficients
 
@@ -588,7 +616,8 @@ class TQTFilter(_TQTParams):
 
     the exact integral over one sample of Theory Eqs. 17-18 (both terms are :math:`\hat q \otimes` a pure
     vector).  As in VRST Eq. 15 the residual compares the *new* measurement with the *previous* estimate, so
-    a constant rate leaves a lag of about :math:`\omega\Delta t`.  With one of the two vectors invalid,
+    under a constant rate the estimate settles one sample *ahead* of the motion, by :math:`\omega\Delta t`
+    (0.57 deg at 1 rad/s and 100 Hz).  With one of the two vectors invalid,
     :math:`\Delta v` is the minimum-norm Gauss-Newton step of the other alone.
 
     **robust** (default) -- the same Gauss-Newton corrections, decoupled, after the propagation
@@ -627,8 +656,10 @@ class TQTFilter(_TQTParams):
     Parameters
     ----------
     k : float, optional
-        Gravity-correction gain (1/s), :math:`\alpha = k\Delta t` (VRST Eq. 14, capped at 1), crossover
-        :math:`f_c = k/2\pi` (Theory Eq. 59; :func:`gain_from_crossover`).  Default: robust 1.0, paper 0.1.
+        Gravity-correction gain (1/s), :math:`\alpha = k\Delta t` (VRST Eq. 14, capped at 1), errors decay
+        as :math:`e^{-kt}`; crossover :attr:`crossover` (paper :math:`f_c = k/2\pi`, Theory Eq. 59,
+        :func:`gain_from_crossover`; robust lower, as it low-passes the acceleration first).  Default: robust
+        1.0, paper 0.1.
     rho : float, keyword-only
         Magnetometer weight (Theory Eq. 57), paper mode.  Default 0.5.
     iterations : int, keyword-only

@@ -193,7 +193,37 @@ def test_measurement_vector_uses_the_accelerometer_sign_as_measured():
 def test_crossover_conversion():
     assert gain_from_crossover(1.0) == pytest.approx(2 * math.pi)
     assert crossover_from_gain(gain_from_crossover(0.37)) == pytest.approx(0.37)
-    assert TQTFilter(k=math.pi).crossover == pytest.approx(0.5)
+    assert TQTFilter(k=math.pi, mode="paper").crossover == pytest.approx(0.5)
+    assert TQTFilter(k_heading=0.1 * math.pi).heading_crossover == pytest.approx(0.05)
+
+
+def _tilt_response(flt: TQTFilter, f: float, dt: float = 0.01) -> float:
+    """Amplitude of the estimate's roll over that of an accelerometer-only roll at ``f`` Hz (gyro still)."""
+    amp = math.radians(2.0)
+    field = (22.5, 0.0, -38.97)  # dip 60 deg
+    flt.reset((1.0, 0.0, 0.0, 0.0))
+    n = int(max(8.0 / f, 60.0) / dt)
+    t = np.arange(n) * dt
+    roll = np.empty(n)
+    for i in range(n):
+        th = amp * math.sin(2.0 * math.pi * f * t[i])
+        w, x, _, _ = flt.update((0.0, 0.0, 0.0), (0.0, math.sin(th) * 9.81, math.cos(th) * 9.81), field, dt)
+        roll[i] = 2.0 * math.atan2(x, w)
+    late = t > t[-1] / 2  # past the start-up transient
+    basis = np.stack(
+        [np.sin(2 * np.pi * f * t[late]), np.cos(2 * np.pi * f * t[late]), np.ones(late.sum())], 1
+    )
+    s, c, _ = np.linalg.lstsq(basis, roll[late], rcond=None)[0]
+    return math.hypot(s, c) / amp
+
+
+@pytest.mark.parametrize("mode", ["paper", "robust"])
+def test_crossover_is_where_the_accelerometer_path_is_3_db_down(mode):
+    # robust mode low-passes the acceleration (acc_tau) before the gain-k correction: its crossover is
+    # lower than k / 2 pi (0.067 against 0.159 Hz at k = 1), and the property says so
+    flt = TQTFilter(1.0, mode=mode, dip=math.radians(60.0), rest_time=1e9)
+    assert flt.crossover == pytest.approx(0.1592 if mode == "paper" else 0.0667, abs=1e-4)
+    assert _tilt_response(flt, flt.crossover) == pytest.approx(2**-0.5, abs=0.02)
     assert TQTFilter(k=gain_from_crossover(0.2), mode="paper").k == pytest.approx(0.4 * math.pi)
 
 
@@ -619,3 +649,15 @@ def test_what_an_absent_sensor_keeps_is_all_the_bank_state():
     bank.update(np.zeros((n, 3)), np.tile([0.0, 0.0, G], (n, 1)), np.tile(FIELD, (n, 1)), 0.01)
     per_sensor = {k for k, v in vars(bank).items() if isinstance(v, np.ndarray) and v.shape[-1:] == (n,)}
     assert per_sensor == set(TQTBank._STATE)
+
+
+def test_retune_refuses_what_the_constructor_refuses():
+    flt = TQTFilter()
+    flt.retune(k=0.0, acc_tau=0.5)  # a zero gain is allowed: no correction
+    for name in ("acc_tau", "bias_tau"):  # a zero time constant divided by zero at the next update
+        with pytest.raises(ValueError, match=f"{name} must be > 0"):
+            flt.retune(**{name: 0.0})
+    assert flt.acc_tau == 0.5
+    assert all(
+        math.isfinite(c) for c in flt.update((0.1, 0.0, 0.0), (0.0, 0.0, 9.81), (0.3, 0.0, -0.4), 0.01)
+    )
