@@ -680,12 +680,20 @@ right.gyro -> suit.gyro2
 
 @register("reference")
 class Reference(Node):
-    """The offset quaternion (Bachmann Eqs. 32-34): outputs are relative to a captured reference pose.
+    """Outputs relative to a captured reference pose: "point at the front speaker and press".
 
-    "Point at the front speaker and press": a bang (or ``set``) at the right inlet captures the next
-    orientation as the reference.  ``mode=heading`` removes only the reference's heading, so 0 azimuth is
-    where you pointed and elevation stays true; ``mode=full`` removes the whole reference orientation.
-    ``clear`` forgets it.
+    A bang (or ``set``) at the right inlet captures the next orientation as the reference; ``clear``
+    forgets it.  ``mode=heading`` (the default) removes only the reference's heading: azimuth 0 is where
+    the hand pointed and elevations stay true to the room.  The heading is that of the sensor ``axis``
+    that points, as ``azi_ele``'s (give both the same ``axis`` when the hand's x is not the one that
+    points); pointing within 1 deg of straight up or down there is no heading, and the capture waits for
+    the next orientation that has one.  ``mode=full`` removes the whole reference orientation: the
+    reference pose becomes the identity, its tilt and roll too, so with a reference that is not level every
+    later direction is measured from its tilted horizon (capture a level pose, or use heading).
+
+    The offset quaternion is applied in the earth frame, q_rel = q_offset ⊗ q (the reference turns the
+    room, not the sensor); Bachmann et al.'s offset quaternions (VRST 2001 Eqs. 32-34) are the sensor-frame
+    counterpart, q ⊗ q_offset, which aligns a sensor with the limb it is strapped to.
     """
 
     pure = True
@@ -705,7 +713,19 @@ class Reference(Node):
             live=True,
         ),
         Param("capture_first", "bool", False, "capture the first orientation that arrives"),
+        Param(
+            "axis",
+            "vector",
+            (1.0, 0.0, 0.0),
+            "the sensor axis that points (heading mode), as azi_ele's",
+            size=3,
+        ),
     )
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        if not math.hypot(*values["axis"]) > 0.0:
+            raise ValueError(f"axis must be a non-zero vector, got {list(values['axis'])}")
 
     def setup(self) -> None:
         self.offset: sq.Quat = (1.0, 0.0, 0.0, 0.0)
@@ -723,14 +743,23 @@ class Reference(Node):
     def on_quat(self, msg: Message) -> None:
         q = _as_quat(msg)
         if self._capture:
-            self._capture = False
-            if self.p.mode == "heading":
-                yaw = sq.euler(q)[0]
-                self.offset = (math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2))
-            else:
-                self.offset = sq.conjugate(q)
+            self._take(q)
         # the reference earth frame is the earth frame turned by the reference: q_rel = offset ⊗ q
         self.out(0, floats(sq.normalize(sq.multiply(self.offset, q)), msg.time))
+
+    def _take(self, q: sq.Quat) -> None:
+        if self.p.mode == "full":
+            self.offset = sq.conjugate(q)
+        else:
+            dx, dy, dz = sq.rotate(q, *self.p.axis)
+            if math.hypot(dx, dy) <= math.sqrt(dx * dx + dy * dy + dz * dz) * _POLE_SIN:
+                return  # straight up or down: no heading yet, the capture waits
+            yaw = math.atan2(dy, dx)
+            self.offset = (math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2))
+        self._capture = False
+
+
+_POLE_SIN = math.sin(math.radians(1.0))  # reference: within 1 deg of vertical a direction has no heading
 
 
 @register("matrix2quat")

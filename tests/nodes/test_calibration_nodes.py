@@ -130,6 +130,58 @@ dir.elevation -> el
     assert rt.nodes["az"].values[-1] == pytest.approx(30.0)
 
 
+def test_reference_takes_the_heading_of_the_axis_that_points():
+    # a sensor mounted turned 35 deg on the hand: azi_ele and reference are told the same axis, and the
+    # pose captured as the reference reads azimuth 0 (the heading of sensor x said -35)
+    from pointat.maths.quaternion import euler_to_quat
+
+    axis = [math.cos(math.radians(-35.0)), math.sin(math.radians(-35.0)), 0.0]
+    rt = patch(f"""
+node ref reference axis={axis} capture_first=true
+node dir azi_ele axis={axis}
+node az collect
+ref -> dir
+dir.azimuth -> az
+""")
+    ref = rt.nodes["ref"]
+    ref.receive(0, vector(euler_to_quat(75.0, 5.0, 10.0, degrees=True)))
+    assert rt.nodes["az"].values[-1] == pytest.approx(0.0, abs=1e-9)
+    ref.receive(0, vector(euler_to_quat(105.0, 5.0, 10.0, degrees=True)))  # 30 deg further left
+    assert rt.nodes["az"].values[-1] == pytest.approx(30.0, abs=1e-6)
+
+
+def test_reference_capture_waits_for_an_orientation_with_a_heading():
+    from pointat.maths.quaternion import euler_to_quat
+
+    rt = patch("node ref reference\nnode dir azi_ele\nnode az collect\nref -> dir\ndir.azimuth -> az\n")
+    ref = rt.nodes["ref"]
+    ref.receive(0, method("set"))
+    ref.receive(0, vector(euler_to_quat(60.0, -90.0, 0.0, degrees=True)))  # straight up: no heading
+    assert ref.offset == (1.0, 0.0, 0.0, 0.0)
+    ref.receive(0, vector(euler_to_quat(60.0, -20.0, 0.0, degrees=True)))  # the next one is taken
+    assert rt.nodes["az"].values[-1] == pytest.approx(0.0, abs=1e-9)
+    ref.receive(0, vector(euler_to_quat(80.0, -20.0, 0.0, degrees=True)))
+    assert rt.nodes["az"].values[-1] == pytest.approx(20.0, abs=1e-6)
+
+
+def test_reference_full_makes_the_reference_pose_the_identity_tilt_included():
+    from pointat.maths.quaternion import euler_to_quat
+
+    rt = patch("node ref reference mode=full\nnode out collect\nref -> out\n")
+    ref = rt.nodes["ref"]
+    pose = euler_to_quat(40.0, -10.0, 20.0, degrees=True)
+    ref.receive(0, method("set"))
+    ref.receive(0, vector(pose))
+    assert rt.nodes["out"].values[-1] == pytest.approx((1.0, 0.0, 0.0, 0.0), abs=1e-12)
+
+
+def test_reference_axis_must_not_be_zero():
+    from pointat.errors import PatchError
+
+    with pytest.raises(PatchError, match="axis must be a non-zero vector"):
+        patch("node ref reference axis=[0, 0, 0]\n")
+
+
 def test_calibrate_finds_a_gyro_scale_from_a_known_rotation(tmp_path):
     rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
     cal = rt.nodes["cal"]
