@@ -25,8 +25,9 @@ profile                 port    messages of one update (type tags)
 
 Distances: ``dist01`` is ADM-OSC's normalised distance, 1 on the loudspeaker sphere (far) .. 0 at the
 centre (near), :math:`d_{01} = 1 - d/90`; ``dist_m`` is that times a radius in metres.  ``x y z`` are
-ADM-OSC's Cartesian axes (x right, y front, z up) at radius ``dist01``; ICST's AmbiPlugins use the same
-axes.  ``pan`` folds rear directions onto the front (stereo has no rear):
+ADM-OSC's Cartesian axes (x right, y front, z up) at radius ``dist01``; ICST's AmbiPlugins (version 2,
+current) use the same axes; their version 1 plug-ins had x to the front and will read a source turned
+90 degrees.  ``pan`` folds rear directions onto the front (stereo has no rear):
 :math:`p = \tfrac12 - a_f/180` with :math:`a_f` the azimuth mirrored into -90..90 (continuous all round).
 
 >>> PROFILES["spat"].render(Source(1, az=30.0))
@@ -47,6 +48,8 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
+
+from pointat.maths.scalar import fold_front
 
 __all__ = [
     "FIELDS",
@@ -100,20 +103,6 @@ def wrap180(a: float) -> float:
     (-170.0, 180.0, 30.0)
     """
     return 0.0 - ((180.0 - a) % 360.0 - 180.0)  # 0.0 - x: never -0.0
-
-
-def fold_front(a: float) -> float:
-    """An azimuth mirrored front/back into -90..90 (its lateral angle): 150 -> 30, -120 -> -60.
-
-    >>> fold_front(150.0), fold_front(-120.0), fold_front(180.0)
-    (30.0, -60.0, 0.0)
-    """
-    a = wrap180(a)
-    if a > 90.0:
-        return 180.0 - a
-    if a < -90.0:
-        return -180.0 - a
-    return a
 
 
 # The clamps are comparisons, not min(max()): these run for every update osc_out sends.  (NaN passes
