@@ -23,7 +23,7 @@ from pointat.devices.serial_reader import (
     ReaderError,
     SerialMoteReader,
 )
-from pointat.message import Message, vector
+from pointat.message import Message, method, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
 from pointat.runtime import Timer
@@ -62,9 +62,13 @@ class Mote(Node):
     counter at ``rate``, so lost packets keep the timing right).  Garbage is skipped, corrupt frames
     dropped and counted, lost packets reported on ``events``; when the device vanishes the port is
     reopened as soon as it comes back.  ``open PATH`` / ``close`` switch device while running; a
-    symbol at the left inlet opens that path (wire ``simulate``'s ``device`` outlet here).  ``stats``
-    (or a bang) sends ``stats received corrupt lost garbage_bytes`` on ``events``.  The port is read on
-    the scheduler thread itself (no thread hand-off between the device and the chain).
+    symbol at the left inlet opens that path (wire ``simulate``'s ``device`` outlet here: it sends
+    ``close`` when the simulation ends).  A closed mote's part in the patch is over until the next
+    ``open``: a patch whose sources have all ended stops by itself.  A pseudo-terminal named by its
+    number (``/dev/pts/3``) is not reopened when it closes, since the next terminal opened on the
+    machine takes that number: the mote closes.  ``stats`` (or a bang) sends ``stats received corrupt
+    lost garbage_bytes`` on ``events``.  The port is read on the scheduler thread itself (no thread
+    hand-off between the device and the chain).
 
     ``events`` carries each ``lost``, ``corrupt``, ``counter_jump``, ``unknown_mote``, ``reader_error``,
     ``opened``, ``open_failed`` and ``device_lost``; the log tells the same in a few lines, for patches
@@ -168,6 +172,7 @@ base.1 -> nulls2 -> right
 
     def do_open(self, path: Any) -> None:
         self.do_close()
+        self.active = True
         self.p.device = str(path)
         if self.READ_IN_THREAD:  # the reader's own thread, handing each frame and event to the scheduler
             on_frame = lambda frame, t: self.post(self._on_frame, frame, t, block=False)  # noqa: E731
@@ -192,6 +197,7 @@ base.1 -> nulls2 -> right
 
     def do_close(self) -> None:
         self._unwatch()
+        self.active = False  # nothing to read until the next open
         if self._reader is not None:
             self._reader.stop()  # joins the thread if there is one; closes the port
             self._reader = None
@@ -347,6 +353,16 @@ base.1 -> nulls2 -> right
         elif isinstance(event, ReaderError):
             self._count("error")
             self.out(ev, ("reader_error", event.where, event.reason[:80]))
+        elif isinstance(event, DeviceLost) and event.final:
+            log.warning(
+                "mote '%s': device %s closed (%s): it was a pseudo-terminal, whose writer ended (a simulator?)"
+                "; not reopened, since the next terminal opened takes its number. The mote is closed",
+                self.name,
+                self.p.device,
+                event.reason,
+            )
+            self.out(ev, ("device_lost", self.p.device))
+            self.do_close()
         elif isinstance(event, DeviceLost):
             self._was_lost = True
             log.warning(
@@ -375,14 +391,15 @@ class Simulate(Node):
     bias and noise, accelerometer and magnetometer noise, the Earth field with dip, 12-bit counts.  The
     script loops (``duration`` ends it).  ``output=direct`` sends the counts from the ``adc`` outlet;
     ``output=pty`` writes real mote frames into a pseudo-terminal instead and sends its path from the
-    ``device`` outlet (wire it to a ``mote``), so the whole serial path runs.  ``truth`` is the true
-    orientation quaternion (sensor -> NWU).
+    ``device`` outlet (wire it to a ``mote``), so the whole serial path runs; when ``duration`` ends
+    it, the outlet sends ``close`` before the pseudo-terminal goes, so the mote is done too and the
+    patch can end.  ``truth`` is the true orientation quaternion (sensor -> NWU).
     """
 
     outlets = (
         Outlet("adc", "vector", ADC_DOC + " (output=direct)"),
         Outlet("truth", "vector", "true orientation quaternion (w, x, y, z), sensor -> NWU"),
-        Outlet("device", "symbol", "the pseudo-terminal's path, once at start (output=pty)"),
+        Outlet("device", "symbol", "the pseudo-terminal's path at start, close at the end (output=pty)"),
     )
     params = (
         Param("rate", "float", 100.0, "sample rate", unit="Hz", above=0.0),
@@ -433,6 +450,8 @@ glove -> nulls -> cal
         k = self._k
         t = k / self.p.rate
         if self.p.duration and t >= self.p.duration:
+            if self._pty is not None:  # its reader is done too, before the pseudo-terminal goes
+                self.out(2, method("close", time=t))
             self.close()
             return
         self._k += 1

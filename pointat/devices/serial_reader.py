@@ -12,6 +12,13 @@ tries to reopen the path with a bounded exponential backoff until it comes back 
 called.  The parser keeps each mote's packet counter across a reconnection, so the samples missed
 during the outage are reported as lost packets when the stream resumes.
 
+A pseudo-terminal named by its number (``/dev/pts/3``, :func:`numbered_pty`) is the exception: it never
+comes back, and the next terminal opened on the machine takes its number, so its loss (its other end
+closed, its path gone) is final (``DeviceLost.final``): the reader ends instead of opening, and setting
+raw, somebody's shell.  A link
+to a pseudo-terminal (``simulate link=``, ``socat pty,link=``) is reopened when it is there again: its
+owner makes it again for a new terminal.
+
 Nothing raised in the thread kills it silently: callback errors are logged and reported as
 :class:`ReaderError` and the loop goes on; an unexpected error in the loop itself is logged, reported,
 and followed by a reopen.
@@ -20,7 +27,7 @@ Without the thread, an event loop drives the same reader (the ``mote`` node does
 scheduler thread): :meth:`SerialMoteReader.open` with ``nonblocking=True``, then
 :meth:`~SerialMoteReader.poll` whenever :meth:`~SerialMoteReader.fileno` is readable and
 :meth:`~SerialMoteReader.check` now and then; each returns ``False`` once the device is lost (reported
-and closed), and reopening is then the loop's to schedule.
+and closed), and reopening is then the loop's to schedule (unless :attr:`~SerialMoteReader.ended`).
 
 Examples
 --------
@@ -47,6 +54,7 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import threading
 import time
 from collections.abc import Callable
@@ -65,6 +73,7 @@ __all__ = [
     "ReaderEvent",
     "SerialMoteReader",
     "driver_low_latency",
+    "numbered_pty",
     "release_low_latency",
     "request_low_latency",
 ]
@@ -81,10 +90,12 @@ class DeviceOpened(NamedTuple):
 
 
 class DeviceLost(NamedTuple):
-    """The open port at ``path`` failed or vanished; it was closed and will be reopened."""
+    """The open port at ``path`` failed or vanished; it was closed and will be reopened, unless ``final``
+    (a pseudo-terminal named by its number: see :func:`numbered_pty`)."""
 
     path: str
     reason: str
+    final: bool = False
 
 
 class OpenFailed(NamedTuple):
@@ -155,6 +166,21 @@ def driver_low_latency(port: Any) -> bool | None:
     except (ImportError, AttributeError, OSError, ValueError):
         return None
     return bool(buf[4] & ASYNC_LOW_LATENCY)
+
+
+_NUMBERED_PTY = re.compile(r"/dev/pts/[0-9]+|/dev/ttys[0-9]+")  # Linux and the BSDs; macOS
+
+
+def numbered_pty(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` names a pseudo-terminal by its number (``/dev/pts/3``; macOS ``/dev/ttys003``),
+    not through a link.  Such a name belongs to no device: when the terminal closes, the next one opened
+    on the machine takes it, so a reader does not open it again.
+
+    >>> numbered_pty("/dev/pts/3"), numbered_pty("/dev/ttyUSB0"), numbered_pty("/dev/ttyS0")
+    (True, False, False)
+    """
+    path = os.fspath(path)
+    return _NUMBERED_PTY.fullmatch(os.path.abspath(path)) is not None and not os.path.islink(path)
 
 
 def _latency_timer(path: str) -> str | None:
@@ -270,6 +296,9 @@ class SerialMoteReader:
         self._rdev: int | None = None
         self._open_count = 0
         self._got_data = False
+        self._numbered_pty = False
+        #: True once the device is lost for good (:func:`numbered_pty`): the reader opens it no more.
+        self.ended = False
         self._nonblocking = False
         self._want_low_latency = low_latency
         #: After an open: ``"on"`` (the driver accepted the low-latency request; turned off again when
@@ -334,7 +363,7 @@ class SerialMoteReader:
     def _run(self) -> None:
         self.reopen.reset()
         failed_since_open = False
-        while not self._stop.is_set():
+        while not self._stop.is_set() and not self.ended:
             if self._port is None:
                 try:
                     self.open(nonblocking=False)
@@ -346,7 +375,7 @@ class SerialMoteReader:
                     self._stop.wait(self.reopen.next())
                     continue
                 failed_since_open = False
-            if not self.poll() and not self._stop.is_set():
+            if not self.poll() and not self._stop.is_set() and not self.ended:
                 # lost: a device that delivered data retries at once; one that fails right after
                 # opening backs off, so a broken but openable device cannot make the loop spin
                 if self._got_data:
@@ -361,8 +390,11 @@ class SerialMoteReader:
         """Open the device now and report :class:`DeviceOpened` (for an event loop, not the thread).
 
         Raises :class:`serial.SerialException`, :class:`OSError` or :class:`ValueError` when it cannot be
-        opened; the caller decides when to try again.  ``nonblocking`` makes :meth:`poll` return at once.
+        opened; the caller decides when to try again, unless :attr:`ended`.  ``nonblocking`` makes
+        :meth:`poll` return at once.
         """
+        if self.ended:
+            raise serial.SerialException(f"{self.port_path} was a pseudo-terminal that closed: not reopened")
         self._open(timeout=0 if nonblocking else self.read_timeout)
         self._nonblocking = nonblocking
         self._emit(DeviceOpened(self.port_path, os.path.realpath(self.port_path), self._open_count))
@@ -383,7 +415,10 @@ class SerialMoteReader:
         try:
             self._poll()
         except (serial.SerialException, OSError) as exc:
-            self._lose(str(exc) or type(exc).__name__)
+            # a pty whose other end closed is gone from /dev at once; one that read empty while it is
+            # still there lost its bytes to another reader (a program that does not lock the port)
+            final = self._numbered_pty and bool(self._path_problem())
+            self._lose(str(exc) or type(exc).__name__, final=final)
         except Exception as exc:  # keep the reader alive whatever happens, but say so
             log.exception("mote reader on %s: unexpected error", self.port_path)
             self._emit(ReaderError(self.port_path, "loop", repr(exc)))
@@ -396,7 +431,7 @@ class SerialMoteReader:
             return False
         reason = self._path_problem()
         if reason:
-            self._lose(reason)
+            self._lose(reason, final=self._numbered_pty)
         return self._port is not None
 
     def close(self) -> None:
@@ -415,6 +450,7 @@ class SerialMoteReader:
             self._rdev = None
         self._port = port
         self._got_data = False
+        self._numbered_pty = numbered_pty(self.port_path)
         self._open_count += 1
         self.low_latency = request_low_latency(port) if self._want_low_latency else "off"
         self._opened.set()
@@ -473,7 +509,7 @@ class SerialMoteReader:
             return "device path now names another device"
         return ""
 
-    def _lose(self, reason: str) -> None:
+    def _lose(self, reason: str, *, final: bool = False) -> None:
         log.info("lost mote port %s: %s", self.port_path, reason)  # the owner hears of it: DeviceLost
         self._close()
         with self._lock:
@@ -481,7 +517,8 @@ class SerialMoteReader:
             events = self._parser.pop_events()
         for event in events:
             self._emit(event)
-        self._emit(DeviceLost(self.port_path, reason))
+        self.ended = final
+        self._emit(DeviceLost(self.port_path, reason, final))
 
     def _close(self) -> None:
         port, self._port = self._port, None

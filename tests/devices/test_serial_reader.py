@@ -9,6 +9,7 @@ import tty
 from pathlib import Path
 
 import pytest
+import serial
 
 from pointat.devices.mote_frame import Frame, LostPackets, encode_frame, encode_text
 from pointat.devices.serial_reader import (
@@ -18,6 +19,7 @@ from pointat.devices.serial_reader import (
     ReaderError,
     SerialMoteReader,
     driver_low_latency,
+    numbered_pty,
     request_low_latency,
 )
 from pointat.testing import wait_until
@@ -169,6 +171,49 @@ def test_device_vanishes_and_comes_back(tmp_path: Path):
     assert stats.motes[1].received == 20 and stats.motes[1].lost == 5
     assert len(col.of(OpenFailed)) == 1  # once per outage, not once per retry
     assert not col.of(ReaderError)
+
+
+def test_a_pty_named_by_its_number_is_not_reopened_once_it_closes():
+    # the next terminal opened takes the number: reopened, it would be somebody's shell, set raw
+    first = Pty()
+    col = Collector()
+    try:
+        with make_reader(first.path, col) as reader:
+            assert reader.wait_open(WAIT)
+            first.close()  # the simulator (or socat) ends
+            assert wait_until(lambda: not reader.is_running)  # the thread ends by itself
+            assert reader.ended and not reader.is_open
+    finally:
+        first.close()
+    assert [type(e) for e in col.events] == [DeviceOpened, DeviceLost]
+    assert col.of(DeviceLost)[0].final
+    with pytest.raises(serial.SerialException, match="not reopened"):
+        reader.open()
+
+
+def test_a_pty_named_by_its_number_that_reads_empty_while_it_is_there_is_not_lost_for_good(pty):
+    # another program that does not lock the port took the bytes: the read comes back empty, as when
+    # the other end closes, but the terminal is still there
+    col = Collector()
+    reader = make_reader(pty.path, col)
+    reader.open(nonblocking=True)
+    try:
+        pty.write(encode_frame(frame(0)))
+        assert os.read(pty.slave, 100)  # the thief
+        assert not reader.poll()
+        assert not col.of(DeviceLost)[0].final and not reader.ended
+        reader.open(nonblocking=True)  # the owner may try again
+        pty.write(encode_frame(frame(1)))
+        assert wait_until(lambda: reader.poll() and col.got() == [frame(1)])
+    finally:
+        reader.close()
+
+
+def test_numbered_pty_tells_a_pseudo_terminal_by_number_from_a_link_or_a_serial_port(tmp_path: Path, pty):
+    link = tmp_path / "glove"
+    link.symlink_to(pty.path)
+    assert numbered_pty(pty.path) and not numbered_pty(link)
+    assert not any(map(numbered_pty, ["/dev/ttyUSB0", "/dev/ttyACM0", "/dev/ttyS0", "/dev/pts/ptmx"]))
 
 
 def test_path_missing_at_start_then_appears(tmp_path: Path, pty):

@@ -118,6 +118,49 @@ base.m1 -> out
     assert all(np.array_equal(g, sim.sample(first + i).frame.channels) for i, g in enumerate(got))
 
 
+def test_a_mote_reading_a_simulators_pty_closes_when_it_ends_and_the_patch_ends(caplog):
+    rt = patch(
+        """
+node glove simulate rate=200 output=pty duration=0.2
+node base mote rate=200
+node ev collect
+glove.device -> base
+base.events -> ev
+""",
+        realtime=True,
+    )
+    th = rt.run_in_thread(60)
+    try:
+        assert wait_until(lambda: not th.is_alive(), 10)  # it ended by itself, long before 60 s
+    finally:
+        rt.stop()
+        th.join(5)
+    # told to close before the pseudo-terminal went: no loss, no retry of a number the next terminal takes
+    assert [m.value[0] for m in rt.nodes["ev"].messages] == ["opened"]
+    assert "lost" not in caplog.text and "cannot open" not in caplog.text
+
+
+@pytest.mark.parametrize("in_thread", [False, True], ids=["scheduler-reads", "reader-thread"])
+def test_a_mote_does_not_reopen_a_pty_named_by_its_number(monkeypatch, caplog, in_thread):
+    from nodes.sensors import Mote
+
+    monkeypatch.setattr(Mote, "READ_IN_THREAD", in_thread)
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    rt = patch(f"node base mote device={path}\nnode ev collect\nbase.events -> ev\n", realtime=True)
+    th = rt.run_in_thread(60)
+    try:
+        assert wait_until(lambda: rt.nodes["ev"].messages)
+        os.close(master)  # its writer ends; the next pseudo-terminal opened may get its number
+        os.close(slave)
+        assert wait_until(lambda: not th.is_alive(), 10)  # the mote closed, so the patch ended
+    finally:
+        rt.stop()
+        th.join(5)
+    assert [m.value for m in rt.nodes["ev"].messages] == [("opened", path), ("device_lost", path)]
+    assert f"device {path} closed" in caplog.text and "not reopened" in caplog.text
+
+
 def test_record_then_replay_gives_back_the_stream(tmp_path):
     out = tmp_path / "rec.csv"
     rt = patch(f"""
