@@ -189,7 +189,8 @@ class Replay(Node):
     Reads ``record``'s CSV and NDJSON and the BROAD data set's CSV (``*.csv.gz``), so real recordings
     drive patches.  Messages carry the file's time stamps.  At ``speed=0`` the rows reach the scheduler
     64 at a time (``BATCH``), each row's messages as at any speed: the scheduler's timers and other
-    inputs then wait for a batch to be through (a few ms).  At the end it bangs ``done`` and, unless
+    inputs (OSC control) wait for the batches of one pass at most, about 5 ms of them (the runtime's
+    ``QUEUE_BUDGET``), never for the whole queue.  At the end it bangs ``done`` and, unless
     ``loop``, its part in the patch is over: a patch whose sources have all ended stops by itself.
     """
 

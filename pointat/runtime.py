@@ -21,7 +21,10 @@
   served between passes, ``duration`` is wall-clock time, and the log says that the machine cannot keep
   up (a timer more than :attr:`Runtime.LATE` late; at most every :attr:`Runtime.LATE_EVERY` seconds).
 * **Passes.**  The scheduler handles what is ready in passes: the timers that are due, or the readers
-  that woke it and the queue.  :meth:`Runtime.at_pass_end` runs a callback when the current pass is done,
+  that woke it and the queue.  A pass runs queued events for :attr:`Runtime.QUEUE_BUDGET` at most (one
+  at least), so a source that floods the queue (``replay speed=0``) cannot hold the timers and the
+  descriptors (OSC control) for seconds; the rest wait, in order, for the next passes.
+  :meth:`Runtime.at_pass_end` runs a callback when the current pass is done,
   before the scheduler sleeps again; ``osc_out`` sends that way, so the datagrams of every sensor read in
   one wake-up leave together.
 * **Spinning.**  With ``spin`` seconds (``pointat run --spin MS``) the scheduler polls its descriptors
@@ -642,6 +645,9 @@ class Runtime:
 
     #: Longest sleep in select (seconds), so that a stop is noticed even if its wake-up were lost.
     IDLE = 0.25
+    #: Seconds of queued events that one pass runs at most (real time only; one event at least).  A full
+    #: queue of a fast replay's hand-overs (4096 of 64 rows) took 5 s through the tqt chain in one pass.
+    QUEUE_BUDGET = 0.005
     #: A timer run this many seconds after its time says the machine cannot keep up: a warning, at most
     #: once every :attr:`LATE_EVERY` seconds.
     LATE = 0.1
@@ -754,7 +760,8 @@ class Runtime:
         return self._sleep(selector, max(0.0, end - now), waiting)
 
     def _serve(self, ready: list, waiting: Any) -> int:
-        """One pass: the readers in ``ready``, then what is in the queue now."""
+        """One pass: the readers in ``ready``, then what is in the queue now, for :attr:`QUEUE_BUDGET`
+        seconds at most (real time only): the rest is left in the queue for the next passes."""
         n = 0
         for reader in ready:
             if reader is None:  # the wake-up socket
@@ -778,10 +785,13 @@ class Runtime:
                     self.remove_reader(reader.fileobj)
             n += 1
         if waiting:  # what is queued now, not what keeps coming: timers get their turn between polls
+            until = time.monotonic() + self.QUEUE_BUDGET if self.realtime else math.inf
             try:
                 for _ in range(len(waiting)):
                     self._run_item(self._queue.get_nowait())
                     n += 1
+                    if time.monotonic() >= until:
+                        break
             except queue.Empty:
                 pass
         return n

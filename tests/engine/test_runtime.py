@@ -636,6 +636,30 @@ def test_a_timer_that_costs_more_than_its_period_cannot_starve_the_readers_nor_t
         tx.close()
 
 
+def test_a_flood_of_queued_events_runs_over_several_passes_in_order_with_the_readers_in_between():
+    """A fast replay fills the queue with 4096 hand-overs: one pass runs QUEUE_BUDGET seconds of them,
+    the descriptors (OSC control) and the timers get their turn between passes, and nothing is lost."""
+    rt = Runtime()
+    rt.QUEUE_BUDGET = 0.0  # one event a pass, however fast this machine is
+    rx, tx = socket.socketpair()
+    rx.setblocking(False)
+    order: list = []
+    try:
+        rt.add_reader(rx, lambda: order.append(rx.recv(1)))
+        for k in range(4):
+            rt.post(None, order.append, k)
+        tx.send(b"ab")
+        assert rt.drain() == 2 and order == [b"a", 0]
+        assert rt.drain() == 2 and order == [b"a", 0, b"b", 1]
+        while rt.drain():
+            pass
+        assert order == [b"a", 0, b"b", 1, 2, 3]
+    finally:
+        rt.shutdown()
+        rx.close()
+        tx.close()
+
+
 def test_what_runs_at_the_end_of_a_pass_runs_after_everything_due_in_it(caplog):
     """at_pass_end: after every timer of the pass, in the order asked, including what those calls ask
     for; a failing one is logged with its node and the others still run; outside a pass, at once."""

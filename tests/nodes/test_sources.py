@@ -181,9 +181,15 @@ glove.truth -> sink
     assert np.array_equal(got[37].value, sim.sample(37).q)  # full precision
 
 
-def test_replay_as_fast_as_it_goes_sends_every_row_right_to_left_in_order(tmp_path):
+@pytest.mark.parametrize("budget", [None, 0.0], ids=["default", "one-batch-a-pass"])
+def test_replay_as_fast_as_it_goes_sends_every_row_right_to_left_in_order(tmp_path, monkeypatch, budget):
     # at speed=0 rows go over in batches (Replay.BATCH): 150 rows are two full batches and a part;
-    # each row still sends its truth (when it has one), mag, accel, then gyro, all with the row's time
+    # each row still sends its truth (when it has one), mag, accel, then gyro, all with the row's time;
+    # a pass of the scheduler runs Runtime.QUEUE_BUDGET seconds of batches: none lost, none reordered
+    from pointat.runtime import Runtime
+
+    if budget is not None:
+        monkeypatch.setattr(Runtime, "QUEUE_BUDGET", budget)
     f = tmp_path / "trial.csv"
     head = "t,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,mag_x,mag_y,mag_z,qw,qx,qy,qz"
     rows = []
