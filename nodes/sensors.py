@@ -66,7 +66,9 @@ class Mote(Node):
     ``close`` when the simulation ends).  A closed mote's part in the patch is over until the next
     ``open``: a patch whose sources have all ended stops by itself.  A pseudo-terminal named by its
     number (``/dev/pts/3``) is not reopened when it closes, since the next terminal opened on the
-    machine takes that number: the mote closes.  ``stats`` (or a bang) sends ``stats received corrupt
+    machine takes that number: the mote closes.  The port is the mote's alone: a second patch reading it
+    hears once that it is busy ("another program has PATH open") and opens it when the first lets it
+    go.  ``stats`` (or a bang) sends ``stats received corrupt
     lost garbage_bytes`` on ``events``.  The port is read on the scheduler thread itself (no thread
     hand-off between the device and the chain).
 

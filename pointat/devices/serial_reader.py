@@ -19,6 +19,13 @@ raw, somebody's shell.  A link
 to a pseudo-terminal (``simulate link=``, ``socat pty,link=``) is reopened when it is there again: its
 owner makes it again for a new terminal.
 
+The port is opened for this reader alone (pyserial's ``exclusive``: an ``flock`` on POSIX; Windows
+never shares a port).  A second reader of the same port, a second patch, gets :class:`PortBusy`, reported
+once as :class:`OpenFailed` ("busy: another program has PATH open"), and opens the port when the first
+lets it go: shared, each would read part of the bytes, and every read the other left empty would look
+like an unplugged device.  A program that opens the port without a lock (``cat``, ``screen``) is not
+kept out.
+
 Nothing raised in the thread kills it silently: callback errors are logged and reported as
 :class:`ReaderError` and the loop goes on; an unexpected error in the loop itself is logged, reported,
 and followed by a reopen.
@@ -52,6 +59,7 @@ True
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import re
@@ -69,6 +77,7 @@ __all__ = [
     "DeviceLost",
     "DeviceOpened",
     "OpenFailed",
+    "PortBusy",
     "ReaderError",
     "ReaderEvent",
     "SerialMoteReader",
@@ -103,6 +112,10 @@ class OpenFailed(NamedTuple):
 
     path: str
     reason: str
+
+
+class PortBusy(serial.SerialException):
+    """The port is open in another program that locked it (every reader here does: ``exclusive``)."""
 
 
 class ReaderError(NamedTuple):
@@ -441,9 +454,19 @@ class SerialMoteReader:
     # -- internals ------------------------------------------------------------------------------
 
     def _open(self, timeout: float | None = None) -> None:
-        port = serial.Serial(
-            self.port_path, self.baudrate, timeout=self.read_timeout if timeout is None else timeout
-        )
+        try:  # exclusive: a second reader would take half the bytes, and each read the other left empty
+            port = serial.Serial(
+                self.port_path,
+                self.baudrate,
+                timeout=self.read_timeout if timeout is None else timeout,
+                exclusive=True,
+            )
+        except serial.SerialException as exc:
+            if exc.errno in (errno.EAGAIN, errno.EWOULDBLOCK):  # the lock (flock) is held
+                raise PortBusy(
+                    f"busy: another program has {self.port_path} open (a second pointat? a serial monitor?)"
+                ) from exc
+            raise
         try:
             self._rdev = os.stat(self.port_path).st_rdev
         except OSError:

@@ -216,6 +216,28 @@ def test_numbered_pty_tells_a_pseudo_terminal_by_number_from_a_link_or_a_serial_
     assert not any(map(numbered_pty, ["/dev/ttyUSB0", "/dev/ttyACM0", "/dev/ttyS0", "/dev/pts/ptmx"]))
 
 
+def test_a_second_reader_of_a_port_hears_it_is_busy_once_and_opens_it_when_the_first_lets_go(pty):
+    first, second = Collector(), Collector()
+    a = make_reader(pty.path, first).start()
+    try:
+        assert a.wait_open(WAIT)
+        with make_reader(pty.path, second) as b:
+            assert wait_until(lambda: bool(second.of(OpenFailed)))
+            pty.write(b"".join(encode_frame(frame(n)) for n in range(20)))
+            assert wait_until(lambda: len(first.got()) == 20)
+            assert not b.is_open and b.is_running  # retrying quietly
+            a.stop()  # the first patch ends
+            assert b.wait_open(WAIT)
+            pty.write(encode_frame(frame(20)))
+            assert wait_until(lambda: second.got() == [frame(20)])
+    finally:
+        a.stop()
+    assert first.got() == [frame(n) for n in range(20)] and not first.of(DeviceLost)
+    (busy,) = second.of(OpenFailed)  # once, not at every retry
+    assert busy.reason.startswith(f"busy: another program has {pty.path} open")
+    assert not second.of(DeviceLost)
+
+
 def test_path_missing_at_start_then_appears(tmp_path: Path, pty):
     link = tmp_path / "later"
     col = Collector()

@@ -96,6 +96,32 @@ def test_mote_survives_the_device_vanishing_and_coming_back(tmp_path):
         os.close(slave)
 
 
+def test_two_patches_reading_one_port_the_second_says_it_is_busy_once(tmp_path, caplog):
+    master, slave = os.openpty()
+    link = tmp_path / "base"  # as udev names a base station (a pty named by its number would do too)
+    os.symlink(os.ttyname(slave), link)
+    text = f"node base mote device={link}\nnode out collect\nnode ev collect\nbase.m1 -> out\nbase.events -> ev\n"
+    one, two = patch(text, realtime=True), patch(text, realtime=True)
+    threads = [one.run_in_thread()]
+    try:
+        assert wait_until(lambda: one.nodes["ev"].messages)
+        threads.append(two.run_in_thread())
+        assert wait_until(lambda: two.nodes["ev"].messages)
+        os.write(master, b"".join(encode_frame(Frame(1, n, (2048,) * 9)) for n in range(50)))
+        assert wait_until(lambda: len(one.nodes["out"].messages) == 50)
+    finally:
+        for rt in (one, two):
+            rt.stop()
+        for th in threads:
+            th.join(5)
+        os.close(master)
+        os.close(slave)
+    assert [m.value[0] for m in one.nodes["ev"].messages] == ["opened"]
+    assert [m.value[0] for m in two.nodes["ev"].messages] == ["open_failed"]
+    assert caplog.text.count(f"busy: another program has {link} open") == 1
+    assert "lost" not in caplog.text
+
+
 def test_simulate_through_a_pty_matches_simulate_direct():
     rt = patch(
         """
