@@ -15,7 +15,14 @@ from typing import Any
 from serial import SerialException
 
 from pointat.devices.glove_sim import GloveSimulator, PtyGlove, SensorModel
-from pointat.devices.mote_frame import CorruptFrame, CounterJump, Frame, Garbage, LostPackets
+from pointat.devices.mote_frame import (
+    CorruptFrame,
+    CounterJump,
+    Frame,
+    Garbage,
+    LostPackets,
+    could_be_lost,
+)
 from pointat.devices.serial_reader import (
     DeviceLost,
     DeviceOpened,
@@ -34,22 +41,25 @@ ADC_DOC = "nine ADC counts 0..4095: gyro x y z, accel x y z, mag x y z"
 
 
 class _MoteClock:
-    """Sensor time of one mote from its packet counter: lost packets advance time, a restart re-anchors."""
+    """Sensor time of one mote from its packet counter: lost packets advance time; a restart (a gap
+    larger than the mote could have sent since its last frame, :func:`could_be_lost`) re-anchors."""
 
-    def __init__(self, rate: float, max_gap: int = 1000):
-        self.rate, self.max_gap = rate, max_gap
+    def __init__(self, rate: float):
+        self.rate = rate
         self.t0: float | None = None
         self.count = 0
         self.last_n = 0
+        self.seen = 0.0  # host time of the last frame
 
     def time(self, n_pack: int, host_time: float) -> float:
         if self.t0 is not None:
             gap = (n_pack - self.last_n) & 0xFFFF
-            if 0 < gap <= self.max_gap:
+            if gap and could_be_lost(gap - 1, host_time - self.seen, self.rate):
                 self.count += gap
-                self.last_n = n_pack
+                self.last_n, self.seen = n_pack, host_time
                 return self.t0 + self.count / self.rate
         self.t0, self.count, self.last_n = host_time, 0, n_pack  # first frame, or the mote restarted
+        self.seen = host_time
         return host_time
 
 
@@ -59,18 +69,19 @@ class Mote(Node):
 
     Binary frames or text lines (auto-detected, see ``pointat.devices.mote_frame``).  One outlet per mote
     id in ``ids``; each sample is a vector of nine ADC counts stamped with sensor time (from the packet
-    counter at ``rate``, so lost packets keep the timing right).  Garbage is skipped, corrupt frames
-    dropped and counted, lost packets reported on ``events``; when the device vanishes the port is
-    reopened as soon as it comes back.  ``open PATH`` / ``close`` switch device while running; a
-    symbol at the left inlet opens that path (wire ``simulate``'s ``device`` outlet here: it sends
-    ``close`` when the simulation ends).  A closed mote's part in the patch is over until the next
-    ``open``: a patch whose sources have all ended stops by itself.  A pseudo-terminal named by its
-    number (``/dev/pts/3``) is not reopened when it closes, since the next terminal opened on the
-    machine takes that number: the mote closes.  The port is the mote's alone: a second patch reading it
-    hears once that it is busy ("another program has PATH open") and opens it when the first lets it
-    go.  ``stats`` (or a bang) sends ``stats received corrupt
-    lost garbage_bytes`` on ``events``.  The port is read on the scheduler thread itself (no thread
-    hand-off between the device and the chain).
+    counter at ``rate``, so lost packets keep the timing right; a counter that moved on further than the
+    mote could have counted since its last frame is a restart, ``counter_jump``, and its time starts
+    again from the host's).  Garbage is skipped, corrupt frames dropped and counted, lost packets
+    reported on ``events``; when the device vanishes the port is reopened as soon as it comes
+    back.  ``open PATH`` / ``close`` switch device while running; a symbol at the left inlet opens that
+    path (wire ``simulate``'s ``device`` outlet here: it sends ``close`` when the simulation ends).  A
+    closed mote's part in the patch is over until the next ``open``: a patch whose sources have all
+    ended stops by itself.  A pseudo-terminal named by its number (``/dev/pts/3``) is not reopened when
+    it closes, since the next terminal opened on the machine takes that number: the mote closes.  The
+    port is the mote's alone: a second patch reading it hears once that it is busy ("another program has
+    PATH open") and opens it when the first lets it go.  ``stats`` (or a bang) sends ``stats received
+    corrupt lost garbage_bytes`` on ``events``.  The port is read on the scheduler thread itself (no
+    thread hand-off between the device and the chain).
 
     ``events`` carries each ``lost``, ``corrupt``, ``counter_jump``, ``unknown_mote``, ``reader_error``,
     ``opened``, ``open_failed`` and ``device_lost``; the log tells the same in a few lines, for patches
@@ -93,7 +104,14 @@ class Mote(Node):
         Param("ids", "list", (1,), "mote ids, one outlet each, in this order"),
         Param("baud", "int", 115200, "line speed"),
         Param("format", "symbol", "auto", "auto, binary or text", choices=("auto", "binary", "text")),
-        Param("rate", "float", 100.0, "the motes' sample rate, for time stamps", unit="Hz", above=0.0),
+        Param(
+            "rate",
+            "float",
+            100.0,
+            "the motes' sample rate, for time stamps and to tell loss from a restart",
+            unit="Hz",
+            above=0.0,
+        ),
         Param(
             "low_latency",
             "bool",
@@ -188,6 +206,7 @@ base.1 -> nulls2 -> right
             on_event,
             format=self.p.format,
             backoff=self.BACKOFF,
+            rate=self.p.rate,
             low_latency=self.p.low_latency,
         )
         if self.READ_IN_THREAD:

@@ -78,6 +78,9 @@ bytes of a rejected frame included), so the parser resynchronises after noise, t
 sync bytes inside payloads.  Candidate frames that fail (bad checksum, channel out of range, malformed
 line) are dropped and counted as corrupt.  Per mote id it checks that ``n_pack`` increases by one
 (wrap-aware, serial-number arithmetic as in RFC 1982) and reports gaps as :class:`LostPackets` events.
+Given the motes' sample rate and the time each read came in, a gap larger than the packets a mote could
+have sent since its last frame (:func:`could_be_lost`) is a :class:`CounterJump` instead: a mote that
+restarted with its counter past 32767 would otherwise read as some 30,000 packets lost.
 
 Examples
 --------
@@ -131,6 +134,7 @@ __all__ = [
     "MoteStats",
     "NewMote",
     "ParserStats",
+    "could_be_lost",
     "crc16_ccitt_false",
     "encode_frame",
     "encode_text",
@@ -409,7 +413,8 @@ class LostPackets(NamedTuple):
 
 
 class CounterJump(NamedTuple):
-    """The counter of ``mote`` went backwards or jumped by more than ``max_gap``.
+    """The counter of ``mote`` went backwards or jumped by more than ``max_gap``, or by more than the
+    mote could have sent in the time since its last frame (:func:`could_be_lost`).
 
     A mote reset, a duplicate, or an outage too long to count; the count resumes from ``got``.
     """
@@ -484,6 +489,32 @@ class ParserStats:
 # Parser
 # --------------------------------------------------------------------------------------------------
 
+#: How far a mote's clock may run from its stated rate (5%): it may have sent that many more packets.
+RATE_SLACK = 0.05
+#: Seconds a frame may wait between being sent and being read (a stalled reader, an adapter's buffer):
+#: the packets of a mote read together were sent that much further apart.
+LATE_SLACK = 1.0
+
+
+def could_be_lost(missing: int, elapsed: float, rate: float) -> bool:
+    r"""Whether ``missing`` packets can have been lost between two frames of a mote that samples at
+    ``rate`` Hz, read ``elapsed`` seconds apart by the host: at most
+
+    .. math:: n_{max} = \left((1 + s)\,\Delta t + L\right) f
+
+    of them (:data:`RATE_SLACK` :math:`s`, :data:`LATE_SLACK` :math:`L` seconds), and :math:`n_{max}`
+    below the counter's 65536, beyond which the counter may have gone round and its gap says nothing.
+    A larger gap is a restart or a jump of the counter, not loss.
+
+    >>> could_be_lost(3, 0.04, 100.0), could_be_lost(1999, 20.0, 100.0)
+    (True, True)
+    >>> could_be_lost(25535, 2.0, 100.0), could_be_lost(5, 700.0, 100.0)  # restarted; gone round?
+    (False, False)
+    """
+    most = ((1.0 + RATE_SLACK) * max(elapsed, 0.0) + LATE_SLACK) * rate
+    return 0 <= missing <= most < 0x10000
+
+
 FrameFormat = Literal["auto", "binary", "text"]
 
 _SYNC0, _SYNC1 = SYNC
@@ -510,6 +541,10 @@ class FrameParser:
     max_gap : int
         Largest forward jump of ``n_pack`` counted as lost packets; a larger jump or a backwards step is
         reported as :class:`CounterJump`.  Default 32767, half the counter range (RFC 1982).
+    rate : float, optional
+        The motes' sample rate, Hz.  With it, and the time of each read given to :meth:`feed`, a jump
+        larger than the packets a mote could have sent since its last frame was read is a
+        :class:`CounterJump` too (:func:`could_be_lost`): a restart, not loss.
     max_events : int
         Events kept until :meth:`pop_events`; the oldest are dropped beyond this.
 
@@ -519,13 +554,25 @@ class FrameParser:
     does).  Frames from all motes come out in stream order; use ``frame.mote`` to separate them.
     """
 
-    def __init__(self, format: FrameFormat = "auto", *, max_gap: int = 0x7FFF, max_events: int = 10_000):
+    def __init__(
+        self,
+        format: FrameFormat = "auto",
+        *,
+        max_gap: int = 0x7FFF,
+        rate: float | None = None,
+        max_events: int = 10_000,
+    ):
         if format not in _CANDIDATE:
             raise ValueError(f"format must be 'auto', 'binary' or 'text', got {format!r}")
         if not 0 <= max_gap <= 0xFFFE:
             raise ValueError(f"max_gap must be 0..65534, got {max_gap}")
+        if rate is not None and not rate > 0:
+            raise ValueError(f"rate must be > 0 Hz, got {rate}")
         self.format: FrameFormat = format
         self.max_gap = max_gap
+        self.rate = rate
+        self._now: float | None = None  # the time of the read being parsed
+        self._seen: dict[int, float] = {}  # per mote: the time of the read of its last frame
         self._candidate = _CANDIDATE[format]
         self._buf = bytearray()
         self._events: deque[FrameEvent] = deque(maxlen=max_events)
@@ -544,8 +591,10 @@ class FrameParser:
         """Bytes buffered while waiting for the rest of a frame."""
         return len(self._buf)
 
-    def feed(self, data: bytes | bytearray | memoryview) -> list[Frame]:
-        """Add bytes and return the frames they complete, in stream order."""
+    def feed(self, data: bytes | bytearray | memoryview, now: float | None = None) -> list[Frame]:
+        """Add bytes and return the frames they complete, in stream order; ``now`` is when they were
+        read (seconds, any clock that only goes forward), for telling loss from a restart (``rate``)."""
+        self._now = now
         self._stats.bytes_in += len(data)
         buf = self._buf
         buf += data
@@ -594,6 +643,7 @@ class FrameParser:
         self._events.clear()
         self._garbage_run = 0
         self._stats = ParserStats()
+        self._seen.clear()
 
     # -- internals --------------------------------------------------------------------------------
 
@@ -685,6 +735,14 @@ class FrameParser:
         self._accept(Frame(values[0], values[1], tuple(values[2:])), "text", nbytes, frames)
         return True
 
+    def _in_time(self, mote: int, gap: int) -> bool:
+        """Whether the mote can have sent ``gap`` packets since its last frame was read (when the rate and
+        the read times are known): more is a restart, not loss."""
+        seen = self._seen.get(mote)
+        if self.rate is None or self._now is None or seen is None:
+            return True
+        return could_be_lost(gap, self._now - seen, self.rate)
+
     def _accept(self, frame: Frame, kind: str, nbytes: int, frames: list[Frame]) -> None:
         st = self._stats
         self._report_garbage()
@@ -701,13 +759,15 @@ class FrameParser:
         elif ms.last_n_pack is not None:
             expected = (ms.last_n_pack + 1) & 0xFFFF
             gap = (frame.n_pack - expected) & 0xFFFF
-            if 0 < gap <= self.max_gap:
+            if 0 < gap <= self.max_gap and self._in_time(frame.mote, gap):
                 ms.lost += gap
                 st.lost += gap
                 self._events.append(LostPackets(frame.mote, expected, frame.n_pack, gap))
-            elif gap > self.max_gap:
+            elif gap:  # backwards, a duplicate, or more than could be lost: a restart
                 ms.jumps += 1
                 self._events.append(CounterJump(frame.mote, expected, frame.n_pack))
         ms.received += 1
         ms.last_n_pack = frame.n_pack
+        if self._now is not None:
+            self._seen[frame.mote] = self._now
         frames.append(frame)

@@ -266,6 +266,9 @@ class SerialMoteReader:
         ``(first, largest)`` delay in seconds between attempts to reopen; doubles up to ``largest``.
     max_gap : int
         Passed to the parser (largest counter gap counted as lost packets).
+    rate : float, optional
+        The motes' sample rate (Hz), passed to the parser with the time of each read: a counter gap
+        larger than a mote could have sent since its last frame is a restart, not loss.
     low_latency : bool
         Ask the serial driver for its low-latency mode at every open (Linux: ``ASYNC_LOW_LATENCY``, see
         :func:`request_low_latency`).  A USB-serial adapter otherwise holds a short frame back: an FTDI
@@ -288,6 +291,7 @@ class SerialMoteReader:
         read_timeout: float = 0.05,
         backoff: tuple[float, float] = (0.05, 1.0),
         max_gap: int = 0x7FFF,
+        rate: float | None = None,
         low_latency: bool = True,
     ) -> None:
         if read_timeout <= 0:
@@ -300,7 +304,7 @@ class SerialMoteReader:
         self.backoff = (float(backoff[0]), float(backoff[1]))
         #: The reopening policy, for the reader's thread and for an event loop that drives it.
         self.reopen = Backoff(*self.backoff)
-        self._parser = FrameParser(format, max_gap=max_gap)
+        self._parser = FrameParser(format, max_gap=max_gap, rate=rate)
         self._lock = threading.Lock()  # guards the parser stats against concurrent snapshots
         self._stop = threading.Event()
         self._opened = threading.Event()
@@ -508,7 +512,7 @@ class SerialMoteReader:
             return
         host_time = time.monotonic()
         with self._lock:
-            frames = self._parser.feed(data)
+            frames = self._parser.feed(data, host_time)
             events = self._parser.pop_events()
         for frame in frames:
             if self.on_frame is not None:

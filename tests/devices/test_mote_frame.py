@@ -381,6 +381,29 @@ def test_backwards_and_huge_jumps_are_counter_jumps():
     assert parser.stats.motes[1].jumps == 3 and parser.stats.motes[1].lost == 0
 
 
+def test_a_gap_the_mote_could_not_have_sent_in_the_time_is_a_restart_not_loss():
+    # read times in seconds; the motes sample at 100 Hz
+    parser = FrameParser(rate=100.0)
+    parser.feed(encode_frame(make_frame(1, 40000)), now=10.0)
+    parser.feed(encode_frame(make_frame(1, 40001)), now=10.01)
+    parser.feed(encode_frame(make_frame(1, 0)), now=12.0)  # switched off and on: 25,535 in 2 s?
+    parser.feed(encode_frame(make_frame(1, 1)) + encode_frame(make_frame(1, 5)), now=12.02)  # 3 lost
+    parser.feed(encode_frame(make_frame(1, 2005)), now=32.0)  # out of range for 20 s: 1999 lost
+    events = [e for e in parser.pop_events() if not isinstance(e, NewMote)]
+    assert events == [
+        CounterJump(1, 40002, 0),
+        LostPackets(1, expected=2, got=5, count=3),
+        LostPackets(1, expected=6, got=2005, count=1999),
+    ]
+    assert parser.stats.motes[1].lost == 2002 and parser.stats.motes[1].jumps == 1
+
+
+def test_without_read_times_the_gap_is_judged_by_max_gap_alone():
+    parser = FrameParser(rate=100.0)
+    parser.feed(encode_frame(make_frame(1, 40000)) + encode_frame(make_frame(1, 0)))
+    assert parser.stats.motes[1].lost == 25535  # what the counter says, with nothing to weigh it
+
+
 def test_interleaved_motes_have_separate_counters():
     rng = random.Random(5)
     counters = {1: 65000, 2: 0, 3: 40000, 200: 12}

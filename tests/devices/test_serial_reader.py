@@ -301,7 +301,7 @@ def test_loop_error_is_reported_backed_off_and_recovered(pty):
     reader = make_reader(pty.path, col)
     real_feed = reader._parser.feed
 
-    def broken_feed(data: bytes) -> list[Frame]:
+    def broken_feed(data: bytes, now: float | None = None) -> list[Frame]:
         raise RuntimeError("parser bug")
 
     reader._parser.feed = broken_feed  # type: ignore[method-assign]

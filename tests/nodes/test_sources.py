@@ -66,6 +66,35 @@ base.events -> ev
     assert not th.is_alive()
 
 
+def test_a_mote_restarted_with_its_counter_past_32767_is_a_restart_not_thousands_lost():
+    master, slave = os.openpty()
+    rt = patch(
+        f"node base mote device={os.ttyname(slave)} rate=100\nnode out collect\nnode ev collect\n"
+        "base.m1 -> out\nbase.events -> ev\n",
+        realtime=True,
+    )
+    th = rt.run_in_thread()
+    try:
+        assert wait_until(lambda: rt.nodes["ev"].messages)
+        before = [Frame(1, 65000, (1,) * 9), Frame(1, 65001, (2,) * 9)]
+        after = [Frame(1, 0, (3,) * 9), Frame(1, 1, (4,) * 9)]  # switched off and on at once
+        os.write(master, b"".join(map(encode_frame, before + after)))
+        assert wait_until(lambda: len(rt.nodes["out"].messages) == 4)
+        rt.send("base", "stats")
+        assert wait_until(lambda: rt.nodes["ev"].values[-1][0] == "stats")
+    finally:
+        rt.stop()
+        th.join(5)
+        os.close(master)
+        os.close(slave)
+    events = rt.nodes["ev"].values
+    assert ("counter_jump", 1, 65002, 0) in events and not [e for e in events if e[0] == "lost"]
+    assert events[-1][3] == 0  # stats: none lost
+    times = [m.time for m in rt.nodes["out"].messages]
+    assert times[1] - times[0] == pytest.approx(0.01) and times[3] - times[2] == pytest.approx(0.01)
+    assert times[2] - times[1] < 1.0  # re-anchored on the host's time, not 5.34 s of lost packets later
+
+
 def test_mote_survives_the_device_vanishing_and_coming_back(tmp_path):
     link = tmp_path / "base"
     master, slave = os.openpty()
