@@ -77,8 +77,8 @@ class Param:
     set while the patch runs (by a message to the node, or from outside by name).  ``reads`` marks a
     ``path`` the node reads when it starts: ``pointat check`` warns when nothing is there.  A ``float``
     is a finite number, or NaN where NaN is the default (its "none", such as a dip still to learn);
-    ``minimum`` and ``above`` bound a number (``pointat help`` shows them, ``check`` and live changes
-    refuse a value outside).
+    ``minimum``, ``above`` and ``maximum`` bound a number (``pointat help`` shows them, ``check`` and live
+    changes refuse a value outside).
     """
 
     name: str
@@ -91,27 +91,37 @@ class Param:
     variadic: bool = False
     size: int | None = None
     reads: bool = False
-    #: Bounds of a number: ``minimum`` it may equal, ``above`` it must exceed (``None``: unbounded).
+    #: Bounds of a number: ``minimum`` it may equal, ``above`` it must exceed, ``maximum`` it may equal
+    #: (``None``: unbounded).
     minimum: float | None = None
     above: float | None = None
+    maximum: float | None = None
 
     def coerce(self, value: Any) -> Any:
         """The value converted to the declared type, within its bounds; :class:`ParamError` says expected
         and got."""
         number = self._coerce(value)
         if self.type in ("float", "int") and not (isinstance(number, float) and math.isnan(number)):
-            if (self.minimum is not None and number < self.minimum) or (
-                self.above is not None and number <= self.above
+            if (
+                (self.minimum is not None and number < self.minimum)
+                or (self.above is not None and number <= self.above)
+                or (self.maximum is not None and number > self.maximum)
             ):
                 kind = "a whole number" if self.type == "int" else "a number"
                 raise ParamError(f"parameter '{self.name}' expects {kind} {self._range()}; got {value!r}")
         return number
 
     def _range(self) -> str:
-        """``> x`` or ``>= x`` for a bounded number, else nothing."""
+        """``> x``, ``>= x``, ``<= y`` or ``x..y`` for a bounded number, else nothing."""
         if self.above is not None:
-            return f"> {self.above:g}"
-        return f">= {self.minimum:g}" if self.minimum is not None else ""
+            low = f"> {self.above:g}"
+        else:
+            low = f">= {self.minimum:g}" if self.minimum is not None else ""
+        if self.maximum is None:
+            return low
+        if low.startswith(">="):
+            return f"{self.minimum:g}..{self.maximum:g}"
+        return f"{low} and <= {self.maximum:g}" if low else f"<= {self.maximum:g}"
 
     def _coerce(self, value: Any) -> Any:
         t = self.type

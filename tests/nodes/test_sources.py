@@ -422,6 +422,18 @@ def test_mote_ids_must_name_each_mote_once(ids, said):
         patch(f"node b mote device=/dev/null ids={ids}")
 
 
+@pytest.mark.parametrize("mote", ["300", "-1"])
+def test_simulate_mote_must_be_a_mote_id_when_the_patch_is_checked(mote):
+    # it passed check and failed at run ("mote_id must be 0..255"): a frame has one byte for it
+    from pointat.errors import PatchError
+    from pointat.registry import default_registry
+
+    with pytest.raises(PatchError, match=f"parameter 'mote' expects a whole number 0..255; got {mote}"):
+        patch(f"node glove simulate mote={mote}\n")
+    assert "int 0..255" in default_registry.get("simulate").help_text()
+    assert patch("node glove simulate mote=255\n").nodes["glove"].sim.mote_id == 255
+
+
 def test_replay_says_where_the_time_goes_back(tmp_path, caplog):
     take = tmp_path / "two_takes.csv"
     take.write_text("t,gyro_x,gyro_y,gyro_z\n0.0,0,0,0\n0.01,0,0,0\n0.005,0,0,0\n0.015,0,0,0\n")
