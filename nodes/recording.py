@@ -6,8 +6,8 @@ CSV (``.csv``, also gzipped ``.csv.gz`` for replay): optional ``#`` comment line
 column names, then one row per message, the first column ``t`` (seconds).  ``record`` writes
 ``t,<columns>``: for the evaluation patches ``columns=[qw, qx, qy, qz]`` gives ``t,qw,qx,qy,qz``.
 
-NDJSON (``.ndjson`` or ``.jsonl``): one JSON object per message, ``{"t": 1.5, "kind": "vector",
-"value": [1, 0, 0, 0]}``; any kind of message round-trips.
+NDJSON (``.ndjson`` or ``.jsonl``, also gzipped for replay): one JSON object per message, ``{"t": 1.5,
+"kind": "vector", "value": [1, 0, 0, 0]}``; any kind of message round-trips.
 
 Both are line-buffered: every message is on disk when the next arrives, so Ctrl-C loses nothing.
 
@@ -24,7 +24,8 @@ import json
 import logging
 import math
 import time
-from collections.abc import Mapping
+import zlib
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -57,47 +58,74 @@ def _format(path: str, fmt: str) -> str:
     return "ndjson" if name.endswith((".ndjson", ".jsonl")) else "csv"
 
 
+class Unreadable(ValueError):
+    """A recording that cannot be read to its end: not UTF-8, or its compressed data damaged or cut
+    short.  The message names the file and the line where reading stopped."""
+
+
+def read_lines(path: str | Path) -> Iterator[tuple[int, str]]:
+    """The lines of a recording with their numbers, from 1 as an editor counts them (``.gz`` through
+    gzip).  A file that cannot be read to its end raises :class:`Unreadable`, naming it and the line."""
+    path = Path(path)
+    opener: Any = gzip.open if path.suffix == ".gz" else open
+    n = 0
+    try:
+        with opener(path, "rb") as fh:
+            for n, raw in enumerate(fh, 1):  # decoded line by line, so a bad byte is placed exactly
+                yield n, raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise Unreadable(
+            f"{path}:{n}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at column {exc.start + 1})"
+        ) from None
+    except EOFError:
+        raise Unreadable(f"{path}:{n + 1}: the compressed data ends here: the file was cut short") from None
+    except (gzip.BadGzipFile, zlib.error) as exc:
+        if n == 0 and isinstance(exc, gzip.BadGzipFile):
+            raise Unreadable(f"{path}: not a gzip file, though its name ends in .gz ({exc})") from None
+        raise Unreadable(f"{path}:{n + 1}: the compressed data is damaged here ({exc})") from None
+
+
 def read_csv_table(path: str | Path) -> tuple[list[str], np.ndarray]:
     """Column names and rows of a CSV recording (``#`` comments, one header line; ``.gz`` allowed)."""
     path = Path(path)
-    opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rt", encoding="utf-8") as fh:
-        header: list[str] = []
-        for line in fh:
-            if line.strip() and not line.startswith("#"):
-                header = [c.strip() for c in line.strip().split(",")]
-                break
-        if not header or header[0] != "t":
-            raise ValueError(f"{path}: expected a header line starting with 't', got {','.join(header)!r}")
-        try:
-            rows = np.loadtxt(fh, delimiter=",", ndmin=2, comments="#")
-        except ValueError:
-            rows = None
+    lines = read_lines(path)
+    header: list[str] = []
+    for _, line in lines:
+        if line.strip() and not line.startswith("#"):
+            header = [c.strip() for c in line.strip().split(",")]
+            break
+    if not header or header[0] != "t":
+        raise ValueError(f"{path}: expected a header line starting with 't', got {','.join(header)!r}")
+    try:
+        rows = np.loadtxt((line for _, line in lines), delimiter=",", ndmin=2, comments="#")
+    except Unreadable:
+        raise
+    except ValueError:
+        rows = None
     if rows is None or (rows.size and rows.shape[1] != len(header)):
-        raise ValueError(_first_bad_row(path, opener, len(header)))
+        raise ValueError(_first_bad_row(path, len(header)))
     return header, rows.reshape(-1, len(header))
 
 
-def _first_bad_row(path: Path, opener: Any, width: int) -> str:
+def _first_bad_row(path: Path, width: int) -> str:
     """Where and why a CSV recording does not read as numbers: ``FILE:LINE: ...`` (the line in the file,
     as an editor counts it)."""
-    with opener(path, "rt", encoding="utf-8") as fh:
-        header_seen = False
-        for n, line in enumerate(fh, 1):
-            text = line.split("#", 1)[0].strip()
-            if not text:
-                continue
-            if not header_seen:
-                header_seen = True
-                continue
-            cells = [c.strip() for c in text.split(",")]
-            if len(cells) != width:
-                return f"{path}:{n}: {len(cells)} values, the header names {width} columns"
-            for col, cell in enumerate(cells, 1):
-                try:
-                    float(cell)
-                except ValueError:
-                    return f"{path}:{n}: column {col}: {cell!r} is not a number"
+    header_seen = False
+    for n, line in read_lines(path):
+        text = line.split("#", 1)[0].strip()
+        if not text:
+            continue
+        if not header_seen:
+            header_seen = True
+            continue
+        cells = [c.strip() for c in text.split(",")]
+        if len(cells) != width:
+            return f"{path}:{n}: {len(cells)} values, the header names {width} columns"
+        for col, cell in enumerate(cells, 1):
+            try:
+                float(cell)
+            except ValueError:
+                return f"{path}:{n}: column {col}: {cell!r} is not a number"
     return f"{path}: not a table of numbers"
 
 
@@ -203,7 +231,7 @@ class Replay(Node):
         Outlet("done", "bang", "at the end of the file"),
     )
     params = (
-        Param("file", "path", doc="the recording (.csv, .csv.gz, .ndjson)", reads=True),
+        Param("file", "path", doc="the recording (.csv, .ndjson, either gzipped: .csv.gz...)", reads=True),
         Param("speed", "float", 1.0, "1 real time, 2 twice as fast, 0 as fast as possible"),
         Param("loop", "bool", False, "start again at the end"),
         FORMAT,
@@ -219,7 +247,6 @@ source.mag -> fuse.mag
     #: Rows handed to the scheduler at once at ``speed=0``: one hand-over between the threads (a queue
     #: item, a wake-up) and one conversion from the file's arrays for this many rows, not for each one.
     BATCH = 64
-
     def setup(self) -> None:
         self.emitted = 0
 
@@ -288,21 +315,20 @@ source.mag -> fuse.mag
 
     def _load_ndjson(self, path: str) -> None:
         messages = []
-        with open(path, encoding="utf-8") as fh:
-            for lineno, line in enumerate(fh, 1):
-                if not line.strip():
-                    continue
-                try:
-                    d = json.loads(line)
-                    kind, value, t = d["kind"], d["value"], float(d["t"])
-                except (ValueError, KeyError, TypeError) as exc:
-                    raise ValueError(f"{path}:{lineno}: not a recorded message: {exc}") from exc
-                if kind == "vector":
-                    messages.append(vector(value, t))
-                elif kind in ("bang", "float", "int", "symbol"):
-                    messages.append(Message(kind, value, t))
-                else:  # a list, or a method message
-                    messages.append(Message(kind, tuple(value), t))
+        for lineno, line in read_lines(path):
+            if not line.strip():
+                continue
+            try:
+                d = json.loads(line)
+                kind, value, t = d["kind"], d["value"], float(d["t"])
+            except (ValueError, KeyError, TypeError) as exc:
+                raise ValueError(f"{path}:{lineno}: not a recorded message: {exc}") from exc
+            if kind == "vector":
+                messages.append(vector(value, t))
+            elif kind in ("bang", "float", "int", "symbol"):
+                messages.append(Message(kind, value, t))
+            else:  # a list, or a method message
+                messages.append(Message(kind, tuple(value), t))
         self._messages = messages
         self._times = np.array([m.time for m in messages])
 

@@ -434,6 +434,49 @@ def test_simulate_mote_must_be_a_mote_id_when_the_patch_is_checked(mote):
     assert patch("node glove simulate mote=255\n").nodes["glove"].sim.mote_id == 255
 
 
+def test_replay_reads_gzipped_ndjson(tmp_path):
+    import gzip
+
+    take = tmp_path / "take.ndjson.gz"
+    with gzip.open(take, "wt") as fh:
+        fh.write("".join(f'{{"t": {i / 100}, "kind": "float", "value": {i}}}\n' for i in range(300)))
+    rt = patch(f"node src replay file={take} speed=0\nnode got collect\nsrc.row -> got\n", realtime=True)
+    rt.run(10)
+    assert rt.nodes["got"].values == list(range(300))
+
+
+@pytest.mark.parametrize(
+    "name, damage, said",
+    [
+        ("cut.ndjson.gz", "cut", r"cut.ndjson.gz:\d+: the compressed data ends here: the file was cut short"),
+        ("cut.csv.gz", "cut", r"cut.csv.gz:\d+: the compressed data ends here"),
+        ("plain.ndjson.gz", "plain", r"plain.ndjson.gz: not a gzip file, though its name ends in .gz"),
+        ("latin1.ndjson", "latin1", r"latin1.ndjson:3: not UTF-8 text \(byte 0xe9 at column 4\)"),
+        ("latin1.csv", "latin1", r"latin1.csv:3: not UTF-8 text"),
+    ],
+)
+def test_a_recording_that_cannot_be_read_names_the_file_and_the_line(tmp_path, name, damage, said):
+    import gzip
+
+    from pointat.runtime import StartError
+
+    if name.removesuffix(".gz").endswith(".csv"):
+        text = "t,value\n" + "".join(f"{i / 100},{i}\n" for i in range(3000))
+    else:
+        text = "".join(f'{{"t": {i / 100}, "kind": "float", "value": {i}}}\n' for i in range(3000))
+    data = text.encode()
+    if damage == "cut":
+        data = gzip.compress(data)
+        data = data[: len(data) // 2]
+    elif damage == "latin1":
+        lines = data.splitlines(keepends=True)
+        data = b"".join(lines[:2]) + "caf\u00e9\n".encode("latin-1") + b"".join(lines[2:])  # a Latin-1 editor
+    (tmp_path / name).write_bytes(data)
+    rt = patch(f"node src replay file={tmp_path / name} speed=0\n", realtime=True)
+    with pytest.raises(StartError, match=said):
+        rt.run(5)
+
+
 def test_replay_says_where_the_time_goes_back(tmp_path, caplog):
     take = tmp_path / "two_takes.csv"
     take.write_text("t,gyro_x,gyro_y,gyro_z\n0.0,0,0,0\n0.01,0,0,0\n0.005,0,0,0\n0.015,0,0,0\n")
