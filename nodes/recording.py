@@ -23,6 +23,7 @@ import gzip
 import json
 import logging
 import math
+import threading
 import time
 import zlib
 from collections.abc import Iterator, Mapping
@@ -215,11 +216,13 @@ class Replay(Node):
     """Play a recording back: in real time (``speed=1``), faster or slower, or as fast as possible (``speed=0``).
 
     Reads ``record``'s CSV and NDJSON and the BROAD data set's CSV (``*.csv.gz``), so real recordings
-    drive patches.  Messages carry the file's time stamps.  At ``speed=0`` the rows reach the scheduler
-    64 at a time (``BATCH``), each row's messages as at any speed: the scheduler's timers and other
-    inputs (OSC control) wait for the batches of one pass at most, about 5 ms of them (the runtime's
-    ``QUEUE_BUDGET``), never for the whole queue.  At the end it bangs ``done`` and, unless
-    ``loop``, its part in the patch is over: a patch whose sources have all ended stops by itself.
+    drive patches.  Messages carry the file's time stamps; a row with no time, or one further than
+    ``FAR`` (10⁶ s) from the recording's (a damaged row), goes out at once, and the log names its file
+    and row.  At ``speed=0`` the rows reach the scheduler 64 at a time (``BATCH``), each row's messages
+    as at any speed: the scheduler's timers and other inputs (OSC control) wait for the batches of one
+    pass at most, about 5 ms of them (the runtime's ``QUEUE_BUDGET``), never for the whole queue.  At the
+    end it bangs ``done`` and, unless ``loop``, its part in the patch is over: a patch whose sources
+    have all ended stops by itself.
     """
 
     outlets = (
@@ -247,6 +250,10 @@ source.mag -> fuse.mag
     #: Rows handed to the scheduler at once at ``speed=0``: one hand-over between the threads (a queue
     #: item, a wake-up) and one conversion from the file's arrays for this many rows, not for each one.
     BATCH = 64
+    #: Seconds from the recording's middle (its median time) beyond which a row's time is none to wait
+    #: for (a damaged row, a time in other units): the row goes out at once, as a row with no time does.
+    FAR = 1e6
+
     def setup(self) -> None:
         self.emitted = 0
 
@@ -261,16 +268,37 @@ source.mag -> fuse.mag
         self.spawn(self._pump, "replay")
 
     def _check_times(self, path: str) -> None:
-        """Say where the time column is not a time line: such rows would go out at once, in a burst."""
+        """Say where the time column is not a time line; keep the rows that have no time, or one too far
+        from the recording's to wait for, out of ``_waits``: they go out at once."""
         t = np.asarray(self._times, dtype=float)
-        if len(t) and not np.all(np.isfinite(t)):
-            k = int(np.argmin(np.isfinite(t)))
+        finite = np.isfinite(t)
+        if not finite.all():
+            k = int(np.argmin(finite))
             log.warning(
                 "replay '%s': %s: row %d has no time (%s); it goes out at once", self.name, path, k + 1, t[k]
             )
-        back = np.flatnonzero(np.diff(t) < 0)
+        middle = float(np.median(t[finite])) if finite.any() else 0.0
+        with np.errstate(over="ignore", invalid="ignore"):
+            far = finite & ~(np.abs(t - middle) <= self.FAR)
+        if far.any():
+            k = int(np.argmax(far))
+            log.warning(
+                "replay '%s': %s: row %d has time %g, more than %g s from the recording's (about %g; %d such "
+                "rows): a damaged row, or a time in other units? It goes out at once",
+                self.name,
+                path,
+                k + 1,
+                t[k],
+                self.FAR,
+                middle,
+                int(far.sum()),
+            )
+        timed = np.flatnonzero(finite & ~far)
+        self._waits = np.full(len(t), math.nan)
+        self._waits[timed] = t[timed]
+        back = np.flatnonzero(np.diff(t[timed]) < 0)
         if len(back):
-            k = int(back[0]) + 1
+            k, before = int(timed[back[0] + 1]), int(timed[back[0]])
             log.warning(
                 "replay '%s': %s: time goes back at row %d (%g after %g; %d such rows), so the rows after it "
                 "go out in a burst: two takes in one file (record append=true)? Replay them as two files",
@@ -278,7 +306,7 @@ source.mag -> fuse.mag
                 path,
                 k + 1,
                 t[k],
-                t[k - 1],
+                t[before],
                 len(back),
             )
 
@@ -335,15 +363,17 @@ source.mag -> fuse.mag
     def _pump(self) -> None:
         """Reader thread: hand rows to the scheduler on time (or as fast as it takes them)."""
         n = len(self._times)
+        waits = self._waits  # the times to wait for: NaN where a row goes out at once
+        timed = np.flatnonzero(np.isfinite(waits))
+        t_first = float(waits[timed[0]]) if len(timed) else 0.0
         stopping = self._runtime().stopping
         while True:
             t_start = time.monotonic()
-            t_first = self._times[0] if n else 0.0
             i = 0
             while i < n:
                 if self.p.speed > 0:
-                    due = t_start + (self._times[i] - t_first) / self.p.speed
-                    delay = due - time.monotonic()
+                    due = t_start + (waits[i] - t_first) / self.p.speed
+                    delay = min(due - time.monotonic(), threading.TIMEOUT_MAX)  # (NaN: not waited for)
                     if delay > 0 and stopping.wait(delay):
                         return
                     j = i + 1

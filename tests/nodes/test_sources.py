@@ -477,6 +477,18 @@ def test_a_recording_that_cannot_be_read_names_the_file_and_the_line(tmp_path, n
         rt.run(5)
 
 
+def test_replay_sends_a_row_whose_time_is_far_from_the_recordings_at_once_and_says_so(tmp_path, caplog):
+    take = tmp_path / "take.csv"
+    take.write_text(
+        "t,value\n0,1\n0.01,2\n1e308,3\n0.03,4\n"
+    )  # a damaged row: waiting for it killed the thread
+    rt = patch(f"node src replay file={take} speed=1\nnode got collect\nsrc.row -> got\n", realtime=True)
+    rt.run(10)
+    assert [m.value[0] for m in rt.nodes["got"].messages] == [1.0, 2.0, 3.0, 4.0]
+    said = [r.getMessage() for r in caplog.records if r.levelname in ("WARNING", "ERROR")]
+    assert len(said) == 1 and f"{take}: row 3 has time 1e+308" in said[0] and "goes out at once" in said[0]
+
+
 def test_replay_says_where_the_time_goes_back(tmp_path, caplog):
     take = tmp_path / "two_takes.csv"
     take.write_text("t,gyro_x,gyro_y,gyro_z\n0.0,0,0,0\n0.01,0,0,0\n0.005,0,0,0\n0.015,0,0,0\n")
