@@ -235,7 +235,7 @@ class Replay(Node):
     )
     params = (
         Param("file", "path", doc="the recording (.csv, .ndjson, either gzipped: .csv.gz...)", reads=True),
-        Param("speed", "float", 1.0, "1 real time, 2 twice as fast, 0 as fast as possible"),
+        Param("speed", "float", 1.0, "1 real time, 2 twice as fast, 0 as fast as possible", minimum=0.0),
         Param("loop", "bool", False, "start again at the end"),
         FORMAT,
     )

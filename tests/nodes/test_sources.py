@@ -497,3 +497,12 @@ def test_replay_says_where_the_time_goes_back(tmp_path, caplog):
     rt.shutdown()
     said = [r.getMessage() for r in caplog.records if "time goes back" in r.getMessage()]
     assert len(said) == 1 and "row 3 (0.005 after 0.01; 1 such rows)" in said[0] and "append=true" in said[0]
+
+
+def test_replay_negative_speed_is_a_load_error_at_its_line(tmp_path):
+    from pointat.errors import PatchError
+
+    rec = tmp_path / "take.csv"
+    rec.write_text("t,v0\n0,1\n")
+    with pytest.raises(PatchError, match=r"<test>:1.*speed.*>= 0.*-1"):
+        patch(f"node src replay file={rec} speed=-1\n")
