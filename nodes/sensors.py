@@ -93,7 +93,8 @@ class Mote(Node):
     driver for its low-latency mode at every open; on Linux the FTDI driver then sends within 1 ms.
     The mode is turned off again when the port closes, unless it was on already (the adapter is left
     as it was found).  The log says whether the driver accepted the request; where an FTDI adapter's
-    driver refuses it, the log names the ``latency_timer`` file to set instead.
+    driver refuses it, or takes it and leaves the adapter's timer above 1 ms, a warning names the
+    ``latency_timer`` file to set instead.
     """
 
     inlets = (

@@ -203,6 +203,15 @@ def _latency_timer(path: str) -> str | None:
     return timer if os.path.exists(timer) else None
 
 
+def _read_number(path: str) -> float | None:
+    """The number in a small sysfs file, or ``None`` when it cannot be read."""
+    try:
+        with open(path) as f:
+            return float(f.read().strip())
+    except (OSError, ValueError):
+        return None
+
+
 ReaderEvent = DeviceOpened | DeviceLost | OpenFailed | ReaderError
 """Device-level events of a :class:`SerialMoteReader` (parser events come through too)."""
 
@@ -482,14 +491,27 @@ class SerialMoteReader:
         self.low_latency = request_low_latency(port) if self._want_low_latency else "off"
         self._opened.set()
         log.info("opened mote port %s (low-latency mode %s)", self.port_path, self.low_latency)
-        timer = _latency_timer(self.port_path) if self.low_latency.startswith("unsupported") else None
-        if timer is not None and not self._latency_warned:
+        timer = _latency_timer(self.port_path) if self.low_latency != "off" else None
+        if timer is None or self._latency_warned:
+            return
+        if self.low_latency.startswith("unsupported"):
             self._latency_warned = True  # once, not at every reconnection
             log.warning(
                 "mote port %s: the driver refused the low-latency mode (%s); the adapter may hold frames"
                 " back for up to its latency timer (FTDI: 16 ms). As root: echo 1 > %s",
                 self.port_path,
                 self.low_latency,
+                timer,
+            )
+            return
+        ms = _read_number(timer)
+        if ms is not None and ms > 1:  # some drivers accept the request and leave the timer as it was
+            self._latency_warned = True
+            log.warning(
+                "mote port %s: the driver took the low-latency mode, but the adapter's latency timer is"
+                " still %g ms: it may hold frames back that long. As root: echo 1 > %s",
+                self.port_path,
+                ms,
                 timer,
             )
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import threading
 import time
@@ -388,6 +389,29 @@ def test_a_low_latency_mode_it_turned_on_is_turned_off_when_the_port_closes(pty,
         assert reader.wait_open(WAIT)
         assert reader.low_latency == "on" and driver.calls == [True]
     assert driver.calls == [True, False] and not driver.on  # the adapter is left as it was found
+
+
+@pytest.mark.parametrize("timer_ms, warned", [("16\n", True), ("1\n", False)])
+def test_a_driver_that_takes_the_mode_but_keeps_its_timer_is_named(
+    pty, monkeypatch, tmp_path, caplog, timer_ms, warned
+):
+    # some drivers accept the request and leave the adapter's timer at 16 ms: the frames still wait
+    _FtdiDriver(monkeypatch, on=False)
+    timer = tmp_path / "latency_timer"
+    timer.write_text(timer_ms)
+    monkeypatch.setattr("pointat.devices.serial_reader._latency_timer", lambda path: str(timer))
+    caplog.set_level(logging.WARNING)
+    with make_reader(pty.path, Collector()) as reader:
+        assert reader.wait_open(WAIT)
+        assert reader.low_latency == "on"
+    said = [r.getMessage() for r in caplog.records if "latency timer" in r.getMessage()]
+    assert said == (
+        [
+            f"mote port {pty.path}: the driver took the low-latency mode, but the adapter's latency timer is still 16 ms: it may hold frames back that long. As root: echo 1 > {timer}"
+        ]
+        if warned
+        else []
+    )
 
 
 def test_a_low_latency_mode_already_on_is_left_as_it_was(pty, monkeypatch):
