@@ -186,6 +186,16 @@ class Scaling(Node):
         self.out(0, floats((c[0] * f[0], c[1] * f[1], c[2] * f[2]), t))
 
 
+def _strength_spread(samples: np.ndarray, null: np.ndarray, scale: np.ndarray, W: Any) -> float:
+    """95th percentile of how far the calibrated field's strength is from its median, relative."""
+    u = (samples - null) / scale
+    if W is not None:
+        u = u @ np.asarray(W).T
+    r = np.linalg.norm(u, axis=1)
+    median = float(np.median(r))
+    return float(np.percentile(np.abs(r / median - 1.0), 95)) if median > 0.0 else math.inf
+
+
 @register("calibrate")
 class Calibrate(Node):
     """Calibrate a mote by Bachmann et al.'s procedures (VRST 2001 §3.2.1), driven by messages.
@@ -197,13 +207,19 @@ class Calibrate(Node):
     * ``pose``: six times, with each accelerometer axis up and then down (any order): accelerometer
       nulls and scales (Eqs. 29-30).
     * ``mag_begin`` ... turn the mote every way ... ``mag_end``: magnetometer nulls and scales from min/max,
-      or a hard/soft-iron ellipsoid fit with ``mag_fit=ellipsoid``.
+      or a hard/soft-iron ellipsoid fit with ``mag_fit=ellipsoid`` (which needs less of the sphere).
+      Refused, with a ``mag_refused`` status, when the field's strength still varies by more than 10 %
+      once calibrated: the sweep missed directions, and its nulls would turn every heading.
     * ``turn_begin`` ... rotate by a known angle about one axis ... ``turn_end ANGLE AXIS`` (degrees,
       0/1/2 for x/y/z; a positive angle is counter-clockwise seen from the axis's tip): that gyro
       axis's scale (Eq. 31).
     * ``save`` (to ``file``, or ``save PATH``); ``load`` reads it back.  ``offset`` and ``scaling`` read
       the file through their ``calibration`` parameter.
     """
+
+    #: How much the field's strength may still vary over the sweep once calibrated (95th percentile of
+    #: its relative deviation): a full sweep leaves ~1 %, one that missed directions 30 %.
+    MAG_SPREAD = 0.1
 
     inlets = (ADC,)
     outlets = (STATUS,)
@@ -267,11 +283,27 @@ class Calibrate(Node):
             raise ValueError(f"mag_end: only {len(samples)} samples since mag_begin; turn the mote longer")
         if self.p.mag_fit == "ellipsoid":
             null, W = ellipsoid_fit(samples)
-            self.calibration.mag_null, self.calibration.mag_scale = null, np.ones(3)
-            self.calibration.mag_soft_iron = W
+            scale = np.ones(3)
         else:
-            self.calibration.mag_null, self.calibration.mag_scale = minmax_magnetometer(samples)
-            self.calibration.mag_soft_iron = None
+            (null, scale), W = minmax_magnetometer(samples), None
+        # calibrated, the field's strength is the same whichever way the mote points: where it is not,
+        # the sweep missed directions (min/max then puts the nulls off centre) and the file would turn
+        # every heading; refused, the calibration stays as it was
+        spread = _strength_spread(samples, null, scale, W)
+        if not spread <= self.MAG_SPREAD:
+            self.out(0, ("mag_refused", round(100.0 * spread, 1)))
+            hint = (
+                ""
+                if W is not None
+                else ", or fit an ellipsoid (mag_fit=ellipsoid), which needs less of the sphere"
+            )
+            raise ValueError(
+                f"mag_end: the sweep did not cover enough directions: calibrated with it, the field's strength"
+                f" still varies by {100.0 * spread:.0f} % (a good sweep: a few %); nulls not taken. Send"
+                f" mag_begin again and turn the mote every way, upside down too{hint}"
+            )
+        cal = self.calibration
+        cal.mag_null, cal.mag_scale, cal.mag_soft_iron = null, scale, W
         self.out(0, ("mag", *self.calibration.mag_null.tolist()))
 
     def do_turn_end(self, angle_deg: Any = 90.0, axis: Any = 2) -> None:

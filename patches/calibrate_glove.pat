@@ -7,7 +7,8 @@
 #   2. /pointat/cal/pose  (six times)      each accelerometer axis straight up, then straight down,
 #                                          held still 2 s each: accelerometer nulls and scales (Eqs. 29-30)
 #   3. /pointat/cal/mag_begin, turn the glove every way for 30 s, /pointat/cal/mag_end
-#                                          magnetometer nulls and scales (away from steel and speakers)
+#                                          magnetometer nulls and scales (away from steel and speakers);
+#                                          refused when the sweep missed directions ("mag_refused")
 #   4. /pointat/cal/turn_begin, turn the glove by a known angle about one of its axes (90 deg flat on
 #      a table, against a square edge, counter-clockwise seen from the axis's tip: for z, from above),
 #      then /pointat/cal/turn_end 90 2 (the angle, the axis: 0 x, 1 y, 2 z): that gyro axis's scale
@@ -19,7 +20,8 @@
 #       --set units.calibration=patches/calibration.json
 #
 # The source is the built-in simulated glove (it can do steps 1, 3 and 4: its script turns but never
-# points an accelerometer axis down).  It holds still only from 36 to 43 s after the patch starts (then
+# points an accelerometer axis down; for step 3 run with --set cal.mag_fit=ellipsoid, since its turns
+# do not cover every direction, which min/max needs: e.g. mag_begin at 48 s, mag_end at 84 s).  It holds still only from 36 to 43 s after the patch starts (then
 # every 41 s): send step 1 then, e.g. `sleep 37; pointat send 9001 /pointat/cal/rest`; sent while it
 # moves, the step is refused ("moved ...") and may be sent again.  For a real base station:
 #     pointat run patches/calibrate_glove.pat --set glove.output=direct --set base.device=/dev/ttyUSB0

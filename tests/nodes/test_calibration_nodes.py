@@ -106,6 +106,38 @@ def test_a_bad_calibration_file_is_a_load_error_naming_it(tmp_path):
     assert "bad.json" in str(info.value) and "nulls" in str(info.value)
 
 
+@pytest.mark.parametrize(
+    "span, fit, taken",
+    [
+        (
+            (48.5, 84.5),
+            "minmax",
+            False,
+        ),  # the simulated glove's sweep misses directions: min/max is off centre
+        ((48.5, 84.5), "ellipsoid", True),  # an ellipsoid fit needs less of the sphere
+        ((36.5, 42.5), "minmax", False),  # the glove held still all through the "sweep"
+        ((36.5, 42.5), "ellipsoid", False),
+    ],
+)
+def test_mag_end_refuses_a_sweep_that_would_turn_every_heading(span, fit, taken):
+    from pointat.devices.glove_sim import GloveSimulator
+
+    sim = GloveSimulator(rate_hz=100.0)
+    rt = patch(f"node cal calibrate mag_fit={fit}\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    cal.receive(0, method("mag_begin"))
+    for k in range(int(span[0] * 100), int(span[1] * 100)):
+        cal.receive(0, vector(np.array(sim.sample(k).frame.channels, float), k / 100.0))
+    if taken:
+        cal.receive(0, method("mag_end"))
+        assert cal.calibration.mag_null == pytest.approx([2048.0] * 3, abs=10)  # the simulator's true centre
+    else:
+        with pytest.raises(ValueError, match="the sweep did not cover enough directions"):
+            cal.receive(0, method("mag_end"))
+        assert rt.nodes["st"].values[-1][0] == "mag_refused"
+        assert not np.any(cal.calibration.mag_null)  # unchanged: nothing taken
+
+
 def test_reference_makes_the_captured_heading_azimuth_zero():
     from pointat.maths.quaternion import euler_to_quat
 
