@@ -53,7 +53,11 @@ class Offset(Node):
 
     Gyro nulls: the average of the first ``samples`` samples at rest (the gyros' bias); ``recalibrate``
     starts a new average.  Accelerometer and magnetometer nulls: from ``calibration`` (a file written by
-    ``calibrate``), else the ADC mid-scale ``null``.  Nothing is output while the gyro average runs.
+    ``calibrate``), else the ADC mid-scale ``null``.  Nothing is output while the first gyro average
+    runs; during a ``recalibrate`` the output goes on with the nulls it has.  An average over which a
+    gyro varied by more than ``still`` counts rms was taken while the glove moved: it is refused (a
+    ``moved`` status and a warning) and the nulls stay as they were; the first average then starts
+    again, until the glove is held still.
     """
 
     pure = True
@@ -68,6 +72,14 @@ class Offset(Node):
             "null", "float", 2048.0, "null of channels without a calibration (ADC mid-scale)", unit="counts"
         ),
         Param("calibration", "path", "", "calibration file with accel/mag (and gyro) nulls", reads=True),
+        Param(
+            "still",
+            "float",
+            10.0,
+            "refuse gyro nulls over which a gyro varied by more (rms; 0: never)",
+            unit="counts",
+            minimum=0.0,
+        ),
     )
 
     def setup(self) -> None:
@@ -78,26 +90,21 @@ class Offset(Node):
                 if _calibrated(cal, sensor):
                     nulls[3 * i : 3 * i + 3] = getattr(cal, f"{sensor}_null").tolist()
         self.nulls: tuple[float, ...] = tuple(float(n) for n in nulls)
+        self._ready = self.p.samples == 0  # gyro nulls averaged once: the output may flow
         self.do_recalibrate()
 
     def do_recalibrate(self) -> None:
         self._sum = [0.0, 0.0, 0.0]
+        self._sq = [0.0, 0.0, 0.0]
         self._n = 0
 
     def on_adc(self, msg: Message) -> None:
         counts = as_floats(msg, 9)
         if self._n < self.p.samples:
-            gx, gy, gz = counts[:3]
-            if math.isfinite(gx + gy + gz):
-                s = self._sum
-                self._sum = [s[0] + gx, s[1] + gy, s[2] + gz]
-                self._n += 1
-            if self._n == self.p.samples:
-                self.nulls = (*(s / self._n for s in self._sum), *self.nulls[3:])
-                self.out(1, ("ready", *(round(n, 3) for n in self.nulls[:3])))
-            elif self._n == 1:
-                self.out(1, ("calibrating", self.p.samples))
-            return
+            ready = self._ready
+            self._average(counts)
+            if not ready:  # the first average: nothing to subtract yet
+                return
         c, n = counts, self.nulls  # written out: a third of the time of a zip over the nine channels
         d = (
             c[0] - n[0], c[1] - n[1], c[2] - n[2],
@@ -105,6 +112,43 @@ class Offset(Node):
             c[6] - n[6], c[7] - n[7], c[8] - n[8],
         )  # fmt: skip
         self.out(0, floats(d, msg.time))
+
+    def _average(self, counts: tuple[float, ...]) -> None:
+        gx, gy, gz = counts[:3]
+        if math.isfinite(gx + gy + gz):
+            s, q = self._sum, self._sq
+            self._sum = [s[0] + gx, s[1] + gy, s[2] + gz]
+            self._sq = [q[0] + gx * gx, q[1] + gy * gy, q[2] + gz * gz]
+            self._n += 1
+        if self._n == 1:
+            self.out(1, ("calibrating", self.p.samples))
+        if self._n < self.p.samples:
+            return
+        n = self._n
+        means = [s / n for s in self._sum]
+        rms = [math.sqrt(max(0.0, q / n - m * m)) for q, m in zip(self._sq, means, strict=True)]
+        worst = max(range(3), key=rms.__getitem__)
+        if self.p.still and rms[worst] > self.p.still:
+            self.out(1, ("moved", "xyz"[worst], round(rms[worst], 1)))
+            log.warning(
+                "offset '%s': the glove moved while the gyro nulls were taken (gyro %s varied by %.1f counts"
+                " rms, more than still=%g): %s",
+                self.name,
+                "xyz"[worst],
+                rms[worst],
+                self.p.still,
+                "kept the nulls it had; hold it still and recalibrate again"
+                if self._ready
+                else "hold it still; taking them again",
+            )
+            if self._ready:
+                self._n = self.p.samples  # done: the old nulls stay
+            else:
+                self.do_recalibrate()
+            return
+        self.nulls = (*means, *self.nulls[3:])
+        self._ready = True
+        self.out(1, ("ready", *(round(x, 3) for x in self.nulls[:3])))
 
 
 @register("scaling")

@@ -25,8 +25,32 @@ def test_offset_nulls_gyros_from_rest_and_keeps_gravity():
     assert list(got[:3]) == [0.0, 0.0, 0.0]  # gyro bias removed
     assert got[5] == 511.0 and got[8] == -442.0  # gravity and the field stay (mid-scale nulls)
     nulls.receive(0, method("recalibrate"))
-    nulls.receive(0, vector(rest, 0.2))
-    assert len(rt.nodes["out"].messages) == 1
+    nulls.receive(0, vector(rest, 0.2))  # the output goes on, with the nulls it has, while it averages
+    assert len(rt.nodes["out"].messages) == 2 and rt.nodes["out"].values[1][:3] == (0.0, 0.0, 0.0)
+
+
+def test_offset_refuses_gyro_nulls_taken_while_the_glove_moved(caplog):
+    rt = patch(
+        "node nulls offset samples=20\nnode out collect\nnode status collect\nnulls -> out\nnulls.status -> status\n"
+    )
+    nulls = rt.nodes["nulls"]
+    rest = [2051.0, 2046.0, 2049.0, 2048.0, 2048.0, 2559.0, 2448.0, 2048.0, 1606.0]
+
+    def feed(t0, z_swing):  # z_swing: counts the gyro z swings by (a hand turning), 0 at rest
+        for k in range(20):
+            nulls.receive(0, vector([*rest[:2], rest[2] + z_swing * math.sin(k), *rest[3:]], t0 + k * 0.01))
+
+    feed(0.0, 300.0)  # moved while the first nulls were taken: refused, and taken again
+    assert rt.nodes["status"].values[-1][:2] == ("moved", "z") and rt.nodes["out"].messages == []
+    assert "the glove moved while the gyro nulls were taken (gyro z varied by" in caplog.text
+    feed(0.2, 0.0)
+    assert rt.nodes["status"].values[-1] == ("ready", 2051.0, 2046.0, 2049.0)
+    nulls.receive(0, method("recalibrate"))  # sent mid-performance, with the hand moving: the nulls stay
+    feed(0.4, 300.0)
+    assert rt.nodes["status"].values[-1][:2] == ("moved", "z") and nulls.nulls[:3] == (2051.0, 2046.0, 2049.0)
+    assert len(rt.nodes["out"].messages) == 20  # the output went on all through it
+    nulls.receive(0, vector(rest, 1.0))
+    assert rt.nodes["out"].values[-1][:3] == (0.0, 0.0, 0.0)
 
 
 def test_scaling_converts_to_si_right_to_left():
