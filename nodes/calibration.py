@@ -248,19 +248,22 @@ class Calibrate(Node):
 
     * ``rest``: hold still; the next ``samples`` samples give the gyro nulls (refused, with a
       ``moved`` status, when a gyro varied by more than ``still`` counts rms).
-    * ``pose``: six times, with each accelerometer axis up and then down (any order): accelerometer
-      nulls and scales (Eqs. 29-30).
+    * ``pose``: six times, with each accelerometer axis up and then down (any order), held still:
+      accelerometer nulls and scales (Eqs. 29-30); refused, as ``rest``, when the glove moved.
     * ``mag_begin`` ... turn the mote every way ... ``mag_end``: magnetometer nulls and scales from min/max,
       or a hard/soft-iron ellipsoid fit with ``mag_fit=ellipsoid`` (which needs less of the sphere).
       Refused, with a ``mag_refused`` status, when the field's strength still varies by more than 10 %
       once calibrated: the sweep missed directions, and its nulls would turn every heading.
     * ``turn_begin`` ... rotate by a known angle about one axis ... ``turn_end ANGLE AXIS`` (degrees,
       0/1/2 for x/y/z; a positive angle is counter-clockwise seen from the axis's tip): that gyro
-      axis's scale (Eq. 31).
+      axis's scale (Eq. 31).  Refused when the glove turned mostly about another axis, or when the
+      scale is more than 2x off the nominal ``gyro`` resolution's (the angle given is not the one turned).
     * ``save`` (to ``file``, or ``save PATH``); ``load`` reads it back.  ``offset`` and ``scaling`` read
       the file through their ``calibration`` parameter.
     """
 
+    #: How far (a factor) a gyro scale from a turn may be from the nominal ``gyro`` resolution's.
+    TURN_FACTOR = 2.0
     #: How much the field's strength may still vary over the sweep once calibrated (95th percentile of
     #: its relative deviation): a full sweep leaves ~1 %, one that missed directions 30 %.
     MAG_SPREAD = 0.1
@@ -279,10 +282,18 @@ class Calibrate(Node):
         ),
         Param("gravity", "float", 9.80665, "local gravity", unit="m/s²"),
         Param(
+            "gyro",
+            "float",
+            DEFAULT_RESOLUTION["gyro"],
+            "the gyro's nominal resolution: a turn giving a scale 2x off it is refused",
+            unit="deg/s per count",
+            above=0.0,
+        ),
+        Param(
             "still",
             "float",
             10.0,
-            "rest: refuse the nulls when a gyro varied by more (rms; 0: never)",
+            "rest and pose: refused when a gyro varied by more (rms; 0: never)",
             unit="counts",
             minimum=0.0,
         ),
@@ -357,9 +368,25 @@ class Calibrate(Node):
         self._need_rest("turn_end")
         dt = np.diff(self._times, prepend=self._times[0] - (self._times[1] - self._times[0]))
         ax = int(axis)
+        turned = np.abs(((samples[:, 0:3] - self.calibration.gyro_null) * dt[:, None]).sum(axis=0))
+        most = int(turned.argmax())
+        if most != ax and turned[most] > 2.0 * turned[ax]:
+            raise ValueError(
+                f"turn_end: the glove turned mostly about {'xyz'[most]} ({turned[most]:.0f} count-seconds,"
+                f" against {turned[ax]:.0f} about {'xyz'[ax]}), not about the axis given: scale not taken;"
+                f" send turn_end {float(angle_deg):g} {most} if that was the turn, or turn again"
+            )
         scale = gyro_scale(
             samples[:, 0:3], dt, math.radians(float(angle_deg)), ax, null=self.calibration.gyro_null
         )
+        nominal = 180.0 / (math.pi * self.p.gyro)  # counts per rad/s
+        if not nominal / self.TURN_FACTOR <= abs(scale) <= nominal * self.TURN_FACTOR:
+            raise ValueError(
+                f"turn_end: the turn gives {abs(scale):.1f} counts per rad/s, {max(abs(scale) / nominal, nominal / max(abs(scale), 1e-9)):.1f}"
+                f" times off the gyro's nominal {nominal:.0f} (gyro={self.p.gyro:g} deg/s per count):"
+                f" the angle given ({float(angle_deg):g} deg) is not the one turned, or the glove hardly"
+                f" turned between turn_begin and turn_end: scale not taken; turn again"
+            )
         if not scale > 0.0:
             raise ValueError(
                 f"turn_end: the glove turned the other way ({float(angle_deg):g} deg about {'xyz'[ax]} means"
@@ -394,15 +421,16 @@ class Calibrate(Node):
         if self._collect in ("rest", "pose") and len(self._buf) >= self.p.samples:
             data = np.array(self._buf)
             what, self._collect = self._collect, None
+            spread = data[:, 0:3].std(axis=0)
+            if self.p.still and spread.max() > self.p.still:
+                axis = "xyz"[int(spread.argmax())]
+                self.out(0, ("moved", axis, round(float(spread.max()), 1)))
+                raise ValueError(
+                    f"{what}: the glove moved (gyro {axis} varied by {spread.max():.1f} counts rms, more"
+                    f" than still={self.p.still:g}): {'nulls' if what == 'rest' else 'pose'} not taken;"
+                    f" hold it still and send {what} again"
+                )
             if what == "rest":
-                spread = data[:, 0:3].std(axis=0)
-                if self.p.still and spread.max() > self.p.still:
-                    axis = "xyz"[int(spread.argmax())]
-                    self.out(0, ("moved", axis, round(float(spread.max()), 1)))
-                    raise ValueError(
-                        f"rest: the glove moved (gyro {axis} varied by {spread.max():.1f} counts rms, more"
-                        f" than still={self.p.still:g}): nulls not taken; hold it still and send rest again"
-                    )
                 self.calibration.gyro_null = gyro_null(data[:, 0:3])
                 self.out(0, ("rest", *self.calibration.gyro_null.tolist()))
             else:

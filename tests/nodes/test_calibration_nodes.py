@@ -287,11 +287,48 @@ def test_a_turn_the_other_way_is_refused_not_stored_as_a_negative_scale(tmp_path
     for k in range(20):
         cal.receive(0, vector([2048.0] * 9, k * 0.01))
     cal.receive(0, method("turn_begin"))
-    for k in range(100):  # clockwise about z: the rate is negative
-        cal.receive(0, vector([2048.0, 2048.0, 2048.0 - 450.0] + [2048.0] * 6, 1.0 + k * 0.01))
+    for k in range(100):  # clockwise about z: the rate is negative (90 deg in 1 s at 573 counts per rad/s)
+        cal.receive(0, vector([2048.0, 2048.0, 2048.0 - 900.0] + [2048.0] * 6, 1.0 + k * 0.01))
     with pytest.raises(ValueError, match="turned the other way.*send turn_end -90 2"):
         cal.receive(0, method("turn_end", 90, 2))
     assert cal.calibration.gyro_scale[2] == 1.0
+
+
+@pytest.mark.parametrize(
+    "said, refusal",
+    [
+        ((30, 0), "turned mostly about z .* not about the axis given.*send turn_end 30 2"),
+        ((90, 2), r"3\.0 times off the gyro's nominal 573.*the angle given \(90 deg\) is not the one turned"),
+        ((90, 1), "turned mostly about z"),
+    ],
+)
+def test_a_turn_end_that_does_not_match_the_turn_is_refused(tmp_path, said, refusal):
+    # the glove turned 30 deg about z (at the nominal 573 counts per rad/s); what the user said does not match
+    rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    cal.receive(0, method("rest"))
+    for k in range(20):
+        cal.receive(0, vector([2048.0] * 9, k * 0.01))
+    cal.receive(0, method("turn_begin"))
+    for k in range(100):
+        cal.receive(
+            0, vector([2048.0, 2048.0, 2048.0 + 573.0 * math.radians(30.0)] + [2048.0] * 6, 1.0 + k * 0.01)
+        )
+    with pytest.raises(ValueError, match=refusal):
+        cal.receive(0, method("turn_end", *said))
+    assert list(cal.calibration.gyro_scale) == [1.0, 1.0, 1.0]  # nothing stored
+
+
+def test_a_pose_during_which_the_glove_moved_is_refused(tmp_path):
+    rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    cal.receive(0, method("pose"))
+    with pytest.raises(
+        ValueError, match="pose: the glove moved .*pose not taken; hold it still and send pose again"
+    ):
+        for k in range(20):
+            cal.receive(0, vector([2048.0, 2048.0 + 200.0 * math.sin(k)] + [2048.0] * 7, k * 0.01))
+    assert rt.nodes["st"].values[-1][:2] == ("moved", "y") and cal.poses == []
 
 
 def test_a_rest_during_which_the_glove_moved_is_refused(tmp_path):
