@@ -425,11 +425,19 @@ class Calibrate(Node):
             if self.p.still and spread.max() > self.p.still:
                 axis = "xyz"[int(spread.argmax())]
                 self.out(0, ("moved", axis, round(float(spread.max()), 1)))
-                raise ValueError(
-                    f"{what}: the glove moved (gyro {axis} varied by {spread.max():.1f} counts rms, more"
-                    f" than still={self.p.still:g}): {'nulls' if what == 'rest' else 'pose'} not taken;"
-                    f" hold it still and send {what} again"
+                # a refusal, not a bad sample: logged as such (an error here read as data dropped)
+                log.warning(
+                    "calibrate '%s': %s: the glove moved (gyro %s varied by %.1f counts rms, more than"
+                    " still=%g): %s not taken; hold it still and send %s again",
+                    self.name,
+                    what,
+                    axis,
+                    spread.max(),
+                    self.p.still,
+                    "nulls" if what == "rest" else "pose",
+                    what,
                 )
+                return
             if what == "rest":
                 self.calibration.gyro_null = gyro_null(data[:, 0:3])
                 self.out(0, ("rest", *self.calibration.gyro_null.tolist()))
