@@ -370,7 +370,7 @@ def mote_patch_text(chain: str, motes: int) -> str:
         lines += [f"node tap{i} unpack f", f"node tag{i} map {_TAG_BASE} {_TAG_BASE + _TAG_PERIOD} 0 100"]
         if chain == "tqt_bank":
             lines += [
-                f"node nulls{i} offset samples=150",
+                f"node nulls{i} offset samples=150 still=0",  # the tag rides in gyro x
                 f"node units{i} scaling",
                 f"node g{i}   glove_bank.pat id={i} port=9000",
             ]

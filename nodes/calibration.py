@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from pointat.devices.mote_frame import DEFAULT_RESOLUTION
+from pointat.errors import worth_reporting
 from pointat.maths.calibration import (
     Calibration,
     ellipsoid_fit,
@@ -55,7 +56,8 @@ class Offset(Node):
     starts a new average.  Accelerometer and magnetometer nulls: from ``calibration`` (a file written by
     ``calibrate``), else the ADC mid-scale ``null``.  Nothing is output while the first gyro average
     runs; during a ``recalibrate`` the output goes on with the nulls it has.  An average over which a
-    gyro varied by more than ``still`` counts rms was taken while the glove moved: it is refused (a
+    gyro varied by more than ``still`` counts rms (50: 5 deg/s at the nominal resolution, well above a
+    resting hand's tremor, which averages out) was taken while the glove moved: it is refused (a
     ``moved`` status and a warning) and the nulls stay as they were; the first average then starts
     again, until the glove is held still.
     """
@@ -75,8 +77,9 @@ class Offset(Node):
         Param(
             "still",
             "float",
-            10.0,
-            "refuse gyro nulls over which a gyro varied by more (rms; 0: never)",
+            50.0,
+            "refuse gyro nulls over which a gyro varied by more (rms; 0: never): a gesture, not a hand's"
+            " tremor, whose mean is 0",
             unit="counts",
             minimum=0.0,
         ),
@@ -91,6 +94,7 @@ class Offset(Node):
                     nulls[3 * i : 3 * i + 3] = getattr(cal, f"{sensor}_null").tolist()
         self.nulls: tuple[float, ...] = tuple(float(n) for n in nulls)
         self._ready = self.p.samples == 0  # gyro nulls averaged once: the output may flow
+        self._moved = 0  # averages refused in a row
         self.do_recalibrate()
 
     def do_recalibrate(self) -> None:
@@ -113,6 +117,12 @@ class Offset(Node):
         )  # fmt: skip
         self.out(0, floats(d, msg.time))
 
+    def _moved_again(self) -> None:
+        if self._ready:
+            self._n = self.p.samples  # done: the old nulls stay
+        else:
+            self.do_recalibrate()
+
     def _average(self, counts: tuple[float, ...]) -> None:
         gx, gy, gz = counts[:3]
         if math.isfinite(gx + gy + gz):
@@ -130,6 +140,9 @@ class Offset(Node):
         worst = max(range(3), key=rms.__getitem__)
         if self.p.still and rms[worst] > self.p.still:
             self.out(1, ("moved", "xyz"[worst], round(rms[worst], 1)))
+            self._moved += 1
+            if not worth_reporting(self._moved):  # a take that starts moving: the 1st..3rd, 10th, 100th...
+                return self._moved_again()
             log.warning(
                 "offset '%s': the glove moved while the gyro nulls were taken (gyro %s varied by %.1f counts"
                 " rms, more than still=%g): %s",
@@ -141,11 +154,8 @@ class Offset(Node):
                 if self._ready
                 else "hold it still; taking them again",
             )
-            if self._ready:
-                self._n = self.p.samples  # done: the old nulls stay
-            else:
-                self.do_recalibrate()
-            return
+            return self._moved_again()
+        self._moved = 0
         self.nulls = (*means, *self.nulls[3:])
         self._ready = True
         self.out(1, ("ready", *(round(x, 3) for x in self.nulls[:3])))

@@ -10,7 +10,7 @@ args id=1 port=9000 rate=1000 samples=150
 inlet  adc -> nulls.adc
 inlet  spread -> out.spread
 
-node nulls offset samples=$samples
+node nulls offset samples=$samples still=0   # the sample tag rides in gyro x: it is never still
 node units scaling
 node torre ../../patches/lib/torre_fusion.pat rate=$rate crossover=0.2 integrator=torre
 node out   osc_out profile=generic host=127.0.0.1 port=$port source=$id address="/bench/{n}" \

@@ -10,82 +10,82 @@ node base mote ids=[1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16] rate=
 node bank tqt_bank sensors=16 rate=1000 mode=robust
 node tap1 unpack f
 node tag1 map 1548 2548 0 100
-node nulls1 offset samples=150
+node nulls1 offset samples=150 still=0
 node units1 scaling
 node g1   glove_bank.pat id=1 port=9000
 node tap2 unpack f
 node tag2 map 1548 2548 0 100
-node nulls2 offset samples=150
+node nulls2 offset samples=150 still=0
 node units2 scaling
 node g2   glove_bank.pat id=2 port=9000
 node tap3 unpack f
 node tag3 map 1548 2548 0 100
-node nulls3 offset samples=150
+node nulls3 offset samples=150 still=0
 node units3 scaling
 node g3   glove_bank.pat id=3 port=9000
 node tap4 unpack f
 node tag4 map 1548 2548 0 100
-node nulls4 offset samples=150
+node nulls4 offset samples=150 still=0
 node units4 scaling
 node g4   glove_bank.pat id=4 port=9000
 node tap5 unpack f
 node tag5 map 1548 2548 0 100
-node nulls5 offset samples=150
+node nulls5 offset samples=150 still=0
 node units5 scaling
 node g5   glove_bank.pat id=5 port=9000
 node tap6 unpack f
 node tag6 map 1548 2548 0 100
-node nulls6 offset samples=150
+node nulls6 offset samples=150 still=0
 node units6 scaling
 node g6   glove_bank.pat id=6 port=9000
 node tap7 unpack f
 node tag7 map 1548 2548 0 100
-node nulls7 offset samples=150
+node nulls7 offset samples=150 still=0
 node units7 scaling
 node g7   glove_bank.pat id=7 port=9000
 node tap8 unpack f
 node tag8 map 1548 2548 0 100
-node nulls8 offset samples=150
+node nulls8 offset samples=150 still=0
 node units8 scaling
 node g8   glove_bank.pat id=8 port=9000
 node tap9 unpack f
 node tag9 map 1548 2548 0 100
-node nulls9 offset samples=150
+node nulls9 offset samples=150 still=0
 node units9 scaling
 node g9   glove_bank.pat id=9 port=9000
 node tap10 unpack f
 node tag10 map 1548 2548 0 100
-node nulls10 offset samples=150
+node nulls10 offset samples=150 still=0
 node units10 scaling
 node g10   glove_bank.pat id=10 port=9000
 node tap11 unpack f
 node tag11 map 1548 2548 0 100
-node nulls11 offset samples=150
+node nulls11 offset samples=150 still=0
 node units11 scaling
 node g11   glove_bank.pat id=11 port=9000
 node tap12 unpack f
 node tag12 map 1548 2548 0 100
-node nulls12 offset samples=150
+node nulls12 offset samples=150 still=0
 node units12 scaling
 node g12   glove_bank.pat id=12 port=9000
 node tap13 unpack f
 node tag13 map 1548 2548 0 100
-node nulls13 offset samples=150
+node nulls13 offset samples=150 still=0
 node units13 scaling
 node g13   glove_bank.pat id=13 port=9000
 node tap14 unpack f
 node tag14 map 1548 2548 0 100
-node nulls14 offset samples=150
+node nulls14 offset samples=150 still=0
 node units14 scaling
 node g14   glove_bank.pat id=14 port=9000
 node tap15 unpack f
 node tag15 map 1548 2548 0 100
-node nulls15 offset samples=150
+node nulls15 offset samples=150 still=0
 node units15 scaling
 node g15   glove_bank.pat id=15 port=9000
 node tap16 unpack f
 node tag16 map 1548 2548 0 100
-node nulls16 offset samples=150
+node nulls16 offset samples=150 still=0
 node units16 scaling
 node g16   glove_bank.pat id=16 port=9000
 
