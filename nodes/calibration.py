@@ -250,6 +250,15 @@ def _strength_spread(samples: np.ndarray, null: np.ndarray, scale: np.ndarray, W
     return float(np.percentile(np.abs(r / median - 1.0), 95)) if median > 0.0 else math.inf
 
 
+def _integrated(samples: np.ndarray, dt: np.ndarray, axis: int, null: np.ndarray) -> float:
+    """A gyro axis's output integrated over a turn (count-seconds): Eq. 31's sum, by :func:`gyro_scale`
+    for a turn of 1 rad; 0 where the axis saw no rotation."""
+    try:
+        return gyro_scale(samples, dt, 1.0, axis, null=null)
+    except ValueError:  # nothing integrated on this axis
+        return 0.0
+
+
 @register("calibrate")
 class Calibrate(Node):
     """Calibrate a mote by Bachmann et al.'s procedures (VRST 2001 §3.2.1), driven by messages.
@@ -378,21 +387,21 @@ class Calibrate(Node):
         self._need_rest("turn_end")
         dt = np.diff(self._times, prepend=self._times[0] - (self._times[1] - self._times[0]))
         ax = int(axis)
-        turned = np.abs(((samples[:, 0:3] - self.calibration.gyro_null) * dt[:, None]).sum(axis=0))
-        most = int(turned.argmax())
+        null = self.calibration.gyro_null
+        turned = [abs(_integrated(samples[:, 0:3], dt, a, null)) for a in range(3)]  # count-seconds
+        most = max(range(3), key=turned.__getitem__)
         if most != ax and turned[most] > 2.0 * turned[ax]:
             raise ValueError(
                 f"turn_end: the glove turned mostly about {'xyz'[most]} ({turned[most]:.0f} count-seconds,"
                 f" against {turned[ax]:.0f} about {'xyz'[ax]}), not about the axis given: scale not taken;"
                 f" send turn_end {float(angle_deg):g} {most} if that was the turn, or turn again"
             )
-        scale = gyro_scale(
-            samples[:, 0:3], dt, math.radians(float(angle_deg)), ax, null=self.calibration.gyro_null
-        )
+        scale = gyro_scale(samples[:, 0:3], dt, math.radians(float(angle_deg)), ax, null=null)
         nominal = 180.0 / (math.pi * self.p.gyro)  # counts per rad/s
-        if not nominal / self.TURN_FACTOR <= abs(scale) <= nominal * self.TURN_FACTOR:
+        off = max(abs(scale) / nominal, nominal / max(abs(scale), 1e-9))  # a factor, >= 1
+        if off > self.TURN_FACTOR:
             raise ValueError(
-                f"turn_end: the turn gives {abs(scale):.1f} counts per rad/s, {max(abs(scale) / nominal, nominal / max(abs(scale), 1e-9)):.1f}"
+                f"turn_end: the turn gives {abs(scale):.1f} counts per rad/s, {off:.1f}"
                 f" times off the gyro's nominal {nominal:.0f} (gyro={self.p.gyro:g} deg/s per count):"
                 f" the angle given ({float(angle_deg):g} deg) is not the one turned, or the glove hardly"
                 f" turned between turn_begin and turn_end: scale not taken; turn again"
