@@ -654,6 +654,14 @@ class _PortWatch:
         self._missing = False
         log.warning("%s '%s': MIDI %s port %r is back", self.type_name, self.name, self._direction, found)
 
+    @staticmethod
+    def _close_gone(port: Any) -> None:
+        """Close a port that vanished; the backend may refuse to close what is already gone."""
+        try:
+            port.close()
+        except Exception:
+            pass
+
 
 class _PortSink:
     def __init__(self, port: mido.ports.BaseOutput):
@@ -825,10 +833,7 @@ dir.azimuth -> pan
         sink = self._sink
         if isinstance(sink, _PortSink):
             sink.lost = True
-            try:
-                sink.close()
-            except Exception:  # the backend may refuse to close what is already gone
-                pass
+            self._close_gone(sink)
 
     def _reopen(self, name: str) -> None:
         self._sink = _PortSink(_open_port(self, "output", name, False, lambda n: open_output(n)))
@@ -992,10 +997,7 @@ press.0 -> ref.capture
 
     def _lost(self) -> None:
         self.active = False
-        try:
-            self._port.close()
-        except Exception:  # the backend may refuse to close what is already gone
-            pass
+        self._close_gone(self._port)
 
     def _reopen(self, name: str) -> None:
         self._port = _open_port(self, "input", name, False, lambda n: open_input(n, callback=self._on_midi))
