@@ -323,9 +323,9 @@ class TQT(SampleClock, Flagged, Node):
 
     Gauss-Newton correction with the reduced 3x3 X matrix (Bachmann patent Eq. 29), gain ``k`` (errors
     decay as e^(-k t); crossover k/2pi Hz in paper mode, lower in robust mode, which low-passes the
-    acceleration over 2 s first: 0.067 Hz at k = 1), magnetometer weight ``rho``.  ``mode=paper`` is the seeds' filter exactly;
-    ``mode=robust`` (default) adds heading-only magnetic correction, gyro bias learned at rest, earth-frame
-    acceleration averaging and magnetic gating.  ``use_gyro=false`` tracks from accel/mag alone.
+    acceleration over 2 s first: 0.067 Hz at k = 1), magnetometer weight ``rho``.  ``mode=paper`` is
+    the seeds' filter exactly; ``mode=robust`` (default) adds heading-only magnetic correction, gyro
+    bias learned at rest, earth-frame acceleration averaging and magnetic gating.  ``use_gyro=false`` tracks from accel/mag alone.
     Send the gyro last (the left inlet is hot): mote and scaling nodes output right to left, so wiring
     gyro, accel and mag outlets to the same-named inlets does this.
     """
@@ -751,15 +751,14 @@ class Reference(Node):
         if self.p.mode == "full":
             self.offset = sq.conjugate(q)
         else:
-            dx, dy, dz = sq.rotate(q, *self.p.axis)
-            if math.hypot(dx, dy) <= math.sqrt(dx * dx + dy * dy + dz * dz) * _POLE_SIN:
-                return  # straight up or down: no heading yet, the capture waits
-            yaw = math.atan2(dy, dx)
+            # azi_ele's heading, with its pole: within 1 deg of straight up or down it gives back
+            # 'previous', here NaN: no heading yet, and the capture waits
+            az, _ = sq.azimuth_elevation(q, self.p.axis, previous=math.nan, pole_deg=1.0)
+            if math.isnan(az):
+                return
+            yaw = math.radians(az)
             self.offset = (math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2))
         self._capture = False
-
-
-_POLE_SIN = math.sin(math.radians(1.0))  # reference: within 1 deg of vertical a direction has no heading
 
 
 @register("matrix2quat")
