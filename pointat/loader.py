@@ -304,7 +304,10 @@ def check(
     for node, param, value in overrides:
         if node not in names:
             problems.append(
-                Problem(None, f"--set {node}.{param}: no node named '{node}' (nodes: {', '.join(names)})")
+                Problem(
+                    None,
+                    f"--set {node}.{param}: no node named '{node}'" + _inside(node, param, names, registry),
+                )
             )
         else:
             over.setdefault(node, {})[param] = value
@@ -430,6 +433,21 @@ def check(
     if problems:
         raise PatchError(problems)
     return result
+
+
+def _inside(node: str, param: str, names: Mapping[str, NodeDecl], registry: Registry) -> str:
+    """The rest of a "no node named" message: the nodes named ``node/...`` that have ``param``, when
+    ``node`` is a subpatch of a ``.pd`` file or an abstraction instance that ``convert`` flattened; else
+    the nodes there are."""
+    inner = [n for n, d in names.items() if n.startswith(node + "/")]
+    if not inner:
+        return f" (nodes: {', '.join(names)})"
+    having = [n for n in inner if (cls := registry.get(names[n].type)) is not None and cls.param(param)]
+    return f" but nodes inside it, a subpatch or a converted abstraction ({', '.join(inner)}); set " + (
+        " or ".join(f"{n}.{param}" for n in having)
+        if having
+        else f"one of them (none has a parameter '{param}')"
+    )
 
 
 def _set_arguments(

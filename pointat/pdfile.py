@@ -45,7 +45,7 @@ the mean row of each node's inputs.  Pd's own types (metro, delay, trigger, pack
 receive, loadbang, print, msg, change) get positional atoms only, as Pd expects (a ``print`` prefix of
 plain words as one atom a word: Pd's ``print`` joins them again, and reading a ``.pd`` file does the
 same with a ``[print]`` box's atoms); pointat's other types get
-``key=value`` atoms for every parameter that differs from its default.  Such a value is one symbol atom,
+``key=value`` atoms for every parameter that the patch gives or that differs from its default.  Such a value is one symbol atom,
 so a float keeps its full precision (Pd writes number atoms with 6 significant digits: a positional float
 that would lose digits is logged as a warning).  Symbols that would read as a number or as ``key=value``
 are escaped (``\12``, ``a\=b``); Pd keeps that while the patch is open but drops it when it saves.
@@ -689,12 +689,14 @@ def _warn_precision(node: str, type_name: str, value: Any) -> None:
         )
 
 
-def _named(cls: type[Node], values: dict[str, Any]) -> list[str]:
-    """``key=value`` atoms for every parameter of a pointat-only type that differs from its default."""
+def _named(cls: type[Node], values: dict[str, Any], decl: NodeDecl) -> list[str]:
+    """``key=value`` atoms for every parameter of a pointat-only type that the patch gives (by name or by
+    position, even at its default value: ``port=9001`` stays in sight) or that differs from its default."""
+    given = set(decl.params) | {p.name for p in cls.params[: len(decl.args)]}
     return [
         f"{p.name}={_escape(_value_text(values[p.name]))}"
         for p in cls.params
-        if not _same(values[p.name], _default_of(cls, p.name))
+        if p.name in given or not _same(values[p.name], _default_of(cls, p.name))
     ]
 
 
@@ -752,7 +754,7 @@ def _box(decl: NodeDecl, registry: Registry) -> _Out:
             len(default_ins),
             len(default_outs),
         )
-    return _Out(decl, "obj", [decl.type, *_named(cls, values)], ins, outs)
+    return _Out(decl, "obj", [decl.type, *_named(cls, values, decl)], ins, outs)
 
 
 def _columns(n: int, edges: list[tuple[int, int]]) -> list[int]:
@@ -832,14 +834,22 @@ def _is_abstraction(type_name: str) -> bool:
 
 
 def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
-    """Pd file text for a patch (abstraction instances are expanded first); see the module docstring.
+    """Pd file text for a patch (abstraction instances are expanded first, and the header says which);
+    see the module docstring.
 
     Every node is preceded by an ``@name`` comment so that :func:`read_pd` gives back the same names.
     """
-    if any(_is_abstraction(n.type) for n in spec.nodes):
+    instances = [f"{n.name} ({n.type})" for n in spec.nodes if _is_abstraction(n.type)]
+    if instances:
         from .loader import expand
 
         spec = expand(spec)
+        spec.doc = "\n".join(
+            [
+                spec.doc,
+                f"Abstractions flattened, each into nodes named INSTANCE/NODE: {', '.join(instances)}.",
+            ]
+        ).strip("\n")
     registry = registry or default_registry.load_builtins()
     outs = [_box(decl, registry) for decl in spec.nodes]
     index = {o.decl.name: k for k, o in enumerate(outs)}

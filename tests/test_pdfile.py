@@ -355,8 +355,20 @@ def test_round_trip_native_to_pd_to_native_keeps_the_graph(name, tmp_path):
     assert graph(back) == graph(spec)
     assert check(back, REG).wires == check(spec, REG).wires  # written in the same order
     assert [n.name for n in back.nodes] == [n.name for n in expand(spec).nodes]
-    assert back.doc == as_pd_shows(spec.doc)
+    for ours, theirs in zip(expand(spec).nodes, back.nodes, strict=True):  # even at its default: port=9001
+        cls = REG.get(ours.type)
+        if cls is not None and cls.type_name not in VANILLA:
+            given = {*ours.params, *(p.name for p in cls.params[: len(ours.args)])}
+            assert given <= set(theirs.params), ours.name
+    assert back.doc == as_pd_shows(written_header(spec))
     assert parse_patch(write_patch(back)).doc == back.doc  # and on to a native patch's header
+
+
+def written_header(spec: PatchSpec) -> str:
+    """The header ``write_pd`` writes: the patch's, and a line naming the abstraction instances it flattened."""
+    flattened = [f"{n.name} ({n.type})" for n in spec.nodes if n.type.endswith(".pat")]
+    note = f"Abstractions flattened, each into nodes named INSTANCE/NODE: {', '.join(flattened)}."
+    return "\n".join([spec.doc, note] if flattened else [spec.doc])
 
 
 def as_pd_shows(doc: str) -> str:
@@ -485,6 +497,7 @@ def test_abstraction_instances_are_expanded_before_writing(tmp_path):
     back = parse_pd(write_pd(read_patch(main), REG), str(tmp_path / "main.pd"))
     assert [(n.name, n.args) for n in back.nodes] == [("go", []), ("one/m", [25]), ("one/p", [])]
     assert [str(w) for w in back.wires] == ["one/m.0 -> one/p.0", "go.0 -> one/m.0"]
+    assert back.doc == "Abstractions flattened, each into nodes named INSTANCE/NODE: one (blink.pat)."
 
 
 # --------------------------------------------------------------------------- stubs
@@ -537,7 +550,7 @@ def test_pd_opens_exported_patches_with_their_stubs_and_saves_the_same_graph(tmp
     for name, spec in specs.items():
         saved = read_pd(tmp_path / f"{name}.pd")
         assert graph(saved) == graph(spec), name
-        assert saved.doc == as_pd_shows(spec.doc), name  # Pd keeps the header comments as they were
+        assert saved.doc == as_pd_shows(written_header(spec)), name  # Pd keeps the header comments as they were
 
 
 def test_pd_prints_an_exported_print_box_with_the_prefix_pointat_prints(tmp_path, require_tool):

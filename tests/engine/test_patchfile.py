@@ -187,6 +187,21 @@ def test_overrides(tmp_path):
     ]
 
 
+def test_an_override_of_a_flattened_instance_names_the_nodes_inside_that_take_it():
+    # a .pd subpatch, or an abstraction instance that convert flattened: 'v' is no node, 'v/m' and 'v/d' are
+    spec = parse_patch("node v/m metro 100\nnode v/d delay 5\nnode p print\nv/m -> v/d -> p\n")
+    with pytest.raises(PatchError) as info:
+        check(spec, REG, [("v", "interval", 20), ("v", "speed", 2), ("v", "time", 9)])
+    assert [p.message for p in info.value.problems] == [
+        "--set v.interval: no node named 'v' but nodes inside it, a subpatch or a converted abstraction "
+        "(v/m, v/d); set v/m.interval",
+        "--set v.speed: no node named 'v' but nodes inside it, a subpatch or a converted abstraction "
+        "(v/m, v/d); set one of them (none has a parameter 'speed')",
+        "--set v.time: no node named 'v' but nodes inside it, a subpatch or a converted abstraction "
+        "(v/m, v/d); set v/d.time",
+    ]
+
+
 def test_overrides_reach_an_abstraction_instances_arguments(tmp_path):
     (tmp_path / "voice.pat").write_text("args rate=100\ninlet go -> m.0\nnode m metro $rate\n")
     (tmp_path / "main.pat").write_text("node left voice.pat rate=50\nnode right voice.pat\n")
