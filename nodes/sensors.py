@@ -21,7 +21,6 @@ from pointat.devices.mote_frame import (
     Frame,
     Garbage,
     LostPackets,
-    could_be_lost,
 )
 from pointat.devices.serial_reader import (
     DeviceLost,
@@ -41,26 +40,21 @@ ADC_DOC = "nine ADC counts 0..4095: gyro x y z, accel x y z, mag x y z"
 
 
 class _MoteClock:
-    """Sensor time of one mote from its packet counter: lost packets advance time; a restart (a gap
-    larger than the mote could have sent since its last frame, :func:`could_be_lost`) re-anchors."""
+    """Sensor time of one mote from its frames: a frame is a sample period after the last one, and
+    after the packets the parser judged lost before it (``frame.lost``); a counter jump (``frame.jump``:
+    a restart, or more than the mote could have sent since its last frame) re-anchors on the host."""
 
     def __init__(self, rate: float):
         self.rate = rate
         self.t0: float | None = None
         self.count = 0
-        self.last_n = 0
-        self.seen = 0.0  # host time of the last frame
 
-    def time(self, n_pack: int, host_time: float) -> float:
-        if self.t0 is not None:
-            gap = (n_pack - self.last_n) & 0xFFFF
-            if gap and could_be_lost(gap - 1, host_time - self.seen, self.rate):
-                self.count += gap
-                self.last_n, self.seen = n_pack, host_time
-                return self.t0 + self.count / self.rate
-        self.t0, self.count, self.last_n = host_time, 0, n_pack  # first frame, or the mote restarted
-        self.seen = host_time
-        return host_time
+    def time(self, frame: Frame, host_time: float) -> float:
+        if self.t0 is None or frame.jump:  # the first frame, or the mote restarted
+            self.t0, self.count = host_time, 0
+            return host_time
+        self.count += 1 + frame.lost
+        return self.t0 + self.count / self.rate
 
 
 @register("mote")
@@ -355,7 +349,7 @@ base.1 -> nulls2 -> right
             self._silent.discard(frame.mote)
             log.warning("mote '%s': frames again from mote %d", self.name, frame.mote)
         self._last_frame[frame.mote] = seen
-        t = self._clocks[frame.mote].time(frame.n_pack, host_time)
+        t = self._clocks[frame.mote].time(frame, host_time)
         self.out(k, vector(frame.channels, t))
 
     def _event(self, event: object) -> None:

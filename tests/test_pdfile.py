@@ -550,7 +550,9 @@ def test_pd_opens_exported_patches_with_their_stubs_and_saves_the_same_graph(tmp
     for name, spec in specs.items():
         saved = read_pd(tmp_path / f"{name}.pd")
         assert graph(saved) == graph(spec), name
-        assert saved.doc == as_pd_shows(written_header(spec)), name  # Pd keeps the header comments as they were
+        assert saved.doc == as_pd_shows(written_header(spec)), (
+            name
+        )  # Pd keeps the header comments as they were
 
 
 def test_pd_prints_an_exported_print_box_with_the_prefix_pointat_prints(tmp_path, require_tool):

@@ -93,7 +93,7 @@ b'$1 7 2048 2049 2047 2048 2048 2558 2448 2048 1606\n'
 >>> parser = FrameParser()
 >>> parser.feed(b"noise" + wire[:10])
 []
->>> parser.feed(wire[10:] + encode_text(frame._replace(n_pack=9))) == [frame, frame._replace(n_pack=9)]
+>>> parser.feed(wire[10:] + encode_text(frame._replace(n_pack=9))) == [frame, frame._replace(n_pack=9, lost=1)]
 True
 >>> parser.pop_events()
 [Garbage(nbytes=5), NewMote(mote=1, n_pack=7), LostPackets(mote=1, expected=8, got=9, count=1)]
@@ -188,6 +188,12 @@ class Frame(NamedTuple):
         Packet counter, 0..65535, incremented by the mote for every sample and wrapping to 0.
     channels : tuple of int
         Nine ADC counts 0..4095 in :data:`CHANNELS` order (gyro x y z, accel x y z, mag x y z).
+    lost : int
+        Set by :class:`FrameParser`: the packets of this mote that never arrived just before this one
+        (its :class:`LostPackets` event's count), else 0.
+    jump : bool
+        Set by :class:`FrameParser`: the counter jumped to this frame (a :class:`CounterJump`: a restart,
+        a duplicate, an outage too long to count), so its time is not the last one's plus a packet.
 
     Examples
     --------
@@ -199,6 +205,8 @@ class Frame(NamedTuple):
     mote: int
     n_pack: int
     channels: tuple[int, ...]
+    lost: int = 0
+    jump: bool = False
 
     @property
     def gyro(self) -> tuple[int, ...]:
@@ -331,7 +339,7 @@ def _as_int(value: object, what: str, hi: int) -> int:
 
 
 def _check_frame(frame: Frame) -> tuple[int, int, tuple[int, ...]]:
-    mote, n_pack, channels = frame
+    mote, n_pack, channels = frame[:3]
     if len(channels) != _N_CHANNELS:
         raise ValueError(f"expected {_N_CHANNELS} channels, got {len(channels)}")
     return (
@@ -763,9 +771,11 @@ class FrameParser:
                 ms.lost += gap
                 st.lost += gap
                 self._events.append(LostPackets(frame.mote, expected, frame.n_pack, gap))
+                frame = frame._replace(lost=gap)
             elif gap:  # backwards, a duplicate, or more than could be lost: a restart
                 ms.jumps += 1
                 self._events.append(CounterJump(frame.mote, expected, frame.n_pack))
+                frame = frame._replace(jump=True)
         ms.received += 1
         ms.last_n_pack = frame.n_pack
         if self._now is not None:

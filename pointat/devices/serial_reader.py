@@ -52,8 +52,8 @@ A pseudo-terminal stands in for the base station:
 ...     while not got and time.monotonic() < deadline:
 ...         time.sleep(0.01)
 True
->>> got
-[Frame(mote=1, n_pack=0, channels=(2048, 2048, 2048, 2048, 2048, 2048, 2048, 2048, 2048))]
+>>> got[0].mote, got[0].n_pack, got[0].channels
+(1, 0, (2048, 2048, 2048, 2048, 2048, 2048, 2048, 2048, 2048))
 >>> os.close(master); os.close(slave)
 """
 

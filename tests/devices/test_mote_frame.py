@@ -310,7 +310,7 @@ def test_truncated_frame_then_good_frames():
     for cut in range(1, FRAME_LEN):
         parser = FrameParser()
         got = parser.feed(encode_frame(a) + encode_frame(b)[:cut] + encode_frame(c))
-        assert got == [a, c], cut
+        assert got == [a, c._replace(lost=1)], cut  # c says that one packet before it was lost
         assert parser.stats.lost == 1
         check_invariant(parser)
 
@@ -324,7 +324,7 @@ def test_any_damaged_byte_drops_exactly_that_frame(byte):
     wire = bytearray(b"".join(encode_frame(f) for f in frames))
     wire[FRAME_LEN + byte] ^= 0x10
     parser = FrameParser()
-    assert parser.feed(bytes(wire)) == [frames[0], frames[2]]
+    assert parser.feed(bytes(wire)) == [frames[0], frames[2]._replace(lost=1)]
     st = parser.stats
     assert st.corrupt == 1 and st.garbage_bytes == FRAME_LEN
     assert st.motes[4].received == 2 and st.motes[4].lost == 1
@@ -336,7 +336,7 @@ def test_bad_checksum_event_names_known_mote():
     bad = bytearray(encode_frame(b))
     bad[-1] ^= 0xFF
     parser = FrameParser()
-    assert parser.feed(encode_frame(a) + bytes(bad) + encode_frame(c)) == [a, c]
+    assert parser.feed(encode_frame(a) + bytes(bad) + encode_frame(c)) == [a, c._replace(lost=1)]
     events = parser.pop_events()
     assert events == [
         NewMote(5, 0),
@@ -375,20 +375,33 @@ def test_gap_across_wrap_is_counted():
 def test_backwards_and_huge_jumps_are_counter_jumps():
     parser = FrameParser(max_gap=1000)
     seq = [100, 101, 50, 51, 51, 2000, 2001]
-    parser.feed(b"".join(encode_frame(make_frame(1, n)) for n in seq))
+    frames = parser.feed(b"".join(encode_frame(make_frame(1, n)) for n in seq))
     events = [e for e in parser.pop_events() if not isinstance(e, NewMote)]
     assert events == [CounterJump(1, 102, 50), CounterJump(1, 52, 51), CounterJump(1, 52, 2000)]
+    assert [f.jump for f in frames] == [False, False, True, False, True, True, False]  # each says so too
+    assert [f.lost for f in frames] == [0] * 7
     assert parser.stats.motes[1].jumps == 3 and parser.stats.motes[1].lost == 0
 
 
 def test_a_gap_the_mote_could_not_have_sent_in_the_time_is_a_restart_not_loss():
     # read times in seconds; the motes sample at 100 Hz
     parser = FrameParser(rate=100.0)
-    parser.feed(encode_frame(make_frame(1, 40000)), now=10.0)
-    parser.feed(encode_frame(make_frame(1, 40001)), now=10.01)
-    parser.feed(encode_frame(make_frame(1, 0)), now=12.0)  # switched off and on: 25,535 in 2 s?
-    parser.feed(encode_frame(make_frame(1, 1)) + encode_frame(make_frame(1, 5)), now=12.02)  # 3 lost
-    parser.feed(encode_frame(make_frame(1, 2005)), now=32.0)  # out of range for 20 s: 1999 lost
+    frames = parser.feed(encode_frame(make_frame(1, 40000)), now=10.0)
+    frames += parser.feed(encode_frame(make_frame(1, 40001)), now=10.01)
+    frames += parser.feed(encode_frame(make_frame(1, 0)), now=12.0)  # switched off and on: 25,535 in 2 s?
+    frames += parser.feed(
+        encode_frame(make_frame(1, 1)) + encode_frame(make_frame(1, 5)), now=12.02
+    )  # 3 lost
+    frames += parser.feed(encode_frame(make_frame(1, 2005)), now=32.0)  # out of range for 20 s: 1999 lost
+    # each frame carries the verdict (a clock counts sample periods by it: the mote node's does)
+    assert [(f.n_pack, f.lost, f.jump) for f in frames] == [
+        (40000, 0, False),
+        (40001, 0, False),
+        (0, 0, True),
+        (1, 0, False),
+        (5, 3, False),
+        (2005, 1999, False),
+    ]
     events = [e for e in parser.pop_events() if not isinstance(e, NewMote)]
     assert events == [
         CounterJump(1, 40002, 0),
@@ -415,7 +428,9 @@ def test_interleaved_motes_have_separate_counters():
             skip = rng.randrange(1, 4)
             counters[m] += skip
             expected_lost[m] += skip
-        f = make_frame(m, counters[m])
+        else:
+            skip = 0
+        f = make_frame(m, counters[m])._replace(lost=skip)  # as the parser marks it
         counters[m] += 1
         sent.append(f)
         stream += encode_frame(f) if rng.random() < 0.7 else encode_text(f)

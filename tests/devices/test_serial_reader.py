@@ -167,7 +167,9 @@ def test_device_vanishes_and_comes_back(tmp_path: Path):
         first.close()
         if second is not None:
             second.close()
-    assert col.got() == [frame(n) for n in range(10)] + [frame(n) for n in range(15, 25)]
+    assert col.got() == [frame(n) for n in range(10)] + [frame(15)._replace(lost=5)] + [
+        frame(n) for n in range(16, 25)
+    ]
     assert LostPackets(1, 10, 15, 5) in col.of(LostPackets)  # the outage, counted by n_pack
     assert stats.motes[1].received == 20 and stats.motes[1].lost == 5
     assert len(col.of(OpenFailed)) == 1  # once per outage, not once per retry
