@@ -27,7 +27,7 @@ from pythonosc.osc_message import OscMessage
 from pythonosc.osc_message_builder import OscMessageBuilder
 
 import nodes.spatial  # noqa: F401  (registers the vbap node; not yet in BUILTIN_MODULES)
-from pointat.maths.vbap import make_layout, pd_messages
+from pointat.maths.vbap import make_layout, pd_messages, vbap_gains
 from pointat.message import make
 from pointat.testing import patch
 
@@ -233,3 +233,48 @@ def test_receiver_3d_patch_holds_pointats_triplets():
     text = (EXAMPLES / "vbap_receiver_3d.pd").read_text()
     for selector, args in pd_messages(layout):
         assert f"{selector} {' '.join(str(a) for a in args)}" in text
+
+
+def test_vbap_osc_inlet_takes_a_source_numbered_as_a_float_as_the_readme_says(tmp_path):
+    """``[1 az el spread(`` into the left inlet of ``[vbap_osc 0 1 REPLY]`` (examples/pd/README.md): a source
+    number that is a float, as a message box has it, and not only the symbol ``[oscparse]`` gives."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as rx:
+        rx.bind(("127.0.0.1", 0))
+        rx.settimeout(0.2)
+        patch_file = tmp_path / "inlet.pd"
+        patch_file.write_text(
+            "#N canvas 0 50 450 300 10;\n#X obj 20 20 loadbang;\n"
+            r"#X msg 20 50 define_loudspeakers 2 -45 45 \, 2 -30 0 0 \, 1 30 0 0 \, 1 -10 0 0;"
+            f"\n#X obj 20 80 vbap_osc 0 1 {rx.getsockname()[1]};\n#X connect 0 0 1 0;\n#X connect 1 0 2 0;\n"
+        )
+        cmd = [
+            PD,
+            "-nogui",
+            "-noaudio",
+            "-noprefs",
+            "-stderr",
+            "-path",
+            str(EXAMPLES),
+            "-open",
+            str(patch_file),
+        ]
+        proc = subprocess.Popen(
+            cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
+        )
+        got: list[list[float]] = []
+        try:
+            deadline = time.monotonic() + TIMEOUT
+            while len(got) < 3 and time.monotonic() < deadline:
+                try:
+                    got.append(OscMessage(rx.recvfrom(65536)[0]).params)
+                except TimeoutError:
+                    continue
+        finally:
+            proc.terminate()
+            said = proc.communicate(timeout=5)[0].decode(errors="replace")
+    assert "error" not in said, said
+    layout = make_layout([-45, 45])
+    # the layout's own output, then source 1 at 30 and at -10; source 2 is not this receiver's
+    assert len(got) == 3, (got, said)
+    np.testing.assert_allclose(got[1], vbap_gains(layout, 30.0), atol=1e-5)
+    np.testing.assert_allclose(got[2], vbap_gains(layout, -10.0), atol=1e-5)
