@@ -21,6 +21,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from pointat.errors import worth_reporting
 from pointat.maths import scalar as sq
 from pointat.maths.fusion import GyroIntegrator, RollDistance
 from pointat.maths.quaternion import (
@@ -566,6 +567,7 @@ right.gyro -> suit.gyro2
         self._misses = [0] * n  # updates in a row without the sensor (the leader's measure)
         self._ticks = 0  # ticks started: the leader's samples
         self._heard = [0] * n  # the tick in which each sensor was last heard
+        self._dropouts = [0] * n  # times each sensor stopped being waited for (the log tells a few)
         self._reported = ["ok"] * n
         self._bits: np.ndarray | None = None  # the flags of the last update
         self._complete = False  # whether the last tick had every sensor
@@ -598,7 +600,8 @@ right.gyro -> suit.gyro2
             self._live[i] = True
             self._nlive += 1
             self._lead = min(self._lead, i)
-            log.info("node '%s': sensor %d is back", self.name, i + 1)
+            if worth_reporting(self._dropouts[i]):
+                log.warning("node '%s': sensor %d is back", self.name, i + 1)
         # A new tick: this sensor's sample is in the pending one already, or the leader's sample comes
         # while one is pending (which keeps a tick from holding one sensor's next sample for good, as it
         # would after sensors started at different times): update the pending tick without the missing.
@@ -661,12 +664,15 @@ right.gyro -> suit.gyro2
                 self._live[i] = False
                 self._nlive -= 1
                 self._lead = next((j for j, live in enumerate(self._live) if live), 0)
-                log.info(
-                    "node '%s': sensor %d missed %d ticks in a row; not waited for until it is heard again",
-                    self.name,
-                    i + 1,
-                    self.MISSES,
-                )
+                self._dropouts[i] += 1
+                if worth_reporting(self._dropouts[i]):
+                    log.warning(
+                        "node '%s': sensor %d missed %d ticks in a row; not waited for until it is heard again%s",
+                        self.name,
+                        i + 1,
+                        self.MISSES,
+                        f" (dropout {self._dropouts[i]})" if self._dropouts[i] > 1 else "",
+                    )
 
     def _missed(self, i: int) -> int:
         """Ticks in a row sensor i has missed.  Counted in the leader's samples, not in updates: sensors
@@ -682,8 +688,8 @@ right.gyro -> suit.gyro2
 class Reference(Node):
     """Outputs relative to a captured reference pose: "point at the front speaker and press".
 
-    A bang (or ``set``) at the right inlet captures the next orientation as the reference; ``clear``
-    forgets it.  ``mode=heading`` (the default) removes only the reference's heading: azimuth 0 is where
+    A bang at the right inlet (or ``set`` at the left one, ``/pointat/NODE/set`` over OSC) captures the
+    next orientation as the reference; ``clear`` forgets it.  ``mode=heading`` (the default) removes only the reference's heading: azimuth 0 is where
     the hand pointed and elevations stay true to the room.  The heading is that of the sensor ``axis``
     that points, as ``azi_ele``'s (give both the same ``axis`` when the hand's x is not the one that
     points); pointing within 1 deg of straight up or down there is no heading, and the capture waits for

@@ -138,7 +138,7 @@ def test_sensors_delivered_in_no_fixed_order_are_each_updated_once_a_sample():
 
 def test_a_silent_sensor_is_not_waited_for_and_is_waited_for_again_when_back(caplog):
     rt, bank = bank2()
-    caplog.set_level(logging.INFO, "pointat.nodes.orientation")
+    caplog.set_level(logging.WARNING, "pointat.nodes.orientation")  # a glove lost in a show: said plainly
     for k in range(10):
         tick(bank, k)
     for k in range(10, 30):  # sensor 2 switched off
@@ -153,6 +153,21 @@ def test_a_silent_sensor_is_not_waited_for_and_is_waited_for_again_when_back(cap
     assert q1[-1].time == 0.30  # and sample 31 of sensor 1 waits for sensor 2's
     tick(bank, 31, sensors=(2,))
     assert q1[-1].time == rt.nodes["q2"].messages[-1].time == 0.31
+
+
+def test_a_sensor_that_keeps_dropping_out_is_told_of_a_few_times_not_every_time(caplog):
+    rt, bank = bank2()
+    caplog.set_level(logging.WARNING, "pointat.nodes.orientation")
+    k = 0
+    for _ in range(12):  # out of range, back, out again... 12 times
+        for _ in range(8):
+            tick(bank, k, sensors=(1,))
+            k += 1
+        tick(bank, k)
+        k += 1
+    lost = [r.getMessage() for r in caplog.records if "ticks in a row" in r.getMessage()]
+    assert [m.partition("again")[2] for m in lost] == ["", " (dropout 2)", " (dropout 3)", " (dropout 10)"]
+    assert caplog.text.count("sensor 2 is back") == 4
 
 
 def test_sensors_that_start_at_different_ticks_are_kept_in_step():
