@@ -230,7 +230,12 @@ class Pack(Node):
     def layout(cls, values):
         vals = values.get("values", (0.0, 0.0)) or (0.0,)
         ins = tuple(
-            Inlet(f"in{i}", ("any",), "hot: set and output" if i == 0 else "cold: set", hot=i == 0)
+            Inlet(
+                f"in{i}",
+                ("bang", "float", "symbol", "list"),
+                "hot: set and output" if i == 0 else "cold: set",
+                hot=i == 0,
+            )
             for i in range(len(vals))
         )
         return ins, cls.outlets

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from pointat.errors import PatchError
 from pointat.message import as_float, bang, make, method, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.testing import patch
@@ -93,6 +94,14 @@ p -> out
     assert rt.nodes["out"].values == [(1.0, 2.0, 3.0)]
     p.receive(0, bang())
     assert rt.nodes["out"].values[-1] == (1.0, 2.0, 3.0)
+
+
+def test_a_vector_wired_into_pack_is_refused_when_the_patch_is_checked():
+    # `pointat help pack` lists what its inlets take: a quaternion must be unpacked first
+    with pytest.raises(
+        PatchError, match=r"outlet 'truth' sends vector, inlet 'in1' of 'p' accepts bang\|float"
+    ):
+        patch("node g simulate\nnode p pack 0 0\ng.truth -> p.1\n")
 
 
 def test_cold_param_inlet_sets_parameter():
