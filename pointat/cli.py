@@ -131,7 +131,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--no-stubs", action="store_true", help="with a .pd target: do not write pointat-stubs/")
 
     p = sub.add_parser(
-        "stubs", help="write Pd stub abstractions (right inlets and outlets) for every node type"
+        "stubs",
+        help="write Pd stub abstractions (right inlets and outlets) for every node type Pd does not have",
     )
     p.add_argument("folder")
 
