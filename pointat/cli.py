@@ -16,8 +16,10 @@ from .errors import PatchError, PointatError, did_you_mean
 from .loader import build, check, parse_overrides, read_spec
 from .registry import Registry, default_registry
 from .runtime import CPU_DMA_LATENCY, keep_cpus_awake, realtime_priority
+from .terminal import LineHandler, LineWriter
 
 log = logging.getLogger("pointat")
+LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
 
 EPILOG = """\
 examples:
@@ -156,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     args.verbose = getattr(args, "verbose", 0)
     args.plugins = getattr(args, "plugins", [])
     level = logging.WARNING if args.verbose == 0 else logging.INFO if args.verbose == 1 else logging.DEBUG
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    logging.basicConfig(level=level, format=LOG_FORMAT, stream=sys.stderr)
     if args.command is None:
         ap.print_help()
         return 2
@@ -194,14 +196,20 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     rt = build(checked)
     rt.spin = args.spin / 1000.0
 
-    def console(line: str) -> None:
-        try:
-            print(line, flush=True)
-        except BrokenPipeError:  # the reader went away (pointat run ... | head): stop, quietly
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-            rt.stop()
+    def reader_gone() -> None:  # pointat run ... | head: stop, quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        rt.stop()
 
-    rt.console = console
+    # the console's and the log's lines are written by threads of their own: a terminal paused with
+    # Ctrl-S, or a pipe nobody reads, must not stop the patch (lines that do not fit are counted)
+    out = LineWriter(sys.stdout, on_broken=reader_gone, name="console")
+    err = LineWriter(sys.stderr, name="log")
+    root = logging.getLogger()
+    saved = root.handlers[:]
+    handler = LineHandler(err)
+    handler.setFormatter(logging.Formatter(LOG_FORMAT))
+    root.handlers = [handler]
+    rt.console = out.write
 
     def on_signal(signum: int, _frame: object) -> None:
         log.info("signal %d: stopping", signum)
@@ -231,6 +239,13 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     finally:
         if awake is not None:
             os.close(awake)
+        root.handlers = saved
+        # what waits is written before the end, as any program's output: a terminal still paused holds
+        # the exit until Ctrl-Q (or Ctrl-C or a kill, which now end it at once)
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        out.close(None)
+        err.close(None)
     return 0
 
 

@@ -5,6 +5,7 @@ import re
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -60,6 +61,58 @@ def test_main_job_prints_directions():
     assert len(lines) >= 3
     az = float(lines[-1].split(":")[1].split()[0])
     assert -180 <= az < 180
+
+
+def test_a_terminal_that_stops_reading_does_not_stop_the_patch(tmp_path):
+    """A terminal paused with Ctrl-S (or a pipe nobody reads) fills, and a write to it blocks: the OSC must
+    flow on all the same, and the console hears afterwards how many lines it missed."""
+    import socket
+
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(0.2)
+    (tmp_path / "chatty.pat").write_text(
+        f"node m metro 1\nnode p print {'x' * 200}\nnode o osc_out port={rx.getsockname()[1]} address=/t\n"
+        "node one msg 1\nnode go loadbang\ngo -> m\nm -> p\nm -> one -> o\n"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pointat.cli", "run", str(tmp_path / "chatty.pat"), "--for", "4"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=ROOT,
+    )
+    try:  # 200 KB of console lines a second, and nobody reads them (the pipe holds 64 KB)
+        got, end = [], time.monotonic() + 6  # the run: 4 s; then it waits for its reader to be back
+        while time.monotonic() < end:
+            try:
+                rx.recv(64)
+                got.append(time.monotonic())
+            except TimeoutError:
+                pass
+        out, err = proc.communicate(timeout=30)  # the reader is back
+    finally:
+        proc.kill()
+        rx.close()
+    assert proc.returncode == 0, err
+    assert len(got) > 3000 and got[-1] - got[0] > 3.0  # 1000 a second for 4 s, to the end
+    assert b"lines not shown: the terminal did not take them" in out
+
+
+def test_a_pipe_closed_by_its_reader_ends_the_run_quietly():  # pointat run ... | head -2
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pointat.cli", "run", "patches/glove_tqt.pat", "--for", "60"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=ROOT,
+    )
+    try:
+        first = [proc.stdout.readline() for _ in range(2)]
+        proc.stdout.close()
+        assert proc.wait(timeout=30) == 0
+    finally:
+        proc.kill()
+    assert all(first) and b"Traceback" not in proc.stderr.read()
+    proc.stderr.close()
 
 
 def test_rt_runs_at_real_time_priority_or_says_why_not(tmp_path):

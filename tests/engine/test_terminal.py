@@ -1,0 +1,52 @@
+"""Console and log lines from a running patch never wait for a terminal that does not read them."""
+
+import os
+import threading
+
+from pointat.terminal import LineWriter
+
+
+def test_a_stream_nobody_reads_holds_up_no_writer_and_hears_what_it_missed():
+    r, w = os.pipe()
+    stream = os.fdopen(w, "w")
+    writer = LineWriter(stream)
+    done = threading.Event()
+
+    def flood() -> None:
+        for k in range(20_000):  # far more than the pipe (64 KiB) and the writer (2000 lines) hold
+            writer.write(f"line {k} " + "x" * 40)
+        done.set()
+
+    threading.Thread(target=flood, daemon=True).start()
+    assert done.wait(30), "write() blocked on a pipe nobody reads"
+    assert writer.dropped > 0
+    got = bytearray()
+    reading = threading.Thread(target=lambda: got.extend(iter_read(r)), daemon=True)
+    reading.start()  # the reader comes back
+    assert writer.close(10)
+    stream.close()
+    reading.join(10)
+    lines = got.decode().splitlines()
+    assert lines[0] == "line 0 " + "x" * 40
+    shown = [ln for ln in lines if ln.startswith("line ")]
+    numbers = [int(ln.split()[1]) for ln in shown]
+    assert numbers[0] == 0 and numbers == sorted(set(numbers))  # in order, from the first
+    notices = [ln for ln in lines if "lines not shown: the terminal did not take them" in ln]
+    assert notices and len(shown) + sum(int(n[1:].split()[0]) for n in notices) == 20_000  # all told of
+
+
+def iter_read(fd: int):
+    while chunk := os.read(fd, 65536):
+        yield from chunk
+    os.close(fd)
+
+
+def test_a_reader_gone_for_good_is_told_once_and_lines_are_dropped():
+    r, w = os.pipe()
+    os.close(r)
+    gone = []
+    writer = LineWriter(os.fdopen(w, "w"), on_broken=lambda: gone.append(True))
+    writer.write("first")
+    writer.close(5)
+    writer.write("second")  # dropped, quietly
+    assert gone == [True] and writer.broken
