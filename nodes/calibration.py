@@ -299,7 +299,7 @@ class Calibrate(Node):
             "minmax (Bachmann) or ellipsoid (hard and soft iron)",
             choices=("minmax", "ellipsoid"),
         ),
-        Param("gravity", "float", 9.80665, "local gravity", unit="m/s²"),
+        Param("gravity", "float", 9.80665, "local gravity", unit="m/s²", above=0.0),
         Param(
             "gyro",
             "float",

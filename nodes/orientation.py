@@ -118,6 +118,16 @@ class Flagged:
             self.out(self.FLAGS_OUTLET, status)
 
 
+POLE = Param(
+    "pole", "float", 1.0, "within this angle of straight up/down the azimuth holds", unit="deg", minimum=0.0
+)
+
+
+def _check_pole(pole: float) -> None:
+    if not pole < 90.0:
+        raise ValueError(f"pole must be >= 0 and < 90 deg, got {pole}")
+
+
 RATE = Param("rate", "float", 100.0, "nominal sample rate, for the first step and gaps", unit="Hz", above=0.0)
 FLAGS = Outlet("flags", "symbol", "status when it changes: ok, or what was wrong (bad_gyro, bad_accmag...)")
 
@@ -201,7 +211,7 @@ class AccMagMatrix(Flagged, Node):
     )
     outlets = (Outlet("orientation", "vector", "3x3 rotation matrix, sensor -> earth (NWU)"), FLAGS)
     params = (
-        Param("gravity", "float", 9.80665, "the accelerometer's reading at rest", unit="m/s²"),
+        Param("gravity", "float", 9.80665, "the accelerometer's reading at rest", unit="m/s²", above=0.0),
         Param("accel_tolerance", "float", 0.1, "skip when | |accel| - g | > this x g (0: never)", live=True),
         Param(
             "mag_tolerance",
@@ -274,7 +284,13 @@ class Complementary(SampleClock, Flagged, Node):
     outlets = (Outlet("orientation", "vector", "fused 3x3 rotation matrix, sensor -> earth"), FLAGS)
     params = (
         Param(
-            "crossover", "float", 0.2, "crossover frequency of the complementary pair", unit="Hz", live=True
+            "crossover",
+            "float",
+            0.2,
+            "crossover frequency of the complementary pair",
+            unit="Hz",
+            live=True,
+            above=0.0,
         ),
         RATE,
     )
@@ -853,8 +869,12 @@ class AziEle(Node):
     outlets = (Outlet("azimuth", "float", "degrees, + left"), Outlet("elevation", "float", "degrees, + up"))
     params = (
         Param("axis", "vector", (1.0, 0.0, 0.0), "the sensor axis that points (the hand's x)", size=3),
-        Param("pole", "float", 1.0, "within this angle of straight up/down the azimuth holds", unit="deg"),
+        POLE,
     )
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        _check_pole(values["pole"])
 
     def setup(self) -> None:
         self._az: float | None = None
@@ -898,15 +918,14 @@ class RollDistanceNode(Node):
             unit="deg",
             live=True,
         ),
-        Param("pole", "float", 1.0, "within this angle of straight up/down the azimuth holds", unit="deg"),
+        POLE,
     )
 
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
         """What a live change must keep too: leave below enter, angles in their ranges."""
         RollDistance.check(values["enter"], values["leave"], values["max_elevation"])
-        if not 0.0 <= values["pole"] < 90.0:
-            raise ValueError(f"pole must be >= 0 and < 90 deg, got {values['pole']}")
+        _check_pole(values["pole"])
 
     def setup(self) -> None:
         self.state = RollDistance(

@@ -54,6 +54,8 @@ log = logging.getLogger("pointat.osc")
 NTP_UNIX_OFFSET = 2208988800
 #: OSC's special time tag "immediately".
 IMMEDIATELY = b"\x00\x00\x00\x00\x00\x00\x00\x01"
+#: The lowest ``osc_out rate`` but 0: one update every 100 s.
+MIN_RATE = 0.01
 
 
 # --------------------------------------------------------------------------- encoding
@@ -446,7 +448,12 @@ class OscOut(Node):
         Param("port", "int", 0, "receiver UDP port (0: the profile's usual port)"),
         Param("to", "list", (), "more destinations: host:port, or a port on the same host"),
         Param(
-            "source", "int", 0, "source / object / track / input number (0: the profile's first)", live=True
+            "source",
+            "int",
+            0,
+            "source / object / track / input number (0: the profile's first)",
+            live=True,
+            maximum=2**31 - 1,  # an OSC int32
         ),
         Param("address", "symbol", "/pointat/{n}/direction", "generic profile: the address ({n}: source)"),
         Param(
@@ -499,6 +506,8 @@ dir.azimuth -> out.azimuth
         for name in ("delay", "rate", "deadband", "radius"):
             if not math.isfinite(values[name]) or values[name] < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {values[name]}")
+        if 0 < values["rate"] < MIN_RATE:
+            raise ValueError(f"rate must be 0 (every update) or at least {MIN_RATE} Hz, got {values['rate']}")
         if values["delay"] > 0 and not values["bundle"]:
             raise ValueError("delay only applies to bundles: add bundle=true")
         if values["delay"] > 0 and not profile.time_tags:

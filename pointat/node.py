@@ -113,15 +113,19 @@ class Param:
 
     def _range(self) -> str:
         """``> x``, ``>= x``, ``<= y`` or ``x..y`` for a bounded number, else nothing."""
+
+        def num(x: float) -> str:  # 2147483647 as it is, not 2.14748e+09
+            return str(int(x)) if float(x).is_integer() and abs(x) < 1e15 else f"{x:g}"
+
         if self.above is not None:
-            low = f"> {self.above:g}"
+            low = f"> {num(self.above)}"
         else:
-            low = f">= {self.minimum:g}" if self.minimum is not None else ""
+            low = f">= {num(self.minimum)}" if self.minimum is not None else ""
         if self.maximum is None:
             return low
         if low.startswith(">="):
-            return f"{self.minimum:g}..{self.maximum:g}"
-        return f"{low} and <= {self.maximum:g}" if low else f"<= {self.maximum:g}"
+            return f"{num(self.minimum)}..{num(self.maximum)}"
+        return f"{low} and <= {num(self.maximum)}" if low else f"<= {num(self.maximum)}"
 
     def _coerce(self, value: Any) -> Any:
         t = self.type

@@ -2,6 +2,7 @@
 
 import logging
 import math
+import re
 
 import numpy as np
 import pytest
@@ -434,3 +435,30 @@ def test_a_loop_without_a_runtime_is_a_feedback_error_too():
     b._targets[0].append((a, 0))
     with pytest.raises(FeedbackError, match="feedback loop: recursion too deep at node"):
         a.receive(0, make(1.0))
+
+
+@pytest.mark.parametrize(
+    "line, why",
+    [
+        ("node n complementary crossover=0", "'crossover' expects a number > 0; got 0"),
+        ("node n accmag_matrix gravity=-9.8", "'gravity' expects a number > 0; got -9.8"),
+        ("node n calibrate gravity=0", "'gravity' expects a number > 0; got 0"),
+        ("node n azi_ele pole=90", "pole must be >= 0 and < 90 deg, got 90.0"),
+        ("node n azi_ele pole=-1", "'pole' expects a number >= 0; got -1"),
+        ("node n osc_out source=3000000000", "'source' expects a whole number <= 2147483647; got 3000000000"),
+        ("node n osc_out rate=0.001", "rate must be 0 (every update) or at least 0.01 Hz, got 0.001"),
+    ],
+)
+def test_values_that_would_silence_a_chain_are_refused_when_the_patch_is_checked(line, why):
+    # each was taken, and then every sample failed (a division by zero, an int32 overflow...)
+    from pointat.errors import PatchError
+
+    with pytest.raises(PatchError, match=re.escape(why)):
+        patch(line + "\n")
+
+
+def test_a_crossover_of_0_sent_live_is_refused_and_the_fusion_goes_on():
+    rt = patch("node f complementary\nnode out collect\nf -> out\n")  # /pointat/f/crossover 0 from a fader
+    with pytest.raises(ValueError, match="'crossover' expects a number > 0; got 0"):
+        rt.nodes["f"].set_param("crossover", 0.0)
+    assert rt.nodes["f"].p.crossover == 0.2
