@@ -116,22 +116,29 @@ ch.1 -> ch2
             self.panner = Panner(self.layout)
 
     def on_elevation(self, msg: Message) -> None:
-        self._el = as_float(msg)
+        el = as_float(msg)
+        if not math.isfinite(el):
+            raise ValueError(f"elevation {el} refused: not a finite number; the last good one stays")
+        self._el = el
 
     def on_azimuth(self, msg: Message) -> None:
+        az, el, spread = self._az, self._el, None
         if msg.kind == "list":
             values = [float(v) for v in msg.value]
             if not values:
                 raise TypeError("expected azimuth [elevation [spread]], got an empty list")
-            self._az = values[0]
+            az = values[0]
             if len(values) > 1:
-                self._el = values[1]
+                el = values[1]
             if len(values) > 2:
-                self.set_param("spread", values[2])
+                spread = values[2]
         elif msg.kind != "bang":
-            self._az = as_float(msg)
-        if not (math.isfinite(self._az) and math.isfinite(self._el)):
-            raise ValueError("direction is NaN or infinite")
+            az = as_float(msg)
+        if not (math.isfinite(az) and math.isfinite(el)):  # refused whole: the last good direction stays
+            raise ValueError(f"direction ({az}, {el}) is NaN or infinite: refused")
+        if spread is not None:
+            self.set_param("spread", spread)  # validated: a bad spread refuses the message too
+        self._az, self._el = az, el
         gains = self.panner.gains(self._az, self._el, self.p.spread)
         az, el = self.panner.direction
         self.out(2, (az, el))

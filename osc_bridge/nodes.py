@@ -571,30 +571,31 @@ dir.azimuth -> out.azimuth
 
     # inlets ------------------------------------------------------------------
     def on_elevation(self, msg: Message) -> None:
-        self.state[1] = msg.value if msg.kind == "float" else as_float(msg)  # (per sample: a call less)
+        self.state[1] = _finite(msg.value if msg.kind == "float" else as_float(msg), "elevation")
 
     def on_distance(self, msg: Message) -> None:
-        self.state[2] = msg.value if msg.kind == "float" else as_float(msg)
+        self.state[2] = _finite(msg.value if msg.kind == "float" else as_float(msg), "distance")
 
     def on_spread(self, msg: Message) -> None:
-        self.state[3] = as_float(msg)
+        self.state[3] = _finite(as_float(msg), "spread")
 
     def on_azimuth(self, msg: Message) -> None:
         kind = msg.kind
+        state = self.state
         if kind == "float":  # the per-sample case (a float message holds a float)
-            self.state[0] = msg.value
-        elif kind == "bang":
-            pass  # send the current state again, whatever the pacing says
+            update = (msg.value, state[1], state[2], state[3])
+        elif kind == "bang":  # send the current state again, whatever the pacing says
+            update = tuple(state)
         elif kind == "list":
             values = [float(v) for v in msg.value[:4]]
             if not values:
                 raise ValueError("empty list")
-            self.state[: len(values)] = values
+            update = (*values, *state[len(values) :])
         else:
-            self.state[0] = as_float(msg)
-        update = tuple(self.state)
+            update = (as_float(msg), state[1], state[2], state[3])
         if not math.isfinite(sum(update)):  # NaN or infinity anywhere makes the sum so
-            raise ValueError(f"not sent: not a finite number in {update}")
+            raise ValueError(f"not sent: not a finite number in {update}; the last good values stay")
+        state[:] = update  # taken only when good: one bad message must not spoil the ones after it
         if kind == "bang":
             self._release(update)
         else:
@@ -733,6 +734,13 @@ dir.azimuth -> out.azimuth
                 d.sock.close()
                 d.sock = None
                 d.connected = False
+
+
+def _finite(value: float, what: str) -> float:
+    """``value`` when it is a finite number; else a refusal (the last good value stays)."""
+    if value - value != 0.0:  # NaN and infinities (and a string raises TypeError)
+        raise ValueError(f"{what} {value} refused: not a finite number; the last good value stays")
+    return value
 
 
 def _moved(a: Sequence[float], b: Sequence[float]) -> float:

@@ -354,6 +354,20 @@ def test_vbap_node_layout_can_change_while_running_and_a_bad_one_changes_nothing
     assert spk.p.layout == (0, 120, -120) and spk.layout.n == 3
 
 
+def test_vbap_node_refuses_a_bad_direction_whole_and_goes_on_with_the_last_good_one():
+    rt = _node("layout=[0, 90, 180, -90]")
+    spk = rt.nodes["spk"]
+    spk.receive(0, make((30.0, 0.0)))
+    for bad in ((30.0, math.nan), (math.inf,), (10.0, 0.0, math.nan)):  # the last: a NaN spread
+        with pytest.raises(ValueError):
+            spk.receive(0, make(bad))
+    with pytest.raises(ValueError, match="elevation nan refused"):
+        spk.receive(1, make(math.nan))
+    assert (spk._az, spk._el, spk.p.spread) == (30.0, 0.0, 0.0)  # nothing of them was kept
+    spk.receive(0, make(45.0))  # and the next direction is panned
+    np.testing.assert_allclose(rt.nodes["g"].values[-1], [S, S, 0.0, 0.0], atol=1e-12)
+
+
 def test_vbap_node_refuses_a_missing_or_doubled_layout():
     from pointat.errors import PointatError
 

@@ -426,6 +426,23 @@ def test_a_bad_value_is_dropped_and_the_next_one_goes(started, receivers):
     assert rt.nodes["out"].errors == 1
 
 
+def test_one_bad_control_message_spoils_none_of_the_updates_after_it(started, receivers):
+    # /pointat/out 0 0 0 nan once: its NaN spread was kept, and every later update was refused for good
+    rx = receivers()
+    rt = started(patch(f"node out osc_out port={rx.port} profile=adm"))
+    out = rt.nodes["out"]
+    push(out, 5.0, el=10.0)
+    with pytest.raises(ValueError, match="not a finite number in .*; the last good values stay"):
+        out.receive(0, make((0.0, 0.0, 0.0, math.nan)))
+    with pytest.raises(ValueError, match="elevation nan refused"):
+        out.receive(1, make(math.nan))  # a cold inlet too
+    with pytest.raises(ValueError, match="distance inf refused"):
+        out.receive(2, make(math.inf))
+    push(out, 7.0)
+    got = [args for *_, args in rx.messages(None)]
+    assert [round(a[0], 4) for a in got] == [5.0, 7.0] and got[-1][1] == pytest.approx(10.0)
+
+
 # --------------------------------------------------------------------------- osc_out: absent receiver
 def test_absent_receiver_is_counted_and_the_patch_keeps_going(started, receivers):
     probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
