@@ -854,6 +854,7 @@ phone.quat -> dir
         self._refused_from: set[str] = set()  # the senders outside allow named in the log
         self._clocks: dict[tuple[str, int], TagClock] = {}  # timetags: each sender's clock
         self.refused_control = 0
+        self._refused_at: dict[str, int] = {}  # refused control messages per address
 
     def start(self) -> None:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -884,14 +885,18 @@ phone.quat -> dir
         ip = ipaddress.ip_address(sender)
         return any(ip in net for net in self._allow)
 
-    #: Datagrams read per wake-up at most, so that a flood cannot starve timers and other sources.
+    #: Datagrams read per wake-up at most, and seconds spent on them at most (a flood of 64 kB ones takes
+    #: ~2 ms each to decode), so that a flood cannot starve timers and other sources.
     BURST = 64
+    BUDGET = 0.005
     #: Senders outside ``allow`` named in the log (each once); after that many, refusals are only counted.
     REFUSED_NAMED = 16
 
     def _readable(self) -> None:
-        """Scheduler thread, the socket has data: read what is there (up to :attr:`BURST` datagrams)."""
+        """Scheduler thread, the socket has data: read what is there (up to :attr:`BURST` datagrams, or
+        :attr:`BUDGET` seconds)."""
         sock = self._sock
+        deadline = time.monotonic() + self.BUDGET
         for _ in range(self.BURST):
             if sock is None:
                 return
@@ -903,6 +908,8 @@ phone.quat -> dir
                 log.debug("osc_in '%s': %s", self.name, exc)
                 continue
             t = time.monotonic()
+            if t > deadline:  # the rest on the next wake-up, after the timers and the other sources
+                sock = None
             if self.p.timetags:
                 tag = bundle_time(data)
                 if tag is not None:
@@ -1010,6 +1017,13 @@ phone.quat -> dir
                 )
                 self._refuse(address, why + "; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD")
                 return True
+        if selector is None and not rt.nodes[name].in_specs:
+            self._refuse(
+                address,
+                f"node '{name}' has no inlets to take values; send /pointat/{name}/PARAM value or "
+                f"/pointat/{name}/METHOD",
+            )
+            return True
         try:  # on the scheduler thread already: straight to the node, nothing queued or lost
             if selector is None:
                 msg = make(None if not args else args[0] if len(args) == 1 else tuple(args))
@@ -1021,17 +1035,21 @@ phone.quat -> dir
         return True
 
     def _refuse(self, address: str, why: str) -> None:
-        """A live-control message that did nothing: counted, and logged the first times, then every 10th,
-        100th...: a flood of them keeps the console readable."""
+        """A live-control message that did nothing: counted, and logged the first times at its address,
+        then every 10th, 100th...: a flood of them keeps the console readable, and a typo is still told."""
         self.refused_control += 1
-        if worth_reporting(self.refused_control):
+        counts = self._refused_at
+        if len(counts) >= self.ROUTES_KEPT and address not in counts:
+            counts.clear()  # a flood of made-up addresses: the memory starts over
+        n = counts[address] = counts.get(address, 0) + 1
+        if worth_reporting(n):  # counted per address: a stray fader must not silence a typo after it
             log.warning(
                 "osc_in '%s' (port %d): %s refused: %s%s",
                 self.name,
                 self.address[1],
                 address[:80],
                 why[:200],
-                f" ({self.refused_control} refused so far)" if self.refused_control > 3 else "",
+                f" ({n} refused at this address so far)" if n > 3 else "",
             )
 
     def close(self) -> None:

@@ -418,7 +418,7 @@ class Node:
         if fn is not None:
             fn(*msg.value)
             return True
-        if "any" in self.in_specs[index].accepts:
+        if index < len(self.in_specs) and "any" in self.in_specs[index].accepts:
             return False
         methods = sorted(n[3:] for n in dir(self) if n.startswith("do_"))
         live = sorted(q.name for q in type(self).params if q.live)

@@ -690,6 +690,23 @@ def test_a_matched_message_no_rule_can_read_leaves_by_any(started):
     assert imu.malformed == 2
 
 
+def test_a_wake_up_reads_datagrams_for_a_bounded_time_and_leaves_the_rest_for_the_next(started, monkeypatch):
+    # a flood of 64 kB datagrams took ~2 ms each to decode: 64 of them held the timers for 120 ms
+    import select
+
+    rt, imu, addr = in_patch(started, "", "node c collect\nimu.any -> c")
+    with sender() as tx:
+        for k in range(10):
+            tx.sendto(osc("/cue", k).dgram, addr)
+    assert select.select([imu._sock], [], [], 2.0)[0]
+    monkeypatch.setattr(type(imu), "BUDGET", 0.0)  # every datagram is over the budget
+    imu._readable()
+    assert imu.received == 1  # the one it began, then back to the scheduler
+    monkeypatch.undo()
+    imu._readable()
+    assert imu.received == 10 and [v for (v,) in rt.nodes["c"].values] == list(range(10))
+
+
 def test_other_messages_leave_by_any_for_route(started):
     rt, imu, addr = in_patch(started, "", "node r route /cue\nnode c collect\nimu.any -> r\nr.0 -> c")
     with sender() as tx:
@@ -717,10 +734,20 @@ def test_a_flood_of_bad_control_is_counted_and_logged_sparingly_and_good_control
                 assert wait_for(rt, lambda k=k: imu.refused_control == 2 * (k + 1))
         tx.sendto(osc("/pointat/m/interval", 5.0).dgram, addr)
         assert wait_for(rt, lambda: rt.nodes["m"].p.interval == 5.0)
-    assert imu.refused_control == 600
+        # then the performer's typo, and values for a node that has no inlets: each is told at once
+        tx.sendto(osc("/pointat/m/intervl", 5.0).dgram, addr)
+        tx.sendto(osc("/pointat/imu", 1.0).dgram, addr)
+        assert wait_for(rt, lambda: imu.refused_control == 602)
     lines = [r.getMessage() for r in caplog.records if "refused" in r.getMessage()]
-    assert 4 <= len(lines) <= 6  # the 1st, 2nd, 3rd, 10th, 100th: not 600
+    assert len(lines) == 12  # at each address the 1st, 2nd, 3rd, 10th, 100th: not 600
     assert f"osc_in 'imu' (port {addr[1]}): /pointat/nosuch/k refused: no node 'nosuch'" in lines[0]
+    assert "/pointat/nosuch/k refused: no node 'nosuch'" in lines[-4]
+    assert lines[-4].endswith("(100 refused at this address so far)")
+    assert "/pointat/m/intervl refused: node 'm': no method 'intervl'" in lines[-2]
+    assert lines[-1].endswith(
+        "/pointat/imu refused: node 'imu' has no inlets to take values; send /pointat/imu/PARAM value or "
+        "/pointat/imu/METHOD"
+    )
     assert max(len(x) for x in lines) < 400  # the 5000-character string is not echoed whole
 
 
