@@ -216,9 +216,9 @@ class Replay(Node):
     """Play a recording back: in real time (``speed=1``), faster or slower, or as fast as possible (``speed=0``).
 
     Reads ``record``'s CSV and NDJSON and the BROAD data set's CSV (``*.csv.gz``), so real recordings
-    drive patches.  Messages carry the file's time stamps; a row with no time, or one further than
-    ``FAR`` (10⁶ s) from the recording's (a damaged row), goes out at once, and the log names its file
-    and row.  At ``speed=0`` the rows reach the scheduler 64 at a time (``BATCH``), each row's messages
+    drive patches.  Messages carry the file's time stamps; a row with no time, one further than
+    ``FAR`` (10⁶ s) from the recording's, or one more than ``SPIKE`` (1 s) ahead of the rows on both
+    sides (damaged rows) goes out at once, and the log names its file and row.  At ``speed=0`` the rows reach the scheduler 64 at a time (``BATCH``), each row's messages
     as at any speed: the scheduler's timers and other inputs (OSC control) wait for the batches of one
     pass at most, about 5 ms of them (the runtime's ``QUEUE_BUDGET``), never for the whole queue.  At the
     end it bangs ``done`` and, unless ``loop``, its part in the patch is over: a patch whose sources
@@ -253,6 +253,9 @@ source.mag -> fuse.mag
     #: Seconds from the recording's middle (its median time) beyond which a row's time is none to wait
     #: for (a damaged row, a time in other units): the row goes out at once, as a row with no time does.
     FAR = 1e6
+    #: Seconds a row's time may be ahead of the next row's, which is not behind the row before it, before
+    #: the row counts as damaged (it goes out at once instead of being waited for).
+    SPIKE = 1.0
 
     def setup(self) -> None:
         self.emitted = 0
@@ -275,7 +278,11 @@ source.mag -> fuse.mag
         if not finite.all():
             k = int(np.argmin(finite))
             log.warning(
-                "replay '%s': %s: row %d has no time (%s); it goes out at once", self.name, path, k + 1, t[k]
+                "replay '%s': %s: data row %d has no time (%s); it goes out at once",
+                self.name,
+                path,
+                k + 1,
+                t[k],
             )
         middle = float(np.median(t[finite])) if finite.any() else 0.0
         with np.errstate(over="ignore", invalid="ignore"):
@@ -283,7 +290,7 @@ source.mag -> fuse.mag
         if far.any():
             k = int(np.argmax(far))
             log.warning(
-                "replay '%s': %s: row %d has time %g, more than %g s from the recording's (about %g; %d such "
+                "replay '%s': %s: data row %d has time %g, more than %g s from the recording's (about %g; %d such "
                 "rows): a damaged row, or a time in other units? It goes out at once",
                 self.name,
                 path,
@@ -293,14 +300,33 @@ source.mag -> fuse.mag
                 middle,
                 int(far.sum()),
             )
-        timed = np.flatnonzero(finite & ~far)
+        # a row whose time is well ahead of the rows on both sides (505.0 between 4.99 and 5.01) is damaged:
+        # waited for, it would hold the replay silent for minutes, and the rows after it come in a burst
+        spike = np.zeros(len(t), dtype=bool)
+        with np.errstate(invalid="ignore"):
+            spike[1:-1] = (t[1:-1] - t[2:] > self.SPIKE) & (t[2:] >= t[:-2])
+        spike &= finite & ~far
+        if spike.any():
+            k = int(np.argmax(spike))
+            log.warning(
+                "replay '%s': %s: data row %d has time %g, ahead of the rows on both sides (%g, %g; %d such "
+                "rows): a damaged row; it goes out at once",
+                self.name,
+                path,
+                k + 1,
+                t[k],
+                t[k - 1],
+                t[k + 1],
+                int(spike.sum()),
+            )
+        timed = np.flatnonzero(finite & ~far & ~spike)
         self._waits = np.full(len(t), math.nan)
         self._waits[timed] = t[timed]
         back = np.flatnonzero(np.diff(t[timed]) < 0)
         if len(back):
             k, before = int(timed[back[0] + 1]), int(timed[back[0]])
             log.warning(
-                "replay '%s': %s: time goes back at row %d (%g after %g; %d such rows), so the rows after it "
+                "replay '%s': %s: time goes back at data row %d (%g after %g; %d such rows), so the rows after it "
                 "go out in a burst: two takes in one file (record append=true)? Replay them as two files",
                 self.name,
                 path,

@@ -486,7 +486,22 @@ def test_replay_sends_a_row_whose_time_is_far_from_the_recordings_at_once_and_sa
     rt.run(10)
     assert [m.value[0] for m in rt.nodes["got"].messages] == [1.0, 2.0, 3.0, 4.0]
     said = [r.getMessage() for r in caplog.records if r.levelname in ("WARNING", "ERROR")]
-    assert len(said) == 1 and f"{take}: row 3 has time 1e+308" in said[0] and "goes out at once" in said[0]
+    assert (
+        len(said) == 1 and f"{take}: data row 3 has time 1e+308" in said[0] and "goes out at once" in said[0]
+    )
+
+
+def test_replay_sends_a_row_whose_time_is_ahead_of_both_neighbours_at_once_and_says_so(tmp_path, caplog):
+    take = tmp_path / "take.csv"
+    rows = "".join(f"{k / 100:.2f},{k}\n" for k in range(6))
+    take.write_text("t,value\n" + rows.replace("0.03,3", "300.03,3"))  # one damaged time: 5 minutes ahead
+    rt = patch(f"node src replay file={take} speed=1\nnode got collect\nsrc.row -> got\n", realtime=True)
+    rt.run(10)  # it ends with the take, not 5 minutes later
+    assert [m.value[0] for m in rt.nodes["got"].messages] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    said = [r.getMessage() for r in caplog.records if r.levelname in ("WARNING", "ERROR")]
+    assert (
+        len(said) == 1 and f"{take}: data row 4 has time 300.03, ahead of the rows on both sides" in said[0]
+    )
 
 
 def test_replay_says_where_the_time_goes_back(tmp_path, caplog):
@@ -496,7 +511,11 @@ def test_replay_says_where_the_time_goes_back(tmp_path, caplog):
     rt.start()  # said as the file is loaded
     rt.shutdown()
     said = [r.getMessage() for r in caplog.records if "time goes back" in r.getMessage()]
-    assert len(said) == 1 and "row 3 (0.005 after 0.01; 1 such rows)" in said[0] and "append=true" in said[0]
+    assert (
+        len(said) == 1
+        and "data row 3 (0.005 after 0.01; 1 such rows)" in said[0]
+        and "append=true" in said[0]
+    )
 
 
 def test_replay_negative_speed_is_a_load_error_at_its_line(tmp_path):
