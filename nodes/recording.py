@@ -211,6 +211,27 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
             self._fh = None
 
 
+def _recorded(kind: Any, value: Any, t: float) -> Message:
+    """One NDJSON line's message, its value checked against its kind (a "float" that holds a string
+    would fail far downstream, in the middle of a show)."""
+    if not isinstance(kind, str) or not kind:
+        raise ValueError(f"kind must be a name, got {kind!r}")
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "vector":
+        return vector(value, t)
+    if kind == "float" and number:
+        return Message(kind, float(value), t)
+    if kind == "int" and isinstance(value, int) and not isinstance(value, bool):
+        return Message(kind, value, t)
+    if kind == "symbol" and isinstance(value, str):
+        return Message(kind, value, t)
+    if kind == "bang":
+        return Message(kind, None, t)
+    if kind not in ("float", "int", "symbol") and isinstance(value, list):  # a list, or a method message
+        return Message(kind, tuple(value), t)
+    raise ValueError(f"a {kind} message cannot hold {value!r}")
+
+
 @register("replay")
 class Replay(Node):
     """Play a recording back: in real time (``speed=1``), faster or slower, or as fast as possible (``speed=0``).
@@ -375,14 +396,9 @@ source.mag -> fuse.mag
             try:
                 d = json.loads(line)
                 kind, value, t = d["kind"], d["value"], float(d["t"])
+                messages.append(_recorded(kind, value, t))
             except (ValueError, KeyError, TypeError) as exc:
                 raise ValueError(f"{path}:{lineno}: not a recorded message: {exc}") from exc
-            if kind == "vector":
-                messages.append(vector(value, t))
-            elif kind in ("bang", "float", "int", "symbol"):
-                messages.append(Message(kind, value, t))
-            else:  # a list, or a method message
-                messages.append(Message(kind, tuple(value), t))
         self._messages = messages
         self._times = np.array([m.time for m in messages])
 

@@ -1,6 +1,7 @@
 """Sources and sinks through real parts: a pseudo-terminal for the mote, files for record and replay."""
 
 import os
+import re
 import time
 
 import numpy as np
@@ -474,6 +475,31 @@ def test_a_recording_that_cannot_be_read_names_the_file_and_the_line(tmp_path, n
     (tmp_path / name).write_bytes(data)
     rt = patch(f"node src replay file={tmp_path / name} speed=0\n", realtime=True)
     with pytest.raises(StartError, match=said):
+        rt.run(5)
+
+
+@pytest.mark.parametrize(
+    "line, said",
+    [
+        ('{"t": 0.02, "kind": "vector", "value": ["a", 1]}', "could not convert string to float: 'a'"),
+        ('{"t": 0.02, "kind": "list", "value": 3}', "a list message cannot hold 3"),
+        ('{"t": 0.02, "kind": "float", "value": "x"}', "a float message cannot hold 'x'"),
+        ('{"t": 0.02, "kind": "symbol", "value": 5}', "a symbol message cannot hold 5"),
+        ('{"t": 0.02, "kind": 7, "value": 5}', "kind must be a name, got 7"),
+    ],
+)
+def test_an_ndjson_line_whose_value_its_kind_cannot_hold_is_named_by_file_and_line(tmp_path, line, said):
+    # a "float" holding a string went downstream and failed there; a bad vector said only "'a'"
+    from pointat.runtime import StartError
+
+    take = tmp_path / "take.ndjson"
+    take.write_text(
+        '{"t": 0.0, "kind": "float", "value": 1}\n{"t": 0.01, "kind": "bang", "value": null}\n' + line
+    )
+    rt = patch(f"node src replay file={take} speed=0\n", realtime=True)
+    with pytest.raises(
+        StartError, match=re.escape(f"{take}:3: not a recorded message") + ".*" + re.escape(said)
+    ):
         rt.run(5)
 
 
