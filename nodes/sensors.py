@@ -29,6 +29,7 @@ from pointat.devices.serial_reader import (
     ReaderError,
     SerialMoteReader,
 )
+from pointat.errors import worth_reporting
 from pointat.message import Message, method, vector
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
@@ -172,6 +173,7 @@ base.1 -> nulls2 -> right
         self._reported = 0.0  # monotonic time of the last summary, or of the open
         self._last_frame: dict[int, float] = {}  # per mote: monotonic time of its last frame, or the open
         self._silent: set[int] = set()
+        self._silences: dict[int, int] = {}  # per mote: its silences so far (the log tells a few)
         self._was_lost = False
 
     def start(self) -> None:
@@ -279,13 +281,16 @@ base.1 -> nulls2 -> right
         for mote, last in self._last_frame.items():
             if mote not in self._silent and now - last > self.SILENT:
                 self._silent.add(mote)
-                log.warning(
-                    "mote '%s': no frames from mote %d on %s for %.0f s (the glove off, or out of range?)",
-                    self.name,
-                    mote,
-                    self.p.device,
-                    now - last,
-                )
+                n = self._silences[mote] = self._silences.get(mote, 0) + 1
+                if worth_reporting(n):  # a glove at the edge of the radio's range comes and goes
+                    log.warning(
+                        "mote '%s': no frames from mote %d on %s for %.0f s (the glove off, or out of range?)%s",
+                        self.name,
+                        mote,
+                        self.p.device,
+                        now - last,
+                        f" (silence {n})" if n > 1 else "",
+                    )
         if self._trouble.get("garbage", 0) < self.NOISE_BYTES:
             self._trouble.pop("garbage", None)
         if self._trouble and now - self._reported >= self.REPORT_EVERY:
@@ -336,18 +341,21 @@ base.1 -> nulls2 -> right
         if k is None:
             if frame.mote not in self._unknown:
                 self._unknown.add(frame.mote)
-                log.warning(
-                    "mote '%s': frames from mote %d, which ids=%s does not list: dropped",
-                    self.name,
-                    frame.mote,
-                    list(self.p.ids),
-                )
+                if worth_reporting(len(self._unknown)):  # noise that reads as frames brings many ids
+                    log.warning(
+                        "mote '%s': frames from mote %d, which ids=%s does not list: dropped%s",
+                        self.name,
+                        frame.mote,
+                        list(self.p.ids),
+                        f" ({len(self._unknown)} such ids so far)" if len(self._unknown) > 1 else "",
+                    )
                 self.out(len(self.out_specs) - 1, ("unknown_mote", frame.mote))
             return
         self.received += 1
         if frame.mote in self._silent:
             self._silent.discard(frame.mote)
-            log.warning("mote '%s': frames again from mote %d", self.name, frame.mote)
+            if worth_reporting(self._silences[frame.mote]):
+                log.warning("mote '%s': frames again from mote %d", self.name, frame.mote)
         self._last_frame[frame.mote] = seen
         t = self._clocks[frame.mote].time(frame, host_time)
         self.out(k, vector(frame.channels, t))

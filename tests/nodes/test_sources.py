@@ -383,6 +383,29 @@ def test_mote_tells_the_log_of_a_silence_and_sums_up_lost_and_damaged_frames(mon
         os.close(slave)
 
 
+def test_a_mote_that_keeps_coming_and_going_is_told_of_a_few_times_and_so_are_unknown_ids(caplog):
+    # a glove at the edge of the radio's range wrote two lines a second; noise brought 254 unknown ids
+    from pointat.devices.serial_reader import DeviceOpened
+
+    rt = patch("node base mote ids=[1] rate=100\nnode ev collect\nbase.events -> ev\n")
+    base = rt.nodes["base"]
+    base._event(DeviceOpened("/dev/x", "/dev/x", 1))
+    now = base._last_frame[1]
+    for k in range(12):
+        now += 2 * base.SILENT
+        base._health(now)  # silent
+        base._frame(Frame(1, k, (2048,) * 9), now, float(k))  # back
+    for mote in range(2, 256):
+        base._frame(Frame(mote, 0, (2048,) * 9), now, 12.0)
+    said = [r.getMessage() for r in caplog.records]
+    silences = [m for m in said if "no frames from mote 1" in m]
+    assert len(silences) == 4 and silences[-1].endswith("(silence 10)")  # the 1st, 2nd, 3rd, 10th
+    assert sum("frames again from mote 1" in m for m in said) == 4
+    unknown = [m for m in said if "which ids=[1] does not list" in m]
+    assert len(unknown) == 5 and unknown[-1].endswith("(100 such ids so far)")  # 1, 2, 3, 10, 100
+    assert sum(v[0] == "unknown_mote" for v in rt.nodes["ev"].values) == 254  # each one on the outlet
+
+
 def test_mote_waits_for_a_device_that_is_not_there_yet_without_a_thread_of_its_own(tmp_path):
     import threading
 
