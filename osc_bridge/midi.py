@@ -375,6 +375,10 @@ class MidiSender:
 
 
 # --------------------------------------------------------------------------- standard MIDI files
+#: The largest delta time a MIDI file's variable-length quantity holds (4 bytes, 28 bits).
+MAX_DELTA = 0x0FFFFFFF
+
+
 def _varlen(n: int) -> bytes:
     """A MIDI variable-length quantity (7 bits a byte, high bit set on all but the last).
 
@@ -440,7 +444,14 @@ class MidiFileWriter:
         """Append ``msg`` at ``time`` seconds."""
         if msg.is_meta or msg.is_realtime:
             raise ValueError(f"cannot write {msg.type} into a MIDI file track")
+        if not math.isfinite(time):
+            raise ValueError(f"time {time} is not a number of seconds: {msg.type} not written")
         tick = max(self._tick, self.ticks(time))
+        if tick - self._tick > MAX_DELTA:  # a damaged time stamp: the file would no longer read
+            raise ValueError(
+                f"time {time:g} s is {(tick - self._tick) / self.ticks_per_second / 3600:.3g} hours after the "
+                f"last message, more than a MIDI file can say in one step: {msg.type} not written"
+            )
         with self._lock:
             self._append(_varlen(tick - self._tick) + bytes(msg.bytes()))
             self._tick = tick

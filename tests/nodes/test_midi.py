@@ -277,6 +277,20 @@ def test_file_is_readable_after_every_message_before_it_is_closed(tmp_path):
     assert mido.MidiFile(path).tracks[0][-1].type == "end_of_track"
 
 
+def test_a_damaged_time_stamp_is_refused_and_the_file_still_reads(tmp_path):
+    # a replayed row stamped 1e300 wrote a delta of ~1e302 ticks: no MIDI reader took the file after it
+    path = tmp_path / "take.mid"
+    w = MidiFileWriter(path)
+    w.write(mido.Message("control_change", control=10, value=1), 0.5)
+    for bad in (1e300, math.inf, math.nan):
+        with pytest.raises(ValueError, match="not written"):
+            w.write(mido.Message("control_change", control=10, value=9), bad)
+    w.write(mido.Message("control_change", control=10, value=2), 1.0)
+    w.close()
+    got = [(m.value, m.time) for m in mido.MidiFile(path).tracks[0] if not m.is_meta]
+    assert got == [(1, 480), (2, 480)]  # 120 bpm, 480 per beat: 0.5 s apart
+
+
 def test_no_port_and_no_file_falls_back_to_a_file_when_there_is_no_midi_system(tmp_path, monkeypatch, caplog):
     def no_system():
         raise ImportError("No module named 'rtmidi'")
