@@ -67,6 +67,7 @@ from pointat.maths.quaternion import quat_multiply, quat_normalize
 from pointat.maths.scalar import MAX_RATE_SQUARED
 
 __all__ = [
+    "ACC_LIMIT",
     "GRAVITY_REF",
     "magnetic_reference",
     "gain_from_crossover",
@@ -86,6 +87,11 @@ __all__ = [
 GRAVITY_REF = np.array([0.0, 0.0, 1.0])
 
 _INF = math.inf
+#: A specific force more than this many times the one the filter started with (at rest: gravity) is not
+#: taken for gravity, like NaN: no hand makes it, and one corrupt sample that large (a damaged recording,
+#: a float sensor's glitch) would tilt the earth-frame low-pass for minutes.  The unit stays free.
+ACC_LIMIT = 8.0
+_ACC_LIMIT_SQUARED = ACC_LIMIT * ACC_LIMIT
 _TWO_PI = 2.0 * math.pi
 # below this squared half-angle the exponential map uses its Taylor series (error < 1e-18)
 _EXP_TAYLOR = 1e-8
@@ -437,7 +443,8 @@ class TQTFlags(IntFlag):
     NONE = 0
     #: gyro not finite, or beyond :data:`~pointat.maths.scalar.MAX_RATE`: no rate propagation this step
     GYRO_INVALID = 1
-    #: accelerometer zero or not finite: no gravity correction this step
+    #: accelerometer zero, not finite, or beyond :data:`ACC_LIMIT` times the first reading: no gravity
+    #: correction this step
     ACC_INVALID = 2
     #: magnetometer zero or not finite: no magnetic correction this step
     MAG_INVALID = 4
@@ -731,6 +738,7 @@ class TQTFilter(_TQTParams):
         self._lp_gyr: tuple[float, float, float] | None = None
         self._lp_acc = (0.0, 0.0, 0.0)
         self._acc_e: tuple[float, float, float] | None = None  # earth-frame acceleration low-pass
+        self._a2_max = _INF  # ACC_LIMIT times the first reading, squared, once there is one
         self._mag_norm: float | None = None  # reference |B|
         self._dip_ref: float | None = self.dip
         self._n = (0.0, 0.0, 0.0) if self.dip is None else (math.cos(self.dip), 0.0, -math.sin(self.dip))
@@ -799,7 +807,7 @@ class TQTFilter(_TQTParams):
             return (self._w, self._x, self._y, self._z)
         g_ok = gx * gx + gy * gy + gz * gz < MAX_RATE_SQUARED  # NaN compares False
         a2 = ax * ax + ay * ay + az * az
-        a_ok = 0.0 < a2 < _INF
+        a_ok = 0.0 < a2 < self._a2_max
         m2 = mx * mx + my * my + mz * mz
         m_ok = 0.0 < m2 < _INF
         flags = (0 if g_ok else _GYRO_INVALID) | (0 if a_ok else _ACC_INVALID) | (0 if m_ok else _MAG_INVALID)
@@ -840,6 +848,7 @@ class TQTFilter(_TQTParams):
             self._initialised = True
         if self._acc_e is None and a_ok:
             self._acc_e = _rotate(self._w, self._x, self._y, self._z, *acc)
+            self._a2_max = _ACC_LIMIT_SQUARED * (acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2])
             self._lp_acc = acc
             self._lp_gyr = gyro if g_ok else (0.0, 0.0, 0.0)
         if self._mag_norm is None and m_ok and (a_ok or self._dip_ref is not None):
@@ -1242,6 +1251,7 @@ class TQTBank(_TQTParams):
         self._lp_acc = np.zeros((3, n))
         self._acc_e = np.zeros((3, n))
         self._acc_known = np.zeros(n, dtype=bool)
+        self._a2_max = np.full(n, _INF)  # as TQTFilter's
         self._mag_norm = np.zeros(n)
         self._mag_known = np.zeros(n, dtype=bool)
         dip = math.nan if self.dip is None else self.dip
@@ -1277,7 +1287,7 @@ class TQTBank(_TQTParams):
     #: The per-sensor state, each array's last axis the sensor: what an absent sensor keeps.
     _STATE = (
         "_q", "_initialised", "_flags", "_bias", "_rest_t", "_lp_gyr", "_lp_acc", "_acc_e", "_acc_known",
-        "_mag_norm", "_mag_known", "_dip_ref", "_nref",
+        "_a2_max", "_mag_norm", "_mag_known", "_dip_ref", "_nref",
     )  # fmt: skip
 
     def update(
@@ -1339,7 +1349,7 @@ class TQTBank(_TQTParams):
             a2 = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
             m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
             g_ok = g2 < MAX_RATE_SQUARED
-            a_ok = (a2 > 0.0) & (a2 < _INF)
+            a_ok = (a2 > 0.0) & (a2 < self._a2_max)
             m_ok = (m2 > 0.0) & (m2 < _INF)
             flags = np.where(g_ok, 0, _GYRO_INVALID) | np.where(a_ok, 0, _ACC_INVALID)
             flags |= np.where(m_ok, 0, _MAG_INVALID)
@@ -1379,6 +1389,7 @@ class TQTBank(_TQTParams):
             self._lp_acc,
             self._acc_e,
             self._acc_known,
+            self._a2_max,
             self._mag_norm,
             self._mag_known,
             self._dip_ref,
@@ -1422,6 +1433,7 @@ class TQTBank(_TQTParams):
             self._acc_e[:, new_acc] = _rotate(w, x, y, z, *a[:, new_acc])
             self._lp_acc[:, new_acc] = a[:, new_acc]
             self._lp_gyr[:, new_acc] = np.where(g_ok[new_acc], g[:, new_acc], 0.0)
+            self._a2_max[new_acc] = _ACC_LIMIT_SQUARED * a2[new_acc]
             self._acc_known |= new_acc
         has_dip = self.dip is not None
         new_mag = self._initialised & ~self._mag_known & m_ok & (a_ok | has_dip)

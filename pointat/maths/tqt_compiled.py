@@ -23,6 +23,7 @@ from typing import Any
 from pointat.maths.scalar import MAX_RATE_SQUARED
 from pointat.maths.tqt import (
     _ACC_INVALID,
+    _ACC_LIMIT_SQUARED,
     _DT_INVALID,
     _EXP_TAYLOR,
     _GYRO_INVALID,
@@ -85,7 +86,7 @@ def _triad(ax: float, ay: float, az: float, mx: float, my: float, mz: float) -> 
     return True, q0, q1, q2, q3
 
 
-def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_e, acc_known,  # noqa: PLR0913
+def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_e, acc_known, a2_max,  # noqa: PLR0913
                  mag_norm, mag_known, dip_ref, nref, has_dip, use_gyro, rest_gyro, rest_acc, rest_time,
                  bias_clip, mag_norm_tol, mag_dip_tol, c_acc, c_rest, c_bias, c_ref, alpha, alpha_mag):  # fmt: skip
     """One sample for every sensor: ``g``, ``a``, ``m`` of shape (n, 3); the state arrays are changed."""
@@ -99,7 +100,7 @@ def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_
             continue
         g_ok = gx * gx + gy * gy + gz * gz < MAX_RATE_SQUARED
         a2 = ax * ax + ay * ay + az * az
-        a_ok = 0.0 < a2 < _INF
+        a_ok = 0.0 < a2 < a2_max[i]
         m2 = mx * mx + my * my + mz * mz
         m_ok = 0.0 < m2 < _INF
         fl = (0 if g_ok else _GYRO_INVALID) | (0 if a_ok else _ACC_INVALID) | (0 if m_ok else _MAG_INVALID)
@@ -115,6 +116,7 @@ def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_
                     ex, ey, ez = _rotate(q[0, i], q[1, i], q[2, i], q[3, i], ax, ay, az)
                     acc_e[0, i], acc_e[1, i], acc_e[2, i] = ex, ey, ez
                     lp_acc[0, i], lp_acc[1, i], lp_acc[2, i] = ax, ay, az
+                    a2_max[i] = _ACC_LIMIT_SQUARED * a2
                     if g_ok:
                         lp_gyr[0, i], lp_gyr[1, i], lp_gyr[2, i] = gx, gy, gz
                     else:

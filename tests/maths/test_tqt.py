@@ -16,6 +16,7 @@ from pointat.maths.quaternion import (
 )
 from pointat.maths.scalar import MAX_RATE
 from pointat.maths.tqt import (
+    ACC_LIMIT,
     GRAVITY_REF,
     TQTBank,
     TQTFilter,
@@ -511,6 +512,29 @@ def test_reset():
     assert f.magnetic_dip == pytest.approx(math.atan2(40.0, 20.0))
 
 
+@pytest.mark.parametrize("mode", ["robust", "paper"])
+def test_one_huge_acceleration_is_refused_like_nan_and_leaves_no_trace(mode):
+    """A damaged recording or a float sensor's glitch: one sample of 1e3 m/s² (or 1e30) tilted the robust
+    filter's earth-frame low-pass for minutes; beyond ACC_LIMIT times the first reading it is no gravity."""
+    dt, _q, gyro, acc, mag = synthetic(seed=3, seconds=6.0, rest=2.0, noise=True)
+    k = 300
+    runs = {}
+    for name, value in (("spike", 1e3), ("huge", 1e30), ("nan", math.nan), ("7 g", 7.0 * G)):
+        f = TQTFilter(mode=mode)
+        out = []
+        for i in range(len(gyro)):
+            a = (0.0, 0.0, value) if i == k else acc[i]
+            out.append(f.update(gyro[i], a, mag[i], dt))
+            if i == k:
+                runs[name + " flags"] = f.flags
+        runs[name] = np.array(out)
+    np.testing.assert_array_equal(runs["spike"], runs["nan"])  # not a trace of it
+    np.testing.assert_array_equal(runs["huge"], runs["nan"])
+    assert TQTFlags.ACC_INVALID in runs["spike flags"] and TQTFlags.ACC_INVALID in runs["huge flags"]
+    assert TQTFlags.ACC_INVALID not in runs["7 g flags"]  # a hard gesture: taken, as before
+    assert ACC_LIMIT == 8.0
+
+
 def test_invalid_parameters():
     with pytest.raises(ValueError):
         TQTFilter(mode="kalman")  # type: ignore[arg-type]
@@ -561,6 +585,8 @@ def test_bank_equals_independent_filters(params, require_tool):
             arr[idx, who] = fill
     idx, who = rng.integers(0, len(gyro), 50), rng.integers(0, n, 50)
     gyro[idx, who] = 1e30  # glitches beyond MAX_RATE: refused by every sensor's filter alike
+    idx, who = rng.integers(100, len(acc), 50), rng.integers(0, n, 50)
+    acc[idx, who] *= rng.choice([5.0, 1e3, 1e30], 50)[:, None]  # beyond ACC_LIMIT x the first: refused alike
     acc[:30, 2] = np.nan  # sensor 2 starts late
     bank = TQTBank(n, backend=backend, **params)
     assert bank.backend == ("numpy" if params["mode"] == "paper" else backend)
