@@ -63,6 +63,20 @@ MAX_DEPTH = 250
 PARAM_TYPES = ("float", "int", "bool", "symbol", "path", "list", "vector")
 
 
+def _check_arguments(sel: str, fn: Callable[..., Any], args: Sequence[Any]) -> None:
+    """Raise a TypeError in the sender's words when ``args`` do not fit method ``fn``'s parameters."""
+    sig = inspect.signature(fn)
+    try:
+        sig.bind(*args)
+    except TypeError:
+        names = [
+            p.name.upper() if p.default is inspect.Parameter.empty else f"[{p.name.upper()}]"
+            for p in sig.parameters.values()
+        ]
+        takes = f"'{sel} {' '.join(names)}'" if names else f"'{sel}' alone, no values"
+        raise TypeError(f"method '{sel}' takes {takes}; got {len(args)} value(s) {tuple(args)}") from None
+
+
 class ParamError(ValueError):
     """A parameter value does not fit its declaration; the loader adds the place."""
 
@@ -416,7 +430,11 @@ class Node:
             self.set_param(sel, args[0] if len(args) == 1 else list(args))
             return True
         if fn is not None:
-            fn(*msg.value)
+            try:
+                fn(*msg.value)
+            except TypeError:
+                _check_arguments(sel, fn, msg.value)  # the sender's mistake, said as the sender sees it
+                raise
             return True
         if index < len(self.in_specs) and "any" in self.in_specs[index].accepts:
             return False

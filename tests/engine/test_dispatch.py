@@ -462,3 +462,27 @@ def test_a_crossover_of_0_sent_live_is_refused_and_the_fusion_goes_on():
     with pytest.raises(ValueError, match="'crossover' expects a number > 0; got 0"):
         rt.nodes["f"].set_param("crossover", 0.0)
     assert rt.nodes["f"].p.crossover == 0.2
+
+
+def test_a_method_sent_with_the_wrong_values_says_what_it_takes():
+    # /pointat/base/open with no path said "Mote.do_open() missing 1 required positional argument: 'path'"
+    rt = patch("node base mote ids=[1]\nnode n offset\nnode c calibrate\n")
+    for node, msg, said in (
+        ("base", method("open"), "method 'open' takes 'open PATH'; got 0 value(s) ()"),
+        ("n", method("recalibrate", 1), "method 'recalibrate' takes 'recalibrate' alone, no values; got 1"),
+        ("c", method("turn_end", 1, 2, 3), "method 'turn_end' takes 'turn_end [ANGLE_DEG] [AXIS]'; got 3"),
+    ):
+        with pytest.raises(TypeError, match=re.escape(said)):
+            rt.nodes[node].receive(0, msg)
+
+
+def test_a_type_error_inside_a_method_is_not_blamed_on_its_values():
+    class Broken(Node):
+        type_name = "broken_test"
+
+        def do_go(self, x):
+            return len(x)  # a number has no len: the method's own bug, told as it is
+
+    node = Broken("b", Broken.resolve_params())
+    with pytest.raises(TypeError, match="has no len"):
+        node._method(0, method("go", 3))
