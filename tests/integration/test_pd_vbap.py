@@ -68,6 +68,11 @@ def _osc(address: str, args) -> bytes:
     return b.build().dgram
 
 
+def pd_command(patch: Path) -> list[str]:
+    """A headless Pd opening ``patch``, with the shipped abstractions on its path."""
+    return [PD, "-nogui", "-noaudio", "-noprefs", "-stderr", "-path", str(EXAMPLES), "-open", str(patch)]
+
+
 class PdReceiver:
     """A headless Pd running a copy of a shipped receiver patch on free ports; replies collected here."""
 
@@ -85,19 +90,10 @@ class PdReceiver:
         self.tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 
     def start(self) -> None:
-        cmd = [
-            PD,
-            "-nogui",
-            "-noaudio",
-            "-noprefs",
-            "-stderr",
-            "-path",
-            str(EXAMPLES),
-            "-open",
-            str(self.patch),
-        ]
         with open(self.log, "wb") as log:
-            self.proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT)
+            self.proc = subprocess.Popen(
+                pd_command(self.patch), stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT
+            )
         self.gains()  # the receiver's loadbang sets the layout and bangs [vbap]: Pd is listening
 
     def send(self, address: str, args) -> None:
@@ -247,19 +243,8 @@ def test_vbap_osc_inlet_takes_a_source_numbered_as_a_float_as_the_readme_says(tm
             r"#X msg 20 50 define_loudspeakers 2 -45 45 \, 2 -30 0 0 \, 1 30 0 0 \, 1 -10 0 0;"
             f"\n#X obj 20 80 vbap_osc 0 1 {rx.getsockname()[1]};\n#X connect 0 0 1 0;\n#X connect 1 0 2 0;\n"
         )
-        cmd = [
-            PD,
-            "-nogui",
-            "-noaudio",
-            "-noprefs",
-            "-stderr",
-            "-path",
-            str(EXAMPLES),
-            "-open",
-            str(patch_file),
-        ]
         proc = subprocess.Popen(
-            cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
+            pd_command(patch_file), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
         )
         got: list[list[float]] = []
         try:
