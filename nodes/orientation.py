@@ -341,11 +341,11 @@ class TQT(SampleClock, Flagged, Node):
     Gauss-Newton correction with the reduced 3x3 X matrix (Bachmann patent Eq. 29), gain ``k`` (errors
     decay as e^(-k t); crossover k/2pi Hz in paper mode, lower in robust mode, which low-passes the
     acceleration over 2 s first: 0.067 Hz at k = 1), magnetometer weight ``rho``.  ``mode=paper`` is
-    the seeds' filter exactly; ``mode=robust`` (default) adds heading-only magnetic correction, gyro
+    the seeds' filter exactly (glitches aside, below); ``mode=robust`` (default) adds heading-only magnetic correction, gyro
     bias learned at rest, earth-frame acceleration averaging and magnetic gating.  ``use_gyro=false``
     tracks from accel/mag alone.  A glitch is skipped like NaN: a rate beyond 100 rad/s, or a specific
     force beyond 8 times the first one read (at rest, gravity; ``ACC_LIMIT``), which would tilt the
-    acceleration average for minutes.
+    acceleration average for minutes; 50 such readings in a row set that limit anew.
     Send the gyro last (the left inlet is hot): mote and scaling nodes output right to left, so wiring
     gyro, accel and mag outlets to the same-named inlets does this.
     """

@@ -68,6 +68,7 @@ from pointat.maths.scalar import MAX_RATE_SQUARED
 
 __all__ = [
     "ACC_LIMIT",
+    "ACC_RELEARN",
     "GRAVITY_REF",
     "magnetic_reference",
     "gain_from_crossover",
@@ -92,6 +93,10 @@ _INF = math.inf
 #: a float sensor's glitch) would tilt the earth-frame low-pass for minutes.  The unit stays free.
 ACC_LIMIT = 8.0
 _ACC_LIMIT_SQUARED = ACC_LIMIT * ACC_LIMIT
+#: Samples in a row beyond the limit after which the limit is learned again from the reading: a glitch is
+#: a sample or a few, while a first reading that was too small (a sensor settling at power-on) must not
+#: refuse gravity for good.
+ACC_RELEARN = 50
 _TWO_PI = 2.0 * math.pi
 # below this squared half-angle the exponential map uses its Taylor series (error < 1e-18)
 _EXP_TAYLOR = 1e-8
@@ -443,8 +448,8 @@ class TQTFlags(IntFlag):
     NONE = 0
     #: gyro not finite, or beyond :data:`~pointat.maths.scalar.MAX_RATE`: no rate propagation this step
     GYRO_INVALID = 1
-    #: accelerometer zero, not finite, or beyond :data:`ACC_LIMIT` times the first reading: no gravity
-    #: correction this step
+    #: accelerometer zero, not finite, or beyond :data:`ACC_LIMIT` times the first reading (for fewer
+    #: than :data:`ACC_RELEARN` samples in a row): no gravity correction this step
     ACC_INVALID = 2
     #: magnetometer zero or not finite: no magnetic correction this step
     MAG_INVALID = 4
@@ -739,6 +744,7 @@ class TQTFilter(_TQTParams):
         self._lp_acc = (0.0, 0.0, 0.0)
         self._acc_e: tuple[float, float, float] | None = None  # earth-frame acceleration low-pass
         self._a2_max = _INF  # ACC_LIMIT times the first reading, squared, once there is one
+        self._a_over = 0  # samples in a row beyond it
         self._mag_norm: float | None = None  # reference |B|
         self._dip_ref: float | None = self.dip
         self._n = (0.0, 0.0, 0.0) if self.dip is None else (math.cos(self.dip), 0.0, -math.sin(self.dip))
@@ -807,7 +813,12 @@ class TQTFilter(_TQTParams):
             return (self._w, self._x, self._y, self._z)
         g_ok = gx * gx + gy * gy + gz * gz < MAX_RATE_SQUARED  # NaN compares False
         a2 = ax * ax + ay * ay + az * az
-        a_ok = 0.0 < a2 < self._a2_max
+        if a2 < self._a2_max:
+            a_ok = 0.0 < a2
+            if self._a_over:
+                self._a_over = 0
+        else:  # beyond the limit (or NaN): a glitch, unless it lasts
+            a_ok = self._over_limit(a2)
         m2 = mx * mx + my * my + mz * mz
         m_ok = 0.0 < m2 < _INF
         flags = (0 if g_ok else _GYRO_INVALID) | (0 if a_ok else _ACC_INVALID) | (0 if m_ok else _MAG_INVALID)
@@ -827,6 +838,18 @@ class TQTFilter(_TQTParams):
             flags |= self._update_robust(g_ok, gx, gy, gz, a_ok, ax, ay, az, m_use, mx, my, mz, dt)
         self._flags = flags
         return (self._w, self._x, self._y, self._z)
+
+    def _over_limit(self, a2: float) -> bool:
+        """A reading beyond :data:`ACC_LIMIT`: refused, but the :data:`ACC_RELEARN`-th in a row sets the
+        limit anew (NaN and infinity are never taken)."""
+        if not a2 < _INF:
+            self._a_over = 0
+            return False
+        self._a_over += 1
+        if self._a_over < ACC_RELEARN:
+            return False
+        self._a2_max, self._a_over = _ACC_LIMIT_SQUARED * a2, 0
+        return True
 
     def _learn(
         self,
@@ -1252,6 +1275,7 @@ class TQTBank(_TQTParams):
         self._acc_e = np.zeros((3, n))
         self._acc_known = np.zeros(n, dtype=bool)
         self._a2_max = np.full(n, _INF)  # as TQTFilter's
+        self._a_over = np.zeros(n, dtype=np.int64)
         self._mag_norm = np.zeros(n)
         self._mag_known = np.zeros(n, dtype=bool)
         dip = math.nan if self.dip is None else self.dip
@@ -1287,7 +1311,7 @@ class TQTBank(_TQTParams):
     #: The per-sensor state, each array's last axis the sensor: what an absent sensor keeps.
     _STATE = (
         "_q", "_initialised", "_flags", "_bias", "_rest_t", "_lp_gyr", "_lp_acc", "_acc_e", "_acc_known",
-        "_a2_max", "_mag_norm", "_mag_known", "_dip_ref", "_nref",
+        "_a2_max", "_a_over", "_mag_norm", "_mag_known", "_dip_ref", "_nref",
     )  # fmt: skip
 
     def update(
@@ -1349,7 +1373,13 @@ class TQTBank(_TQTParams):
             a2 = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
             m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
             g_ok = g2 < MAX_RATE_SQUARED
-            a_ok = (a2 > 0.0) & (a2 < self._a2_max)
+            under = a2 < self._a2_max
+            self._a_over = np.where(~under & (a2 < _INF), self._a_over + 1, 0)  # as TQTFilter._over_limit
+            relearn = self._a_over >= ACC_RELEARN
+            if relearn.any():
+                self._a2_max = np.where(relearn, _ACC_LIMIT_SQUARED * a2, self._a2_max)
+                self._a_over[relearn] = 0
+            a_ok = (a2 > 0.0) & (under | relearn)
             m_ok = (m2 > 0.0) & (m2 < _INF)
             flags = np.where(g_ok, 0, _GYRO_INVALID) | np.where(a_ok, 0, _ACC_INVALID)
             flags |= np.where(m_ok, 0, _MAG_INVALID)
@@ -1390,6 +1420,7 @@ class TQTBank(_TQTParams):
             self._acc_e,
             self._acc_known,
             self._a2_max,
+            self._a_over,
             self._mag_norm,
             self._mag_known,
             self._dip_ref,

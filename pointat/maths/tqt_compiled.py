@@ -32,6 +32,7 @@ from pointat.maths.tqt import (
     _MAG_INVALID,
     _REST,
     _UNINITIALISED,
+    ACC_RELEARN,
     _mul_exp,
     _rotate,
 )
@@ -86,7 +87,7 @@ def _triad(ax: float, ay: float, az: float, mx: float, my: float, mz: float) -> 
     return True, q0, q1, q2, q3
 
 
-def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_e, acc_known, a2_max,  # noqa: PLR0913
+def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_e, acc_known, a2_max, a_over,  # noqa: PLR0913
                  mag_norm, mag_known, dip_ref, nref, has_dip, use_gyro, rest_gyro, rest_acc, rest_time,
                  bias_clip, mag_norm_tol, mag_dip_tol, c_acc, c_rest, c_bias, c_ref, alpha, alpha_mag):  # fmt: skip
     """One sample for every sensor: ``g``, ``a``, ``m`` of shape (n, 3); the state arrays are changed."""
@@ -100,7 +101,18 @@ def _robust_step(g, a, m, dt, q, init, flags, bias, rest_t, lp_gyr, lp_acc, acc_
             continue
         g_ok = gx * gx + gy * gy + gz * gz < MAX_RATE_SQUARED
         a2 = ax * ax + ay * ay + az * az
-        a_ok = 0.0 < a2 < a2_max[i]
+        if a2 < a2_max[i]:  # TQTFilter._over_limit
+            a_ok = 0.0 < a2
+            a_over[i] = 0
+        elif not a2 < _INF:
+            a_ok = False
+            a_over[i] = 0
+        else:
+            a_over[i] += 1
+            a_ok = a_over[i] >= ACC_RELEARN
+            if a_ok:
+                a2_max[i] = _ACC_LIMIT_SQUARED * a2
+                a_over[i] = 0
         m2 = mx * mx + my * my + mz * mz
         m_ok = 0.0 < m2 < _INF
         fl = (0 if g_ok else _GYRO_INVALID) | (0 if a_ok else _ACC_INVALID) | (0 if m_ok else _MAG_INVALID)

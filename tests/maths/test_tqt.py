@@ -17,6 +17,7 @@ from pointat.maths.quaternion import (
 from pointat.maths.scalar import MAX_RATE
 from pointat.maths.tqt import (
     ACC_LIMIT,
+    ACC_RELEARN,
     GRAVITY_REF,
     TQTBank,
     TQTFilter,
@@ -535,6 +536,22 @@ def test_one_huge_acceleration_is_refused_like_nan_and_leaves_no_trace(mode):
     assert ACC_LIMIT == 8.0
 
 
+@pytest.mark.parametrize("mode", ["robust", "paper"])
+def test_a_first_reading_far_too_small_refuses_gravity_only_for_a_while(mode):
+    # the limit is learned from the first reading: a sensor settling at power-on must not stop the filter
+    # from ever taking gravity again
+    f = TQTFilter(mode=mode)
+    f.update(ZERO3, (0.3, 0.0, 0.5), FIELD, 0.01)
+    refused = 0
+    for _ in range(200):
+        f.update(ZERO3, (0.0, 0.0, G), FIELD, 0.01)
+        refused += TQTFlags.ACC_INVALID in f.flags
+    assert refused == ACC_RELEARN - 1  # the 50th in a row sets the limit anew, and is taken
+    assert TQTFlags.ACC_INVALID not in f.flags
+    f.update(ZERO3, (0.0, 0.0, 1e3), FIELD, 0.01)  # and a glitch is refused again
+    assert TQTFlags.ACC_INVALID in f.flags
+
+
 def test_invalid_parameters():
     with pytest.raises(ValueError):
         TQTFilter(mode="kalman")  # type: ignore[arg-type]
@@ -587,6 +604,7 @@ def test_bank_equals_independent_filters(params, require_tool):
     gyro[idx, who] = 1e30  # glitches beyond MAX_RATE: refused by every sensor's filter alike
     idx, who = rng.integers(100, len(acc), 50), rng.integers(0, n, 50)
     acc[idx, who] *= rng.choice([5.0, 1e3, 1e30], 50)[:, None]  # beyond ACC_LIMIT x the first: refused alike
+    acc[0, 3] *= 0.01  # a first reading far too small: gravity refused, then the limit learned again
     acc[:30, 2] = np.nan  # sensor 2 starts late
     bank = TQTBank(n, backend=backend, **params)
     assert bank.backend == ("numpy" if params["mode"] == "paper" else backend)
