@@ -9,6 +9,7 @@ import math
 import os
 import signal
 import sys
+import threading
 from pathlib import Path
 
 from . import __version__
@@ -200,52 +201,62 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         rt.stop()
 
-    # the console's and the log's lines are written by threads of their own: a terminal paused with
-    # Ctrl-S, or a pipe nobody reads, must not stop the patch (lines that do not fit are counted)
-    out = LineWriter(sys.stdout, on_broken=reader_gone, name="console")
-    err = LineWriter(sys.stderr, name="log")
-    root = logging.getLogger()
-    saved = root.handlers[:]
-    handler = LineHandler(err)
-    handler.setFormatter(logging.Formatter(LOG_FORMAT))
-    root.handlers = [handler]
-    rt.console = out.write
-
     def on_signal(signum: int, _frame: object) -> None:
         log.info("signal %d: stopping", signum)
         rt.stop()
 
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    # the console's and the log's lines (Python's warnings too) are written by threads of their own: a
+    # terminal paused with Ctrl-S, or a pipe nobody reads, must not stop the patch (lines that do not fit
+    # are counted)
+    root = logging.getLogger()
+    saved_handlers = root.handlers[:]
+    # (signals are the main thread's to set: main() embedded in another thread leaves them alone)
+    ours = threading.current_thread() is threading.main_thread()
+    saved_signals = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)} if ours else {}
+    out = LineWriter(sys.stdout, on_broken=reader_gone, name="console")
+    err = LineWriter(sys.stderr, name="log")
     awake = None
-    if args.rt:
-        refused = realtime_priority()
-        if refused:
-            log.warning("--rt: real-time priority %s; running at normal priority", refused)
-        else:
-            log.info("running at real-time priority (SCHED_FIFO)")
-        awake, why = keep_cpus_awake()
-        if why:
-            log.warning("--rt: the CPUs may sleep deeply between samples: %s", why)
-        else:
-            log.info("the CPUs are kept out of deep idle states while the patch runs (%s)", CPU_DMA_LATENCY)
-    if rt.spin:
-        log.info(
-            "polling for input for %g ms after each input (--spin): one CPU busy while it flows", args.spin
-        )
-    log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
     try:
+        handler = LineHandler(err)
+        handler.setFormatter(logging.Formatter(LOG_FORMAT))
+        root.handlers = [handler]
+        logging.captureWarnings(True)
+        rt.console = out.write
+        for sig in saved_signals:
+            signal.signal(sig, on_signal)
+        if args.rt:
+            refused = realtime_priority()
+            if refused:
+                log.warning("--rt: real-time priority %s; running at normal priority", refused)
+            else:
+                log.info("running at real-time priority (SCHED_FIFO)")
+            awake, why = keep_cpus_awake()
+            if why:
+                log.warning("--rt: the CPUs may sleep deeply between samples: %s", why)
+            else:
+                log.info(
+                    "the CPUs are kept out of deep idle states while the patch runs (%s)", CPU_DMA_LATENCY
+                )
+        if rt.spin:
+            log.info(
+                "polling for input for %g ms after each input (--spin): one CPU busy while it flows",
+                args.spin,
+            )
+        log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
         rt.run(args.duration)
     finally:
         if awake is not None:
             os.close(awake)
-        root.handlers = saved
+        logging.captureWarnings(False)
+        root.handlers = saved_handlers
         # what waits is written before the end, as any program's output: a terminal still paused holds
         # the exit until Ctrl-Q (or Ctrl-C or a kill, which now end it at once)
-        signal.signal(signal.SIGINT, signal.SIG_DFL)
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        for sig in saved_signals:
+            signal.signal(sig, signal.SIG_DFL)
         out.close(None)
         err.close(None)
+        for sig, previous in saved_signals.items():
+            signal.signal(sig, signal.SIG_DFL if previous is None else previous)
     return 0
 
 

@@ -42,6 +42,7 @@ class LineWriter:
         self.stream = stream
         self.on_broken = on_broken
         self.dropped = 0  # lines dropped since the last notice
+        self.lost = 0  # lines the stream refused (closed, or no stream at all)
         self.broken = False
         self._lines: deque[str] = deque()
         self._cond = threading.Condition()
@@ -87,16 +88,24 @@ class LineWriter:
                     f"({dropped} lines not shown: the terminal did not take them; paused with Ctrl-S?)"
                 )
             try:
-                self.stream.write("".join(line + "\n" for line in lines))
-                self.stream.flush()
+                self._write("".join(line + "\n" for line in lines))
             except BrokenPipeError:
                 with self._cond:
                     self.broken = True
                     self._lines.clear()
                 if self.on_broken is not None:
                     self.on_broken()
-            except (OSError, ValueError):  # a closed stream: nothing to be done from here
-                pass
+            except Exception:  # a closed stream, or none (pythonw): the lines are lost, the thread goes on
+                with self._cond:
+                    self.lost += len(lines)
+
+    def _write(self, text: str) -> None:
+        try:
+            self.stream.write(text)
+        except UnicodeEncodeError:  # a terminal that cannot show a character (°, µ): escaped, not lost
+            encoding = getattr(self.stream, "encoding", None) or "ascii"
+            self.stream.write(text.encode(encoding, "backslashreplace").decode(encoding))
+        self.stream.flush()
 
 
 class LineHandler(logging.Handler):

@@ -50,3 +50,21 @@ def test_a_reader_gone_for_good_is_told_once_and_lines_are_dropped():
     writer.close(5)
     writer.write("second")  # dropped, quietly
     assert gone == [True] and writer.broken
+
+
+def test_no_stream_at_all_loses_the_lines_and_never_holds_up_the_end():
+    writer = LineWriter(None)  # sys.stdout is None under pythonw, a service, a GUI launcher
+    writer.write("azimuth 12")
+    assert writer.close(5) and writer.lost == 1  # it ends (close waited for a thread that had died)
+
+
+def test_a_character_the_terminal_cannot_show_is_escaped_not_lost():
+    import io
+
+    raw = io.BytesIO()
+    stream = io.TextIOWrapper(raw, encoding="ascii")
+    writer = LineWriter(stream)
+    for line in ("line 1", "azimuth 30°", "line 3"):
+        writer.write(line)
+    assert writer.close(5)
+    assert raw.getvalue().decode() == "line 1\nazimuth 30\\xb0\nline 3\n" and writer.lost == 0
