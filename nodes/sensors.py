@@ -41,20 +41,23 @@ ADC_DOC = "nine ADC counts 0..4095: gyro x y z, accel x y z, mag x y z"
 
 
 class _MoteClock:
-    """Sensor time of one mote from its frames: a frame is a sample period after the last one, and
-    after the packets the parser judged lost before it (``frame.lost``); a counter jump (``frame.jump``:
-    a restart, or more than the mote could have sent since its last frame) re-anchors on the host."""
+    """Sensor time of one mote from its frames: a frame is as many sample periods after the last one as its
+    packet counter moved (packets lost, or dropped on the way, advance time); a counter jump (the parser's
+    verdict, ``frame.jump``: a restart, or more than the mote could have sent since its last frame)
+    re-anchors on the host's time, as does the first frame."""
 
     def __init__(self, rate: float):
         self.rate = rate
         self.t0: float | None = None
         self.count = 0
+        self.last_n = 0
 
     def time(self, frame: Frame, host_time: float) -> float:
-        if self.t0 is None or frame.jump:  # the first frame, or the mote restarted
-            self.t0, self.count = host_time, 0
+        if self.t0 is None or frame.jump:
+            self.t0, self.count, self.last_n = host_time, 0, frame.n_pack
             return host_time
-        self.count += 1 + frame.lost
+        self.count += (frame.n_pack - self.last_n) & 0xFFFF
+        self.last_n = frame.n_pack
         return self.t0 + self.count / self.rate
 
 
@@ -196,6 +199,7 @@ base.1 -> nulls2 -> right
             on_event = lambda event: self.post(self._event, event, block=False)  # noqa: E731
         else:  # read on the scheduler thread itself: the callbacks run there
             on_frame, on_event = self._on_frame, self._event
+        self._clocks = {i: _MoteClock(self.p.rate) for i in self._outlet}  # a new reader: new time lines
         self._reader = SerialMoteReader(
             self.p.device,
             self.p.baud,

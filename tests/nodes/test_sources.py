@@ -96,6 +96,43 @@ def test_a_mote_restarted_with_its_counter_past_32767_is_a_restart_not_thousands
     assert times[2] - times[1] < 1.0  # re-anchored on the host's time, not 5.34 s of lost packets later
 
 
+def test_a_mote_opened_anew_starts_a_new_time_line_and_counts_packets_by_its_counter():
+    from nodes.sensors import _MoteClock
+
+    clock = _MoteClock(100.0)
+    assert clock.time(Frame(1, 10, (0,) * 9), 5.0) == 5.0
+    assert clock.time(Frame(1, 11, (0,) * 9), 5.01) == pytest.approx(5.01)
+    # a frame dropped on the way (no verdict came with it): the counter still says how far time went
+    assert clock.time(Frame(1, 14, (0,) * 9), 5.02) == pytest.approx(5.04)
+    assert clock.time(Frame(1, 0, (0,) * 9, jump=True), 9.0) == 9.0  # the parser's verdict: re-anchored
+
+    masters, slaves = zip(*(os.openpty() for _ in range(2)), strict=True)
+    rt = patch(
+        f"node base mote device={os.ttyname(slaves[0])} ids=[1] rate=100\nnode out collect\nbase.m1 -> out\n"
+        "node ctl osc_in port=0\n",  # live control keeps the patch running while the mote is closed
+        realtime=True,
+    )
+    th = rt.run_in_thread()
+    try:
+        assert wait_until(lambda: rt.nodes["base"]._reader.is_open)
+        os.write(masters[0], b"".join(encode_frame(Frame(1, n, (1,) * 9)) for n in range(10)))
+        assert wait_until(lambda: len(rt.nodes["out"].messages) == 10)
+        rt.send("base", "close")
+        time.sleep(0.5)  # the mote kept counting meanwhile; a new reader knows nothing of it
+        rt.send("base", "open", os.ttyname(slaves[1]))
+        assert wait_until(lambda: rt.nodes["base"]._reader is not None and rt.nodes["base"]._reader.is_open)
+        os.write(masters[1], encode_frame(Frame(1, 60, (2,) * 9)))
+        assert wait_until(lambda: len(rt.nodes["out"].messages) == 11)
+    finally:
+        rt.stop()
+        th.join(5)
+        for fd in (*masters, *slaves):
+            os.close(fd)
+    times = [m.time for m in rt.nodes["out"].messages]
+    assert times[9] - times[0] == pytest.approx(0.09)
+    assert times[10] - times[9] > 0.4  # anchored on the host's time anew, not one period after frame 9
+
+
 def test_mote_survives_the_device_vanishing_and_coming_back(tmp_path):
     link = tmp_path / "base"
     master, slave = os.openpty()
