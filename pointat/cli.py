@@ -314,16 +314,16 @@ def cmd_help(args: argparse.Namespace, registry: Registry) -> int:
 
 
 def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
-    from .loader import expand, rebase_paths
+    from .loader import rebase_paths
     from .patchfile import write_patch
 
     spec = read_spec(args.source)
     target = Path(args.target)
     check(spec, registry)  # never convert a broken patch
     if target.suffix == ".pd":
-        from .pdfile import write_pd, write_stubs
+        from .pdfile import flatten, write_pd, write_stubs
 
-        spec = expand(spec)
+        spec = flatten(spec)  # its header says which abstractions
         if target.stem in {d.type for d in spec.nodes}:  # Pd looks beside a patch first: itself
             print(
                 f"error: {target.name} is named like its own [{target.stem}] box: in Pd that box would open "

@@ -77,7 +77,7 @@ from .patchfile import format_value, parse_value
 from .registry import Registry, default_registry
 from .spec import NodeDecl, PatchSpec, Wire
 
-__all__ = ["STUB_FOLDER", "VANILLA", "parse_pd", "read_pd", "write_pd", "write_stubs"]
+__all__ = ["STUB_FOLDER", "VANILLA", "flatten", "parse_pd", "read_pd", "write_pd", "write_stubs"]
 
 log = logging.getLogger("pointat.pdfile")
 
@@ -833,23 +833,27 @@ def _is_abstraction(type_name: str) -> bool:
     return type_name.endswith(".pat") or "/" in type_name
 
 
+def flatten(spec: PatchSpec) -> PatchSpec:
+    """``spec`` with its abstraction instances expanded into their nodes (named ``INSTANCE/NODE``), as a
+    Pd file holds them, and a line of its header naming the instances; ``spec`` itself when it has none."""
+    instances = [f"{n.name} ({n.type})" for n in spec.nodes if _is_abstraction(n.type)]
+    if not instances:
+        return spec
+    from .loader import expand
+
+    flat = expand(spec)
+    note = f"Abstractions flattened, each into nodes named INSTANCE/NODE: {', '.join(instances)}."
+    flat.doc = "\n".join([spec.doc, note]).strip("\n")
+    return flat
+
+
 def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
     """Pd file text for a patch (abstraction instances are expanded first, and the header says which);
     see the module docstring.
 
     Every node is preceded by an ``@name`` comment so that :func:`read_pd` gives back the same names.
     """
-    instances = [f"{n.name} ({n.type})" for n in spec.nodes if _is_abstraction(n.type)]
-    if instances:
-        from .loader import expand
-
-        spec = expand(spec)
-        spec.doc = "\n".join(
-            [
-                spec.doc,
-                f"Abstractions flattened, each into nodes named INSTANCE/NODE: {', '.join(instances)}.",
-            ]
-        ).strip("\n")
+    spec = flatten(spec)
     registry = registry or default_registry.load_builtins()
     outs = [_box(decl, registry) for decl in spec.nodes]
     index = {o.decl.name: k for k, o in enumerate(outs)}

@@ -292,6 +292,11 @@ def test_convert_round_trip_to_pd_and_back_elsewhere_keeps_the_graph(tmp_path):
     back.parent.mkdir()
     assert pointat("convert", "patches/evaluate_tqt.pat", pd_file).returncode == 0
     assert (pd_file.parent / "pointat-stubs" / "tqt.pd").exists()
+    glove = tmp_path / "pd" / "glove_tqt.pd"  # the header says which abstraction it flattened
+    assert pointat("convert", "patches/glove_tqt.pat", glove).returncode == 0
+    assert read_spec(glove).doc.endswith(
+        "Abstractions flattened, each into nodes named INSTANCE/NODE: tqt (lib/tqt_fusion.pat)."
+    )
     assert pointat("convert", pd_file, back).returncode == 0
     a = check(read_spec(ROOT / "patches" / "evaluate_tqt.pat"), default_registry.load_builtins())
     b = check(read_spec(back), default_registry)
