@@ -343,6 +343,15 @@ source.mag -> fuse.mag
         timed = np.flatnonzero(finite & ~far & ~spike)
         self._waits = np.full(len(t), math.nan)
         self._waits[timed] = t[timed]
+        if len(timed) < len(t):  # what goes out at once carries the time of the good row before it
+            last = np.where(np.isfinite(self._waits), np.arange(len(t)), -1)
+            np.maximum.accumulate(last, out=last)
+            first = t[timed[0]] if len(timed) else 0.0
+            stamps = np.where(last >= 0, t[np.maximum(last, 0)], first)
+            if self._messages is not None:
+                for k in np.flatnonzero(np.isnan(self._waits)):
+                    self._messages[k] = self._messages[k]._replace(time=float(stamps[k]))
+            self._times = stamps
         back = np.flatnonzero(np.diff(t[timed]) < 0)
         if len(back):
             k, before = int(timed[back[0] + 1]), int(timed[back[0]])

@@ -571,6 +571,7 @@ def test_replay_sends_a_row_whose_time_is_far_from_the_recordings_at_once_and_sa
     rt = patch(f"node src replay file={take} speed=1\nnode got collect\nsrc.row -> got\n", realtime=True)
     rt.run(10)
     assert [m.value[0] for m in rt.nodes["got"].messages] == [1.0, 2.0, 3.0, 4.0]
+    assert [m.time for m in rt.nodes["got"].messages] == [0.0, 0.01, 0.01, 0.03]  # not 1e308
     said = [r.getMessage() for r in caplog.records if r.levelname in ("WARNING", "ERROR")]
     assert (
         len(said) == 1 and f"{take}: data row 3 has time 1e+308" in said[0] and "goes out at once" in said[0]
@@ -584,10 +585,26 @@ def test_replay_sends_a_row_whose_time_is_ahead_of_both_neighbours_at_once_and_s
     rt = patch(f"node src replay file={take} speed=1\nnode got collect\nsrc.row -> got\n", realtime=True)
     rt.run(10)  # it ends with the take, not 5 minutes later
     assert [m.value[0] for m in rt.nodes["got"].messages] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    # and with the time of the row before it: downstream (a MIDI file, a recorder) never sees 300.03
+    assert [m.time for m in rt.nodes["got"].messages] == [0.0, 0.01, 0.02, 0.02, 0.04, 0.05]
     said = [r.getMessage() for r in caplog.records if r.levelname in ("WARNING", "ERROR")]
     assert (
         len(said) == 1 and f"{take}: data row 4 has time 300.03, ahead of the rows on both sides" in said[0]
     )
+
+
+def test_a_damaged_ndjson_time_is_sent_at_once_with_the_time_before_it(tmp_path):
+    take = tmp_path / "take.ndjson"
+    times = [0.0, 0.01, 1e308, 0.03]
+    take.write_text("".join(f'{{"t": {t}, "kind": "float", "value": {k}}}\n' for k, t in enumerate(times)))
+    rt = patch(f"node src replay file={take} speed=1\nnode got collect\nsrc.row -> got\n", realtime=True)
+    rt.run(10)
+    assert [(m.value, m.time) for m in rt.nodes["got"].messages] == [
+        (0, 0.0),
+        (1, 0.01),
+        (2, 0.01),
+        (3, 0.03),
+    ]
 
 
 def test_replay_says_where_the_time_goes_back(tmp_path, caplog):
