@@ -239,7 +239,8 @@ class Replay(Node):
     Reads ``record``'s CSV and NDJSON and the BROAD data set's CSV (``*.csv.gz``), so real recordings
     drive patches.  Messages carry the file's time stamps; a row with no time, one further than
     ``FAR`` (10⁶ s) from the recording's, or one more than ``SPIKE`` (1 s) ahead of the rows on both
-    sides (damaged rows) goes out at once, and the log names its file and row.  At ``speed=0`` the rows reach the scheduler 64 at a time (``BATCH``), each row's messages
+    sides (damaged rows) goes out at once, with the time of the good row before it, and the log names its
+    file and row.  At ``speed=0`` the rows reach the scheduler 64 at a time (``BATCH``), each row's messages
     as at any speed: the scheduler's timers and other inputs (OSC control) wait for the batches of one
     pass at most, about 5 ms of them (the runtime's ``QUEUE_BUDGET``), never for the whole queue.  At the
     end it bangs ``done`` and, unless ``loop``, its part in the patch is over: a patch whose sources

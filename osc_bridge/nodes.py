@@ -571,31 +571,45 @@ dir.azimuth -> out.azimuth
 
     # inlets ------------------------------------------------------------------
     def on_elevation(self, msg: Message) -> None:
-        self.state[1] = _finite(msg.value if msg.kind == "float" else as_float(msg), "elevation")
+        v = msg.value if msg.kind == "float" else as_float(msg)  # (per sample: a call less)
+        if v - v != 0.0:  # NaN or infinity; the last good value stays
+            _refuse("elevation", v)
+        self.state[1] = v
 
     def on_distance(self, msg: Message) -> None:
-        self.state[2] = _finite(msg.value if msg.kind == "float" else as_float(msg), "distance")
+        v = msg.value if msg.kind == "float" else as_float(msg)
+        if v - v != 0.0:
+            _refuse("distance", v)
+        self.state[2] = v
 
     def on_spread(self, msg: Message) -> None:
-        self.state[3] = _finite(as_float(msg), "spread")
+        v = as_float(msg)
+        if v - v != 0.0:
+            _refuse("spread", v)
+        self.state[3] = v
 
     def on_azimuth(self, msg: Message) -> None:
         kind = msg.kind
         state = self.state
-        if kind == "float":  # the per-sample case (a float message holds a float)
-            update = (msg.value, state[1], state[2], state[3])
-        elif kind == "bang":  # send the current state again, whatever the pacing says
-            update = tuple(state)
-        elif kind == "list":
-            values = [float(v) for v in msg.value[:4]]
-            if not values:
-                raise ValueError("empty list")
-            update = (*values, *state[len(values) :])
+        if kind == "float":  # the per-sample case (a float message holds a float; the others are checked)
+            az = msg.value
+            if az - az != 0.0:
+                _refuse("azimuth", az)
+            state[0] = az
+            update = (az, state[1], state[2], state[3])
         else:
-            update = (as_float(msg), state[1], state[2], state[3])
-        if not math.isfinite(sum(update)):  # NaN or infinity anywhere makes the sum so
-            raise ValueError(f"not sent: not a finite number in {update}; the last good values stay")
-        state[:] = update  # taken only when good: one bad message must not spoil the ones after it
+            if kind == "bang":  # send the current state again, whatever the pacing says
+                update = tuple(state)
+            elif kind == "list":
+                values = [float(v) for v in msg.value[:4]]
+                if not values:
+                    raise ValueError("empty list")
+                update = (*values, *state[len(values) :])
+            else:
+                update = (as_float(msg), state[1], state[2], state[3])
+            if not math.isfinite(sum(update)):  # NaN or infinity anywhere makes the sum so
+                raise ValueError(f"not sent: not a finite number in {update}; the last good values stay")
+            state[:] = update  # taken only when all of it is good: one bad message spoils none after it
         if kind == "bang":
             self._release(update)
         else:
@@ -736,11 +750,8 @@ dir.azimuth -> out.azimuth
                 d.connected = False
 
 
-def _finite(value: float, what: str) -> float:
-    """``value`` when it is a finite number; else a refusal (the last good value stays)."""
-    if value - value != 0.0:  # NaN and infinities (and a string raises TypeError)
-        raise ValueError(f"{what} {value} refused: not a finite number; the last good value stays")
-    return value
+def _refuse(what: str, value: float) -> None:
+    raise ValueError(f"{what} {value} refused: not a finite number; the last good value stays")
 
 
 def _moved(a: Sequence[float], b: Sequence[float]) -> float:
@@ -891,12 +902,14 @@ phone.quat -> dir
     BUDGET = 0.005
     #: Senders outside ``allow`` named in the log (each once); after that many, refusals are only counted.
     REFUSED_NAMED = 16
+    #: Addresses whose refused control is counted (and told) each on its own; more share one count.
+    REFUSED_ADDRESSES = 32
 
     def _readable(self) -> None:
         """Scheduler thread, the socket has data: read what is there (up to :attr:`BURST` datagrams, or
         :attr:`BUDGET` seconds)."""
         sock = self._sock
-        deadline = time.monotonic() + self.BUDGET
+        deadline = time.perf_counter() + self.BUDGET
         for _ in range(self.BURST):
             if sock is None:
                 return
@@ -908,7 +921,7 @@ phone.quat -> dir
                 log.debug("osc_in '%s': %s", self.name, exc)
                 continue
             t = time.monotonic()
-            if t > deadline:  # the rest on the next wake-up, after the timers and the other sources
+            if time.perf_counter() >= deadline:  # the rest on the next wake-up, after timers and sources
                 sock = None
             if self.p.timetags:
                 tag = bundle_time(data)
@@ -1039,9 +1052,8 @@ phone.quat -> dir
         then every 10th, 100th...: a flood of them keeps the console readable, and a typo is still told."""
         self.refused_control += 1
         counts = self._refused_at
-        if len(counts) >= self.ROUTES_KEPT and address not in counts:
-            counts.clear()  # a flood of made-up addresses: the memory starts over
-        n = counts[address] = counts.get(address, 0) + 1
+        key = address if address in counts or len(counts) < self.REFUSED_ADDRESSES else ""
+        n = counts[key] = counts.get(key, 0) + 1  # a flood of made-up addresses shares one count
         if worth_reporting(n):  # counted per address: a stray fader must not silence a typo after it
             log.warning(
                 "osc_in '%s' (port %d): %s refused: %s%s",

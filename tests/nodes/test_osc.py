@@ -751,6 +751,20 @@ def test_a_flood_of_bad_control_is_counted_and_logged_sparingly_and_good_control
     assert max(len(x) for x in lines) < 400  # the 5000-character string is not echoed whole
 
 
+def test_a_flood_of_made_up_control_addresses_is_told_of_sparingly_too(started, caplog):
+    rt, imu, addr = in_patch(started, "", "node m metro 100")
+    with sender() as tx:
+        for k in range(300):
+            tx.sendto(osc(f"/pointat/nosuch{k}/k", 1.0).dgram, addr)
+            if k % 10 == 9:  # let it read them: the socket's buffer holds a few hundred
+                assert wait_for(rt, lambda k=k: imu.refused_control == k + 1)
+    lines = [r.getMessage() for r in caplog.records if "refused" in r.getMessage()]
+    # the first 32 addresses each once, then the rest as one count: its 1st, 2nd, 3rd, 10th, 100th
+    assert len(lines) == imu.REFUSED_ADDRESSES + 5 and lines[-1].endswith(
+        "(100 refused at this address so far)"
+    )
+
+
 def test_control_reaches_a_node_inside_an_abstraction(tmp_path, started):
     (tmp_path / "hand.pat").write_text("node m metro 100\n")
     (tmp_path / "show.pat").write_text("node left hand.pat\nnode ctl osc_in port=0\n")
