@@ -657,11 +657,10 @@ class Runtime:
         """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`; 0
         once the runtime is stopping).
 
-        In time order, a pass runs the timers that were due when it began, and ends at the first timer
-        scheduled during it (real time only): that one waits for the next pass, after the descriptors
-        and the queue are served.  So a periodic timer that costs more than its period falls behind, as
-        Pd's clocks do (the timers due after it wait with it), but cannot keep the serial ports and
-        sockets from being read.  On a manual clock a pass runs what its timers schedule for the same
+        In time order, a pass runs the timers that were due when it began; one scheduled during it
+        (real time only) waits for the next pass, after the descriptors and the queue are served.  So a
+        periodic timer that costs more than its period (or a ``metro`` set to a microsecond) falls
+        behind, but keeps neither the other timers nor the serial ports and sockets from running.  On a manual clock a pass runs what its timers schedule for the same
         time too, as a Pd tick runs the clocks set during it.
         """
         timers = self._timers
@@ -670,10 +669,14 @@ class Runtime:
         newer = next(self._seq) if self.realtime else math.inf  # scheduled from here on: larger numbers
         if timers and timers[0].when <= start:
             self._passing = True
+            later: list[Timer] = []  # scheduled during this pass, and due already: the next pass's
             try:
-                while timers and timers[0].when <= start and timers[0].seq < newer:
+                while timers and timers[0].when <= start:
                     t = heapq.heappop(timers)
                     if t.cancelled:
+                        continue
+                    if t.seq >= newer:  # a timer that fell behind must not keep the others from running
+                        later.append(t)
                         continue
                     if start - t.when > self.LATE and self.realtime:
                         self._late(t, start - t.when)
@@ -686,6 +689,8 @@ class Runtime:
                         return 0.0
                     now = None  # time went on while it ran
             finally:
+                for t in later:
+                    heapq.heappush(timers, t)
                 self._end_pass()
         if not timers:
             return self.IDLE

@@ -761,3 +761,16 @@ def test_keeping_the_cpus_awake_writes_the_request_or_says_why_not(monkeypatch, 
     monkeypatch.setattr(runtime.os, "open", refused)
     fd, why = runtime.keep_cpus_awake()
     assert fd is None and why.startswith("not permitted: run as root, or give write access to")
+
+
+def test_a_timer_that_falls_behind_keeps_no_other_timer_from_running():
+    # /pointat/tick/interval 0.000001 (seconds typed where milliseconds go): that metro can never catch
+    # up, and it was always the earliest timer, so the glove's and every other timer stopped for good
+    rt = patch(
+        "node go loadbang\nnode fast metro 0.000001\nnode slow metro 50\nnode n collect\n"
+        "go -> fast\ngo -> slow\nslow -> n\nnode sink collect\nfast -> sink\n",
+        realtime=True,
+    )
+    rt.run(1.0)
+    assert 10 <= len(rt.nodes["n"].messages) <= 21  # the slow metro's 20 ticks a second (not 1)
+    assert len(rt.nodes["sink"].messages) > 100  # and the fast one as fast as the passes go
