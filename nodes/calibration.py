@@ -322,11 +322,12 @@ class Calibrate(Node):
         self.calibration = Calibration()
         self.poses: list[np.ndarray] = []
         self._collect: str | None = None
+        self._turned = False  # a turn ended and no scale taken from it yet: turn_end may be sent again
         self._buf: list[np.ndarray] = []
         self._times: list[float] = []
 
     def _start(self, what: str) -> None:
-        self._collect, self._buf, self._times = what, [], []
+        self._collect, self._buf, self._times, self._turned = what, [], [], False
         self.out(0, ("collecting", what))
 
     def do_rest(self) -> None:
@@ -381,12 +382,24 @@ class Calibrate(Node):
         self.out(0, ("mag", *self.calibration.mag_null.tolist()))
 
     def do_turn_end(self, angle_deg: Any = 90.0, axis: Any = 2) -> None:
-        samples = self._take("turn")
+        try:
+            angle, ax = float(angle_deg), int(axis)
+        except (TypeError, ValueError):
+            angle, ax = math.nan, -1
+        if not (math.isfinite(angle) and angle != 0.0 and ax in (0, 1, 2)):
+            raise ValueError(
+                f"turn_end takes ANGLE_DEG (the degrees turned, not 0) and AXIS (0, 1 or 2: x, y, z); got"
+                f" {angle_deg!r} {axis!r}; the turn is kept: send turn_end again"
+            )
+        if self._collect == "turn":  # the turn is kept until a scale is taken from it or another step begins,
+            self._collect, self._turned = None, True  # so that a refused turn_end can be sent again
+        if not self._turned:
+            raise ValueError("turn_end without turn_begin")
+        samples = np.array(self._buf).reshape(-1, 9)
         if len(samples) < 2:
             raise ValueError("turn_end: no samples since turn_begin")
         self._need_rest("turn_end")
         dt = np.diff(self._times, prepend=self._times[0] - (self._times[1] - self._times[0]))
-        ax = int(axis)
         null = self.calibration.gyro_null
         turned = [abs(_integrated(samples[:, 0:3], dt, a, null)) for a in range(3)]  # count-seconds
         most = max(range(3), key=turned.__getitem__)
@@ -396,7 +409,7 @@ class Calibrate(Node):
                 f" against {turned[ax]:.0f} about {'xyz'[ax]}), not about the axis given: scale not taken;"
                 f" send turn_end {float(angle_deg):g} {most} if that was the turn, or turn again"
             )
-        scale = gyro_scale(samples[:, 0:3], dt, math.radians(float(angle_deg)), ax, null=null)
+        scale = gyro_scale(samples[:, 0:3], dt, math.radians(angle), ax, null=null)
         nominal = 180.0 / (math.pi * self.p.gyro)  # counts per rad/s
         off = max(abs(scale) / nominal, nominal / max(abs(scale), 1e-9))  # a factor, >= 1
         if off > self.TURN_FACTOR:
@@ -413,6 +426,7 @@ class Calibrate(Node):
                 f" (or send turn_end {-float(angle_deg):g} {ax} after a turn that way)"
             )
         self.calibration.gyro_scale[ax] = scale
+        self._turned = False
         self.out(0, ("gyro_scale", ax, scale))
 
     def do_save(self, path: Any = None) -> None:

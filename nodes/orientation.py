@@ -212,13 +212,21 @@ class AccMagMatrix(Flagged, Node):
     outlets = (Outlet("orientation", "vector", "3x3 rotation matrix, sensor -> earth (NWU)"), FLAGS)
     params = (
         Param("gravity", "float", 9.80665, "the accelerometer's reading at rest", unit="m/s²", above=0.0),
-        Param("accel_tolerance", "float", 0.1, "skip when | |accel| - g | > this x g (0: never)", live=True),
+        Param(
+            "accel_tolerance",
+            "float",
+            0.1,
+            "skip when | |accel| - g | > this x g (0: never)",
+            live=True,
+            minimum=0.0,
+        ),
         Param(
             "mag_tolerance",
             "float",
             0.1,
             "skip when |field| is off its reference by this fraction (0: never)",
             live=True,
+            minimum=0.0,
         ),
         Param(
             "dip_tolerance",
@@ -227,6 +235,7 @@ class AccMagMatrix(Flagged, Node):
             "skip when the dip is off its reference by more (0: never)",
             unit="deg",
             live=True,
+            minimum=0.0,
         ),
     )
 

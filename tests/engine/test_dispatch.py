@@ -442,6 +442,9 @@ def test_a_loop_without_a_runtime_is_a_feedback_error_too():
     [
         ("node n complementary crossover=0", "'crossover' expects a number > 0; got 0"),
         ("node n accmag_matrix gravity=-9.8", "'gravity' expects a number > 0; got -9.8"),
+        ("node n accmag_matrix accel_tolerance=-0.1", "'accel_tolerance' expects a number >= 0; got -0.1"),
+        ("node n accmag_matrix mag_tolerance=-0.1", "'mag_tolerance' expects a number >= 0; got -0.1"),
+        ("node n accmag_matrix dip_tolerance=-1", "'dip_tolerance' expects a number >= 0; got -1"),
         ("node n calibrate gravity=0", "'gravity' expects a number > 0; got 0"),
         ("node n azi_ele pole=90", "pole must be >= 0 and < 90 deg, got 90.0"),
         ("node n azi_ele pole=-1", "'pole' expects a number >= 0; got -1"),

@@ -318,6 +318,13 @@ def test_a_turn_end_that_does_not_match_the_turn_is_refused(tmp_path, said, refu
     with pytest.raises(ValueError, match=refusal):
         cal.receive(0, method("turn_end", *said))
     assert list(cal.calibration.gyro_scale) == [1.0, 1.0, 1.0]  # nothing stored
+    for bad in ((90, 3), (90, "z"), (0, 2)):  # said wrongly: the turn is kept all the same
+        with pytest.raises(ValueError, match="turn_end takes ANGLE_DEG .* and AXIS .*; the turn is kept"):
+            cal.receive(0, method("turn_end", *bad))
+    cal.receive(0, method("turn_end", 30, 2))  # what the refusal said to send: taken from the same turn
+    assert cal.calibration.gyro_scale[2] == pytest.approx(573.0, rel=0.02)
+    with pytest.raises(ValueError, match="turn_end without turn_begin"):  # and only once
+        cal.receive(0, method("turn_end", 30, 2))
 
 
 def test_a_pose_during_which_the_glove_moved_is_refused(tmp_path, caplog):
