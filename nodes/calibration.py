@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 from typing import Any
 
 import numpy as np
@@ -279,6 +280,9 @@ class Calibrate(Node):
       scale is more than 2x off the nominal ``gyro`` resolution's (the angle given is not the one turned).
     * ``save`` (to ``file``, or ``save PATH``); ``load`` reads it back.  ``offset`` and ``scaling`` read
       the file through their ``calibration`` parameter.
+
+    When ``file`` exists as the patch starts, the calibration starts from it (status ``loaded``): redo one
+    step and ``save``, and the others stay as they were.  ``clear`` starts from no calibration.
     """
 
     #: How far (a factor) a gyro scale from a turn may be from the nominal ``gyro`` resolution's.
@@ -325,6 +329,28 @@ class Calibrate(Node):
         self._turned = False  # a turn ended and no scale taken from it yet: turn_end may be sent again
         self._buf: list[np.ndarray] = []
         self._times: list[float] = []
+
+    def loadbang(self) -> None:
+        """Start from the calibration already in ``file``: a step taken again replaces its part, and
+        ``save`` keeps the rest (redoing the gyro nulls the next day must not wipe the accelerometer's)."""
+        path = self.p.file
+        if not os.path.exists(path):
+            return
+        try:
+            self.calibration = _load(path)
+        except ValueError as exc:
+            log.warning(
+                "calibrate '%s': %s; starting from no calibration, and save will replace it", self.name, exc
+            )
+            return
+        log.info("calibrate '%s': starting from %s (clear: from nothing)", self.name, path)
+        self.out(0, ("loaded", path))
+
+    def do_clear(self) -> None:
+        """Start from no calibration at all (the file is not touched until ``save``)."""
+        self.calibration = Calibration()
+        self.poses = []
+        self.out(0, ("cleared",))
 
     def _start(self, what: str) -> None:
         self._collect, self._buf, self._times, self._turned = what, [], [], False

@@ -15,6 +15,8 @@
 #      (Eq. 31).  Again for the other two axes.  After step 1.
 #   5. /pointat/cal/save                  writes calibration.json next to this patch (or cal.file=...)
 # Steps 2-4 may be left out: a sensor the file does not calibrate keeps Torre's nominal resolution.
+# An existing calibration.json is the starting point ("loaded"): redo one step, save, and the others
+# stay; /pointat/cal/clear starts from nothing.
 # Then play with it:
 #   pointat run patches/glove_tqt.pat --set nulls.calibration=patches/calibration.json \
 #       --set units.calibration=patches/calibration.json

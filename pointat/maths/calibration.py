@@ -20,6 +20,7 @@ applied after the null and scale: :math:`m = W\,(\text{raw} - \text{null}) / \te
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -481,9 +482,21 @@ class Calibration:
         return cls.from_dict(data, source=source)
 
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Write the JSON file at ``path`` (UTF-8)."""
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write(self.to_json() + "\n")
+        """Write the JSON file at ``path`` (UTF-8): whole or not at all (a full disk leaves the old one).
+        Anything but a regular file (a device, a pipe) is written to as it is."""
+        if os.path.exists(path) and not os.path.isfile(path):
+            with open(path, "w", encoding="utf-8") as fh:
+                fh.write(self.to_json() + "\n")
+            return
+        part = f"{os.fspath(path)}.part"
+        try:
+            with open(part, "w", encoding="utf-8") as fh:
+                fh.write(self.to_json() + "\n")
+            os.replace(part, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.remove(part)
+            raise
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Calibration:

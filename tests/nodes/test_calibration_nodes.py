@@ -349,3 +349,33 @@ def test_a_rest_during_which_the_glove_moved_is_refused(tmp_path, caplog):
     assert re.search(r"rest: the glove moved \(gyro z varied by .* than still=10\)", refusals[0].getMessage())
     assert rt.nodes["st"].values[-1][:2] == ("moved", "z")
     assert not np.any(cal.calibration.gyro_null)  # nothing taken
+
+
+def test_redoing_one_step_and_saving_keeps_the_rest_of_the_calibration(tmp_path, caplog):
+    # the next day the gyro nulls are taken again: save wiped the accelerometer and magnetometer
+    path = tmp_path / "c.json"
+    full = Calibration()
+    full.acc_null, full.acc_scale = np.full(3, 2050.0), np.full(3, 52.0)
+    full.mag_null, full.mag_scale = np.full(3, 2040.0), np.full(3, 400.0)
+    full.save(path)
+    rt = patch(f"node cal calibrate file={path} samples=20\nnode st collect\ncal -> st\n")
+    rt.start()
+    cal = rt.nodes["cal"]
+    assert rt.nodes["st"].values[0] == ("loaded", str(path))
+    cal.receive(0, method("rest"))
+    for k in range(20):
+        cal.receive(0, vector([2001.0, 2002.0, 2003.0] + [2048.0] * 6, k * 0.01))
+    cal.receive(0, method("save"))
+    saved = Calibration.load(path)
+    assert list(saved.gyro_null) == [2001.0, 2002.0, 2003.0]
+    assert list(saved.acc_scale) == [52.0] * 3 and list(saved.mag_null) == [2040.0] * 3  # kept
+    assert not list(tmp_path.glob("*.part"))
+    cal.receive(0, method("clear"))  # from nothing, on request
+    cal.receive(0, method("save"))
+    assert list(Calibration.load(path).acc_scale) == [1.0] * 3
+    rt.shutdown()
+    path.write_text("{not json")  # a file that does not read: the patch starts all the same
+    rt = patch(f"node cal calibrate file={path}\n")
+    rt.start()
+    assert f"calibration file {path}" in caplog.text and "starting from no calibration" in caplog.text
+    rt.shutdown()
