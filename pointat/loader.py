@@ -67,7 +67,11 @@ def _substitute(value: Any, args: Mapping[str, Any], where: Where | None) -> Any
             raise PatchError(f"${m.group(1)} is not an argument (arguments: {_names(args)})", where)
         return str(args[m.group(1)])
 
-    return parse_value(_DOLLAR.sub(repl, value))
+    text = _DOLLAR.sub(repl, value)
+    try:  # "$n" in "0.$n" makes a number; in a quoted text that reads as no value ("[glove $id] az") a text
+        return parse_value(text)
+    except ValueError:
+        return text
 
 
 def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> PatchSpec:
@@ -638,7 +642,10 @@ def parse_overrides(items: Sequence[str]) -> list[tuple[str, str, Any]]:
         node, dot, param = target.rpartition(".")
         if not eq or not dot or not node or not param:
             raise PatchError(f"--set {item!r}: expected node.param=value")
-        out.append((node, param, parse_value(value)))
+        try:
+            out.append((node, param, parse_value(value)))
+        except ValueError as exc:
+            raise PatchError(f"--set {item!r}: {exc}") from None
     return out
 
 

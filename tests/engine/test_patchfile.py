@@ -187,6 +187,17 @@ def test_overrides(tmp_path):
     ]
 
 
+def test_a_value_that_does_not_read_is_a_located_error_and_a_substituted_text_stays_text(tmp_path):
+    from pointat.loader import parse_overrides
+
+    with pytest.raises(PatchError, match=r"--set 'n.samples=\[1,': bad list"):  # not a traceback
+        parse_overrides(["n.samples=[1,"])
+    (tmp_path / "a.pat").write_text('args id=1\ninlet in -> p.0\nnode p print prefix="[glove $id] az el"\n')
+    (tmp_path / "main.pat").write_text("node g a.pat id=3\n")
+    checked = check(read_spec(tmp_path / "main.pat"), REG)  # "[glove 3] az el" read as a list failed
+    assert checked.nodes["g/p"].values["prefix"] == "[glove 3] az el"
+
+
 def test_an_override_of_a_flattened_instance_names_the_nodes_inside_that_take_it():
     # a .pd subpatch, or an abstraction instance that convert flattened: 'v' is no node, 'v/m' and 'v/d' are
     spec = parse_patch("node v/m metro 100\nnode v/d delay 5\nnode p print\nv/m -> v/d -> p\n")
