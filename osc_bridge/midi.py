@@ -99,6 +99,18 @@ MIDI_KINDS = ("cc", "cc14", "nrpn", "pitchbend", "note")
 TOP = {"cc": 127, "cc14": 16383, "nrpn": 16383, "pitchbend": 16383, "note": 127}
 #: The largest ``number`` of each kind (a 14-bit CC's LSB goes on number + 32, so 0..31).
 NUMBER_MAX = {"cc": 127, "cc14": 31, "nrpn": 16383, "pitchbend": 0, "note": 127}
+#: Controllers that select or rewrite a synth's settings rather than follow a value (a cc14's number is
+#: its MSB's: 0 and 6 stream bank select and data entry with their LSBs 32 and 38).
+SPECIAL_CC = {
+    0: "bank select",
+    32: "bank select (LSB)",
+    6: "data entry (it rewrites the selected RPN, e.g. the pitch-bend range)",
+    38: "data entry (LSB)",
+    98: "the NRPN select (LSB)",
+    99: "the NRPN select",
+    100: "the RPN select (LSB)",
+    101: "the RPN select",
+}
 
 #: What to do when python-rtmidi is missing, and when the MIDI system is.
 FIX_RTMIDI = "install python-rtmidi (pip install 'pointat[midi]' or pip install python-rtmidi)"
@@ -223,6 +235,19 @@ def check_mapping(
         raise ValueError(f"channel must be 1..16 (as people count MIDI channels), got {channel}")
     if kind != "pitchbend" and not 0 <= number <= NUMBER_MAX[kind]:
         raise ValueError(f"number for kind={kind} must be 0..{NUMBER_MAX[kind]}, got {number}")
+    if kind == "cc" and number >= 120:
+        raise ValueError(
+            f"number {number} is a channel-mode message, not a controller (120 all sound off, 121 reset all "
+            f"controllers, 122 local control, 123 all notes off, 124-127 omni and mono/poly): a stream of "
+            f"values there silences or resets the synth; choose 0..119"
+        )
+    if kind in ("cc", "cc14") and number in SPECIAL_CC:
+        log.warning(
+            "midi: kind=%s number=%d streams %s: most synths take it as a command, not a value to follow",
+            kind,
+            number,
+            SPECIAL_CC[number],
+        )
     if len(in_range) != 2 or not all(math.isfinite(v) for v in in_range) or in_range[0] == in_range[1]:
         raise ValueError(f"range must be two different numbers [in_lo, in_hi], got {list(in_range)}")
     if not 1 <= velocity <= 127:

@@ -118,11 +118,20 @@ def test_note_gate_on_off_and_repeats():
         ({"kind": "nrpn", "number": 16384}, "0..16383"),
         ({"in_range": (1.0, 1.0)}, "range"),
         ({"kind": "sysex"}, "kind must be one of"),
+        ({"kind": "cc", "number": 121}, "121 reset all controllers.*choose 0..119"),
+        ({"kind": "cc", "number": 123}, "a channel-mode message, not a controller"),
     ],
 )
 def test_bad_mappings_are_refused(kwargs, match):
     with pytest.raises(ValueError, match=match):
         MidiSender(**kwargs)
+
+
+def test_a_controller_that_is_a_command_is_taken_with_a_warning(caplog):
+    MidiSender(kind="cc14", number=6)  # data entry: rewrites the pitch-bend range, say
+    MidiSender(kind="cc", number=7)  # volume: a value to follow
+    said = [r.getMessage() for r in caplog.records]
+    assert len(said) == 1 and "kind=cc14 number=6 streams data entry" in said[0]
 
 
 def test_nan_is_refused():
