@@ -23,6 +23,7 @@ import gzip
 import json
 import logging
 import math
+import os
 import threading
 import time
 import zlib
@@ -135,7 +136,9 @@ class Record(Node):
     """Write every message with its time stamp to a CSV or NDJSON file, line by line (nothing lost on Ctrl-C).
 
     CSV rows are ``t`` then the message's numbers (a vector or list spread over columns); the header is
-    ``t`` and ``columns`` (default ``v0, v1...``, or ``value`` for a single number).
+    ``t`` and ``columns`` (default ``v0, v1...``, or ``value`` for a single number).  ``append`` writes
+    under the header already there (other ``columns`` are refused: replay could not read the take).  A
+    file deleted while it is written is written anew from there, and the log says so.
     """
 
     inlets = (Inlet("in", ("any",), "the stream to record"),)
@@ -160,19 +163,68 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
     def setup(self) -> None:
         self._fh: TextIO | None = None
         self._width: int | None = None
+        self._checked = 0.0
         self.count = 0
         self._fmt = _format(self.p.file, self.p.format)
 
+    #: Seconds between checks that the file being written is still there (deleted, rows go nowhere).
+    CHECK_EVERY = 1.0
+
     def start(self) -> None:
-        exists = Path(self.p.file).exists() and self.p.append
+        header = self._header_there() if self.p.append and self._fmt == "csv" else None
+        if header is not None and self.p.columns and header != ["t", *map(str, self.p.columns)]:
+            raise ValueError(
+                f"{self.p.file} has the columns {','.join(header)}, not t,{','.join(map(str, self.p.columns))}:"
+                f" appended to, it would be a take that replay cannot read; record to another file"
+            )
+        self._open("a" if self.p.append else "w")
+        if header is not None:  # appending under the header that is there
+            self._width = len(header) - 1
+        elif self.p.columns and self._fmt == "csv":
+            self._width = len(self.p.columns)
+            self._fh.write(",".join(["t", *map(str, self.p.columns)]) + "\n")  # type: ignore[union-attr]
+        self._checked = time.monotonic()
+
+    def _open(self, mode: str) -> None:
         try:
-            self._fh = open(self.p.file, "a" if self.p.append else "w", buffering=1, encoding="utf-8")
+            self._fh = open(self.p.file, mode, buffering=1, encoding="utf-8")
         except OSError as exc:
             raise OSError(f"cannot write {self.p.file}: {exc.strerror}") from exc
-        if self.p.columns and self._fmt == "csv":
-            self._width = len(self.p.columns)
-            if not exists:
-                self._fh.write(",".join(["t", *map(str, self.p.columns)]) + "\n")
+
+    def _header_there(self) -> list[str] | None:
+        """The header of the CSV file to append to; None when there is none yet."""
+        try:
+            for _, line in read_lines(Path(self.p.file)):
+                if line.strip() and not line.startswith("#"):
+                    return [c.strip() for c in line.strip().split(",")]
+        except FileNotFoundError:
+            pass
+        return None
+
+    def _still_there(self) -> None:
+        """Once a second: a file deleted while it is written takes every row into the void; start it anew."""
+        now = time.monotonic()
+        if now - self._checked < self.CHECK_EVERY or self._fh is None:
+            return
+        self._checked = now
+        try:
+            gone = os.fstat(self._fh.fileno()).st_nlink == 0
+        except OSError:
+            return
+        if gone:
+            log.warning(
+                "record '%s': %s was deleted while being written: writing it anew from here (%d rows before are lost)",
+                self.name,
+                self.p.file,
+                self.count,
+            )
+            self._fh.close()
+            self._open("w")
+            if self._width is not None and self._fmt == "csv":
+                names = self.p.columns or (
+                    ["value"] if self._width == 1 else [f"v{i}" for i in range(self._width)]
+                )
+                self._fh.write(",".join(["t", *map(str, names)]) + "\n")  # type: ignore[union-attr]
 
     def on_in(self, msg: Message) -> None:
         if self._fh is None:
@@ -184,6 +236,10 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
             self._fh.write(json.dumps({"t": msg.time, "kind": msg.kind, "value": value}) + "\n")
         else:
             values = self._numbers(msg)
+            if not values:  # a bang: it must not make a header of no columns that refuses every row after
+                raise ValueError(
+                    "a CSV row holds numbers and a bang has none: not recorded (.ndjson keeps bangs)"
+                )
             if self._width is None:
                 self._width = len(values)
                 names = ["value"] if len(values) == 1 else [f"v{i}" for i in range(len(values))]
@@ -192,6 +248,7 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
                 raise ValueError(f"expected {self._width} values per row (the header's), got {len(values)}")
             self._fh.write(",".join([repr(float(msg.time)), *(repr(float(v)) for v in values)]) + "\n")
         self.count += 1
+        self._still_there()
 
     @staticmethod
     def _numbers(msg: Message) -> list[Any]:

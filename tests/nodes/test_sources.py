@@ -9,6 +9,7 @@ import pytest
 
 from pointat.devices.glove_sim import GloveSimulator
 from pointat.devices.mote_frame import Frame, encode_frame, encode_text
+from pointat.message import make
 from pointat.testing import patch, wait_until
 
 
@@ -272,6 +273,50 @@ glove.truth -> sink
     assert len(got) == 100
     assert got[37].time == pytest.approx(0.37)
     assert np.array_equal(got[37].value, sim.sample(37).q)  # full precision
+
+
+def test_record_appends_under_the_header_there_and_refuses_other_columns(tmp_path):
+    from pointat.runtime import StartError
+
+    take = tmp_path / "take.csv"
+    for k in range(2):  # two runs appended: one header, so the take still replays
+        rt = patch(f"node m msg 1 2 3\nnode rec record file={take} append=true\nm -> rec\n")
+        rt.start()
+        rt.nodes["m"].receive(0, make(None, time=float(k)))
+        rt.shutdown()
+    assert take.read_text().splitlines() == ["t,v0,v1,v2", "0.0,1.0,2.0,3.0", "1.0,1.0,2.0,3.0"]
+    rt = patch(f"node rec record file={take} append=true columns=[a, b]\n")
+    with pytest.raises(StartError, match="has the columns t,v0,v1,v2, not t,a,b"):
+        rt.start()
+    rt.shutdown()
+
+
+def test_a_bang_first_does_not_make_a_header_of_no_columns(tmp_path):
+    take = tmp_path / "take.csv"
+    rt = patch(f"node rec record file={take}\n")
+    rt.start()
+    with pytest.raises(ValueError, match="a bang has none"):
+        rt.nodes["rec"].receive(0, make(None, time=0.0))
+    rt.nodes["rec"].receive(0, make((1.0, 2.0), time=0.01))  # the first numbers make the header
+    rt.shutdown()
+    assert take.read_text().splitlines() == ["t,v0,v1", "0.01,1.0,2.0"]
+
+
+def test_a_take_deleted_while_recording_is_written_anew_and_the_log_says_so(tmp_path, monkeypatch, caplog):
+    from nodes.recording import Record
+
+    monkeypatch.setattr(Record, "CHECK_EVERY", 0.0)
+    take = tmp_path / "take.csv"
+    rt = patch(f"node rec record file={take} columns=[x]\n")
+    rt.start()
+    rec = rt.nodes["rec"]
+    rec.receive(0, make(1.0, time=0.0))
+    take.unlink()  # rm take.csv, by mistake, in another terminal
+    rec.receive(0, make(2.0, time=0.01))  # noticed: the file is written anew
+    rec.receive(0, make(3.0, time=0.02))
+    rt.shutdown()
+    assert "was deleted while being written: writing it anew from here" in caplog.text
+    assert take.read_text().splitlines() == ["t,x", "0.02,3.0"]
 
 
 @pytest.mark.parametrize("budget", [None, 0.0], ids=["default", "one-batch-a-pass"])
