@@ -303,6 +303,7 @@ class Runtime:
         self.depth = 0
         self.bus: dict[str, list[Node]] = {}
         self.dropped = 0
+        self._failures: dict[tuple[str | None, str], int] = {}  # failed events, by node and error
         self.stopping = threading.Event()
         self._timers: list[Timer] = []
         self._seq = itertools.count()
@@ -833,10 +834,27 @@ class Runtime:
             fn(*args)
             return True
         except FeedbackError as exc:
-            log.error("%s", exc)
+            n = self._failed(node, exc)
+            if worth_reporting(n):
+                log.error("%s%s", exc, f" ({n} so far)" if n > 3 else "")
         except Exception as exc:
-            who = f"node '{node.name}' ({node.type_name})" if node is not None else "runtime"
-            log.error("%s: %s: %s", who, type(exc).__name__, exc, exc_info=log.isEnabledFor(logging.DEBUG))
+            n = self._failed(node, exc)
+            if worth_reporting(n):  # a timer that fails at every tick must not flood the console
+                who = f"node '{node.name}' ({node.type_name})" if node is not None else "runtime"
+                log.error(
+                    "%s: %s: %s%s",
+                    who,
+                    type(exc).__name__,
+                    exc,
+                    f" ({n} so far)" if n > 3 else "",
+                    exc_info=log.isEnabledFor(logging.DEBUG),
+                )
         finally:
             self.depth = 0
         return False
+
+    def _failed(self, node: Node | None, exc: BaseException) -> int:
+        """How many times events of ``node`` failed so with the same kind of error, this one included."""
+        key = (None if node is None else node.name, type(exc).__name__)
+        n = self._failures[key] = self._failures.get(key, 0) + 1
+        return n

@@ -774,3 +774,20 @@ def test_a_timer_that_falls_behind_keeps_no_other_timer_from_running():
     rt.run(1.0)
     assert 10 <= len(rt.nodes["n"].messages) <= 21  # the slow metro's 20 ticks a second (not 1)
     assert len(rt.nodes["sink"].messages) > 100  # and the fast one as fast as the passes go
+
+
+def test_an_event_that_fails_at_every_tick_is_told_of_a_few_times(caplog):
+    # a 300-node chain (loop-free, but deeper than the depth guard) fed by a metro logged at every tick
+    from pointat.errors import FeedbackError
+
+    rt = patch("node m metro 10\nnode go loadbang\ngo -> m\n", realtime=False)
+    rt.start()
+
+    def fails() -> None:
+        raise FeedbackError("feedback loop: more than 250 nested messages, last from node 'x' outlet 0")
+
+    for _ in range(120):
+        rt._guard(rt.nodes["m"], fails)
+    said = [r.getMessage() for r in caplog.records if "feedback loop" in r.getMessage()]
+    assert len(said) == 5 and said[-1].endswith("(100 so far)")  # the 1st, 2nd, 3rd, 10th, 100th
+    rt.shutdown()
