@@ -169,9 +169,10 @@ class Scaling(Node):
     Per-sensor resolutions in the table's units (deg/s, m/s², gauss per count), or per-axis scales and
     the soft-iron matrix from a ``calibration`` file; an axis the file has no scale for (a gyro axis
     never turned) keeps its resolution, with a warning.  A calibrated magnetometer reads in units of
-    the local field (its strength is 1): the filters use its direction only.  Outputs right to left:
-    mag, accel, then gyro, so a
-    filter whose hot inlet is the gyro sees a complete sample.
+    the local field (its strength is 1): the filters use its direction only.  A file whose gyro or
+    accelerometer scales are more than 4 times off the resolutions (``PLAUSIBLE``), that has scales
+    without nulls, or a singular soft-iron matrix, is refused, naming the key.  Outputs right to left:
+    mag, accel, then gyro, so a filter whose hot inlet is the gyro sees a complete sample.
     """
 
     pure = True
@@ -216,6 +217,7 @@ class Scaling(Node):
                         nominal.append(f"{sensor} {'xyz'[a]}")
             if cal.mag_soft_iron is not None:
                 self.soft_iron = tuple(np.ravel(cal.mag_soft_iron).tolist())
+            self._plausible(cal, factor)
             if nominal:
                 log.warning(
                     "scaling '%s': %s has no scale for %s: the nominal resolution is used there",
@@ -224,6 +226,44 @@ class Scaling(Node):
                     ", ".join(nominal),
                 )
         self.factor: tuple[float, ...] = tuple(float(f) for f in factor)
+
+    #: How far (a factor) a file's gyro or accelerometer scale may be from the nominal resolution's.
+    PLAUSIBLE = 4.0
+
+    def _plausible(self, cal: Calibration, factor: list[float]) -> None:
+        """Refuse a file whose numbers would make the output garbage or silence: a scale far off the
+        sensor's nominal resolution (a resolution written where counts per unit go), scales without nulls,
+        a soft-iron matrix that flattens the field."""
+        problems = []
+        resolution = {"gyro": math.radians(self.p.gyro), "acc": self.p.accel}
+        for i, sensor in enumerate(("gyro", "acc", "mag")):
+            scale, null = getattr(cal, f"{sensor}_scale"), getattr(cal, f"{sensor}_null")
+            worst = 0.0
+            for a in range(3):
+                f = factor[3 * i + a]
+                if not math.isfinite(f) or f == 0.0:
+                    worst = math.inf
+                elif sensor in resolution and scale[a] != 1.0:
+                    worst = max(worst, f / resolution[sensor], resolution[sensor] / f)
+            if worst > self.PLAUSIBLE:
+                values = " ".join(f"{v:g}" for v in scale)
+                problems.append(
+                    f"{sensor}.scale [{values}] makes no number of a count"
+                    if sensor not in resolution
+                    else f"{sensor}.scale [{values}] (counts per unit) is up to {worst:.3g} times off the nominal"
+                    f" {1.0 / resolution[sensor]:.4g} (a resolution written where counts per unit go?)"
+                )
+            if np.any(scale != 1.0) and not np.any(null != 0.0) and sensor != "gyro":
+                problems.append(f"{sensor} has scales but no nulls (null 0 is no 12-bit count's middle)")
+        if cal.mag_soft_iron is not None:
+            W = np.asarray(cal.mag_soft_iron, dtype=float)
+            if (
+                not np.all(np.isfinite(W))
+                or abs(np.linalg.det(W)) <= 1e-9 * max(np.abs(W).max(), 1e-300) ** 3
+            ):
+                problems.append("mag.soft_iron is singular: it would flatten the field")
+        if problems:
+            raise ValueError(f"calibration file {self.p.calibration}: " + "; ".join(problems))
 
     def on_adc(self, msg: Message) -> None:
         c, f = as_floats(msg, 9), self.factor

@@ -132,6 +132,33 @@ def test_a_bad_calibration_file_is_a_load_error_naming_it(tmp_path):
 
 
 @pytest.mark.parametrize(
+    "sections, said",
+    [  # each loaded without a word, and then the output was garbage or silence
+        (
+            '"gyro": {"null": [2048, 2048, 2048], "scale": [0.1, 0.1, 0.1]}',
+            "gyro.scale [0.1 0.1 0.1] (counts per unit) is up to 5.73e+03 times off the nominal 573",
+        ),
+        ('"acc": {"scale": [52, 52, 52]}', "acc has scales but no nulls"),
+        (
+            '"acc": {"null": [2048, 2048, 2048], "scale": [1e-320, 52, 52]}',
+            "acc.scale [9.99989e-321 52 52] (counts per unit) is up to inf times off",
+        ),
+        (
+            '"mag": {"null": [2048, 2048, 2048], "scale": [1, 1, 1], "soft_iron": [[0, 0, 0], [0, 0, 0], [0, 0, 0]]}',
+            "mag.soft_iron is singular",
+        ),
+    ],
+)
+def test_a_calibration_that_would_make_garbage_or_silence_is_refused_naming_the_key(tmp_path, sections, said):
+    from pointat.errors import PatchError
+
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"format": "pointat-calibration", "version": 1, ' + sections + "}")
+    with pytest.raises(PatchError, match=re.escape(f"calibration file {bad}: {said}")):
+        patch(f"node units scaling calibration={bad}\n")
+
+
+@pytest.mark.parametrize(
     "span, fit, taken",
     [
         (
