@@ -38,9 +38,13 @@ STATUS = Outlet("status", "list", "what the node is doing: calibrating, ready, s
 
 def _load(path: str) -> Calibration:
     try:
-        return Calibration.load(path)
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"calibration file {path}: {exc}") from exc
+        return Calibration.load(path)  # its ValueError names the file and the key
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"calibration file {path}: not UTF-8 text ({exc.reason} at byte {exc.start})"
+        ) from exc
+    except OSError as exc:
+        raise ValueError(f"calibration file {path}: {exc.strerror or exc}") from exc
 
 
 def _calibrated(cal: Calibration, sensor: str) -> bool:

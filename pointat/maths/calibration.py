@@ -440,12 +440,15 @@ class Calibration:
             raise bad("version", f"the format version {cls.VERSION}", data["version"])
 
         def numbers(key: str, value: Any, nonzero: bool = False) -> list[float]:
-            ok = (
-                isinstance(value, list)
-                and len(value) == 3
-                and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
-                and all(math.isfinite(v) and (v != 0 or not nonzero) for v in value)
-            )
+            try:
+                ok = (
+                    isinstance(value, list)
+                    and len(value) == 3
+                    and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+                    and all(math.isfinite(v) and (v != 0 or not nonzero) for v in value)
+                )
+            except OverflowError:  # an integer too large for a float (10**400)
+                ok = False
             if not ok:
                 raise bad(key, "a list of 3 finite" + (" non-zero" if nonzero else "") + " numbers", value)
             return [float(v) for v in value]
@@ -479,6 +482,8 @@ class Calibration:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ValueError(f"{source}: not valid JSON: {exc}") from None
+        except RecursionError:
+            raise ValueError(f"{source}: nested too deeply to be a calibration") from None
         return cls.from_dict(data, source=source)
 
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -501,6 +506,6 @@ class Calibration:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Calibration:
         """Read a JSON file written by :meth:`save`; a bad file raises ValueError naming the file and key."""
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:  # a byte-order mark from a Windows editor is fine
             text = fh.read()
-        return cls.from_json(text, source=f"calibration file {os.fspath(path)!r}")
+        return cls.from_json(text, source=f"calibration file {os.fspath(path)}")

@@ -131,6 +131,36 @@ def test_a_bad_calibration_file_is_a_load_error_naming_it(tmp_path):
     assert "bad.json" in str(info.value) and "nulls" in str(info.value)
 
 
+def test_a_calibration_file_names_itself_once_and_every_way_it_can_be_wrong(tmp_path):
+    from pointat.errors import PatchError
+
+    cases = {
+        "huge": (
+            '{"format": "pointat-calibration", "version": 1, "acc": {"null": [1e999, 2, 3]}}',
+            "key 'acc.null'",
+        ),
+        "bigint": (
+            '{"format": "pointat-calibration", "version": 1, "acc": {"null": [' + "9" * 400 + ", 2, 3]}}",
+            "key 'acc.null'",
+        ),
+        "deep": ("[" * 100000 + "]" * 100000, "nested too deeply"),
+        "latin1": (None, "not UTF-8 text"),
+    }
+    for name, (text, said) in cases.items():
+        path = tmp_path / f"{name}.json"
+        if text is None:
+            path.write_bytes('{"format": "pointat-calibration", "version": 1} caf\xe9'.encode("latin-1"))
+        else:
+            path.write_text(text)
+        with pytest.raises(PatchError) as info:
+            patch(f"node units scaling calibration={path}\n")
+        message = str(info.value)
+        assert said in message and message.count(str(path)) == 1, message
+    bom = tmp_path / "bom.json"  # saved by a Windows editor: taken, as patch files are
+    bom.write_bytes(b"\xef\xbb\xbf" + b'{"format": "pointat-calibration", "version": 1}')
+    patch(f"node units scaling calibration={bom}\n")
+
+
 @pytest.mark.parametrize(
     "sections, said",
     [  # each loaded without a word, and then the output was garbage or silence
