@@ -53,6 +53,7 @@ s, 1/960 s = 1.04 ms at the defaults.  The file is valid on disk after every mes
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import struct
@@ -404,6 +405,16 @@ class MidiSender:
 MAX_DELTA = 0x0FFFFFFF
 
 
+def _write_all(fh: BinaryIO, data: bytes) -> None:
+    """All of ``data`` into an unbuffered file, or OSError (a raw write may take only a part)."""
+    view = memoryview(data)
+    while view:
+        n = fh.write(view)
+        if not n:
+            raise OSError(f"no room for {len(view)} more bytes")
+        view = view[n:]
+
+
 def _varlen(n: int) -> bytes:
     """A MIDI variable-length quantity (7 bits a byte, high bit set on all but the last).
 
@@ -438,6 +449,7 @@ class MidiFileWriter:
     """
 
     _LENGTH_AT = 18  # 'MThd' + length + 6 header bytes + 'MTrk'
+    _HEADER_END = 22  # and the track's length: where its events begin
 
     def __init__(self, path: str | Path, *, bpm: float = 120.0, ppq: int = 480, name: str = "pointat"):
         if not bpm > 0:
@@ -452,8 +464,9 @@ class MidiFileWriter:
         self._tick = 0
         self._length = 0
         self._lock = threading.Lock()
-        self._fh: BinaryIO | None = open(self.path, "wb")  # closed by close()
-        self._fh.write(b"MThd" + struct.pack(">LHHH", 6, 0, 1, self.ppq) + b"MTrk" + b"\0\0\0\0")
+        # unbuffered: what a write did not put on the disk is known at once, and cut off (see _append)
+        self._fh: BinaryIO | None = open(self.path, "wb", buffering=0)  # closed by close()
+        _write_all(self._fh, b"MThd" + struct.pack(">LHHH", 6, 0, 1, self.ppq) + b"MTrk" + b"\0\0\0\0")
         tempo = mido.MetaMessage("set_tempo", tempo=mido.bpm2tempo(self.bpm))
         events = [tempo]
         if name:
@@ -467,31 +480,50 @@ class MidiFileWriter:
 
     def write(self, msg: mido.Message, time: float) -> None:
         """Append ``msg`` at ``time`` seconds."""
-        if msg.is_meta or msg.is_realtime:
-            raise ValueError(f"cannot write {msg.type} into a MIDI file track")
+        self.write_all([msg], time)
+
+    def write_all(self, messages: Sequence[mido.Message], time: float) -> None:
+        """Append ``messages`` at ``time`` seconds, all or none (a 14-bit value's two halves together)."""
+        for msg in messages:
+            if msg.is_meta or msg.is_realtime:
+                raise ValueError(f"cannot write {msg.type} into a MIDI file track")
+        if not messages:
+            return
         if not math.isfinite(time):
-            raise ValueError(f"time {time} is not a number of seconds: {msg.type} not written")
+            raise ValueError(f"time {time} is not a number of seconds: {messages[0].type} not written")
         tick = max(self._tick, self.ticks(time))
         if tick - self._tick > MAX_DELTA:  # a damaged time stamp: the file would no longer read
             raise ValueError(
                 f"time {time:g} s is {(tick - self._tick) / self.ticks_per_second / 3600:.3g} hours after the "
-                f"last message, more than a MIDI file can say in one step: {msg.type} not written"
+                f"last message, more than a MIDI file can say in one step: {messages[0].type} not written"
             )
+        data = _varlen(tick - self._tick) + b"".join(
+            (b"\0" if k else b"") + bytes(m.bytes()) for k, m in enumerate(messages)
+        )
         with self._lock:
-            self._append(_varlen(tick - self._tick) + bytes(msg.bytes()))
+            self._append(data)
             self._tick = tick
-            self.count += 1
+            self.count += len(messages)
 
     def _append(self, data: bytes) -> None:
+        """Add ``data`` to the track and its length to the header, or nothing at all: a write that fails
+        (a full disk) is cut off again, so the file stays what it was and reads."""
         fh = self._fh
         if fh is None:
             raise ValueError(f"{self.path} is closed")
-        fh.write(data)
+        end = self._HEADER_END + self._length
+        try:
+            fh.seek(end)
+            _write_all(fh, data)
+            fh.seek(self._LENGTH_AT)
+            _write_all(fh, struct.pack(">L", self._length + len(data)))
+        except OSError:
+            with contextlib.suppress(OSError):
+                fh.truncate(end)
+                fh.seek(self._LENGTH_AT)
+                _write_all(fh, struct.pack(">L", self._length))
+            raise
         self._length += len(data)
-        fh.seek(self._LENGTH_AT)
-        fh.write(struct.pack(">L", self._length))
-        fh.seek(0, 2)
-        fh.flush()
 
     @property
     def closed(self) -> bool:
@@ -707,6 +739,10 @@ class _PortSink:
     def send(self, msg: mido.Message, time: float) -> None:
         self.port.send(msg)
 
+    def send_all(self, messages: list[mido.Message], time: float) -> None:
+        for m in messages:
+            self.port.send(m)
+
     def close(self) -> None:
         self.port.close()
 
@@ -720,6 +756,9 @@ class _FileSink:
 
     def send(self, msg: mido.Message, time: float) -> None:
         self.writer.write(msg, time)
+
+    def send_all(self, messages: list[mido.Message], time: float) -> None:
+        self.writer.write_all(messages, time)
 
     def close(self) -> None:
         _release_writer(self.writer)
@@ -945,9 +984,8 @@ dir.azimuth -> pan
         if getattr(self._sink, "lost", False):  # unplugged: said once when it went
             self.dropped += len(messages)
             return
-        for m in messages:
-            self._sink.send(m, time)
-            self.sent += 1
+        self._sink.send_all(messages, time)  # a 14-bit value's two halves together, or neither
+        self.sent += len(messages)
 
     def param_changed(self, name: str) -> None:
         key = _MAPPING_PARAMS.get(name)

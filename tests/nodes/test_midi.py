@@ -300,6 +300,41 @@ def test_a_damaged_time_stamp_is_refused_and_the_file_still_reads(tmp_path):
     assert got == [(1, 480), (2, 480)]  # 120 bpm, 480 per beat: 0.5 s apart
 
 
+def test_a_full_disk_leaves_the_file_as_it_was_and_never_half_a_14_bit_value(tmp_path):
+    # the buffered bytes of a failed write landed later: a 60 s take read as 3434 s, CC1 without its CC33
+    import errno
+
+    class FullDisk:  # the file, with room for `room` more bytes at the end of the track
+        def __init__(self, fh, room):
+            self.fh, self.room = fh, room
+
+        def write(self, data):
+            if self.fh.tell() >= self.room:  # a raw write takes what fits, then fails
+                raise OSError(errno.ENOSPC, "No space left on device")
+            n = self.fh.write(bytes(data[: self.room - self.fh.tell()]))
+            return n
+
+        def __getattr__(self, name):
+            return getattr(self.fh, name)
+
+    path = tmp_path / "take.mid"
+    w = MidiFileWriter(path)
+    pair = [
+        mido.Message("control_change", control=1, value=64),
+        mido.Message("control_change", control=33, value=5),
+    ]
+    w.write_all(pair, 0.5)
+    w._fh = FullDisk(w._fh, w._fh.tell() + 5)  # room for half of the next pair
+    for t in (1.0, 1.5):
+        with pytest.raises(OSError):
+            w.write_all(pair, t)
+    w._fh = w._fh.fh  # room again (a file deleted elsewhere)
+    w.write_all(pair, 2.0)
+    w.close()
+    got = [(m.control, m.time) for m in mido.MidiFile(path).tracks[0] if not m.is_meta]
+    assert got == [(1, 480), (33, 0), (1, 1440), (33, 0)]  # 0.5 s, then 2.0 s: nothing of the failed ones
+
+
 def test_no_port_and_no_file_falls_back_to_a_file_when_there_is_no_midi_system(tmp_path, monkeypatch, caplog):
     def no_system():
         raise ImportError("No module named 'rtmidi'")
