@@ -408,6 +408,29 @@ class Calibrate(Node):
             self.poses = []
         self._start("pose")
 
+    def _six_poses(self) -> None:
+        """The accelerometer's nulls and scales from six poses; when two of them point the same way, the
+        later one is dropped and the log says which direction is still to come."""
+        m = np.array(self.poses)
+        try:
+            null, scale = six_position_accel(m, self.p.gravity)
+        except ValueError as exc:
+            used = set(np.argmax(m, axis=0).tolist()) | set(np.argmin(m, axis=0).tolist())
+            again = [k for k in range(6) if k not in used] or [5]
+            self.poses = [p for k, p in enumerate(self.poses) if k not in again]
+            self.out(0, ("poses_refused", len(self.poses), 6))
+            log.warning(
+                "calibrate '%s': the six poses do not point each accelerometer axis both up and down (%s):"
+                " pose %s dropped; %d kept: point the axis direction still missing and send pose again",
+                self.name,
+                exc,
+                ", ".join(str(k + 1) for k in again),
+                len(self.poses),
+            )
+            return
+        self.calibration.acc_null, self.calibration.acc_scale = null, scale
+        self.out(0, ("accel", *null.tolist(), *scale.tolist()))
+
     def do_mag_begin(self) -> None:
         self._start("mag")
 
@@ -548,6 +571,4 @@ class Calibrate(Node):
                 self.poses.append(data[:, 3:6].mean(axis=0))
                 self.out(0, ("pose", len(self.poses), 6))
                 if len(self.poses) == 6:
-                    null, scale = six_position_accel(np.array(self.poses), self.p.gravity)
-                    self.calibration.acc_null, self.calibration.acc_scale = null, scale
-                    self.out(0, ("accel", *null.tolist(), *scale.tolist()))
+                    self._six_poses()

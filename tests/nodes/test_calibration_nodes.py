@@ -384,6 +384,29 @@ def test_a_turn_end_that_does_not_match_the_turn_is_refused(tmp_path, said, refu
         cal.receive(0, method("turn_end", 30, 2))
 
 
+def test_a_pose_taken_twice_is_dropped_and_the_missing_one_can_still_be_given(tmp_path, caplog):
+    # x up was sent twice and z down never: the sixth pose failed as "dropped vector", and the next
+    # pose threw away all six
+    rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
+    cal = rt.nodes["cal"]
+    up = {"x+": (2560, 2048, 2048), "x-": (1536, 2048, 2048), "y+": (2048, 2560, 2048)}
+    up |= {"y-": (2048, 1536, 2048), "z+": (2048, 2048, 2560), "z-": (2048, 2048, 1536)}
+
+    def pose(name):
+        cal.receive(0, method("pose"))
+        for k in range(20):
+            cal.receive(0, vector([2048.0] * 3 + list(map(float, up[name])) + [2048.0] * 3, k * 0.01))
+
+    for name in ("x+", "x-", "x+", "y+", "y-", "z+"):
+        pose(name)
+    assert rt.nodes["st"].values[-1] == ("poses_refused", 5, 6)
+    assert "pose 3 dropped; 5 kept: point the axis direction still missing" in caplog.text
+    assert "dropped vector" not in caplog.text
+    pose("z-")  # the one missing: the six are complete
+    assert rt.nodes["st"].values[-1][0] == "accel"
+    assert list(cal.calibration.acc_null) == [2048.0] * 3
+
+
 def test_a_pose_during_which_the_glove_moved_is_refused(tmp_path, caplog):
     rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
     cal = rt.nodes["cal"]
