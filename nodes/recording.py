@@ -159,6 +159,8 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
                 f"file {values['file']!r}: record writes plain text, line by line, so that nothing is lost"
                 " if the patch stops: name it without .gz (and compress it afterwards)"
             )
+        if Path(values["file"]).is_dir():
+            raise ValueError(f"file {values['file']!r} is a folder: name a file in it")
 
     def setup(self) -> None:
         self._fh: TextIO | None = None

@@ -291,6 +291,13 @@ def test_record_appends_under_the_header_there_and_refuses_other_columns(tmp_pat
     rt.shutdown()
 
 
+def test_record_into_a_folder_is_an_error_when_the_patch_is_checked(tmp_path):
+    from pointat.errors import PatchError
+
+    with pytest.raises(PatchError, match="is a folder: name a file in it"):
+        patch(f"node rec record file={tmp_path}\n")
+
+
 def test_a_bang_first_does_not_make_a_header_of_no_columns(tmp_path):
     take = tmp_path / "take.csv"
     rt = patch(f"node rec record file={take}\n")
