@@ -736,10 +736,7 @@ class _PortSink:
         self.port = port
         self.lost = False  # the port vanished (see _PortWatch)
 
-    def send(self, msg: mido.Message, time: float) -> None:
-        self.port.send(msg)
-
-    def send_all(self, messages: list[mido.Message], time: float) -> None:
+    def send(self, messages: list[mido.Message], time: float) -> None:
         for m in messages:
             self.port.send(m)
 
@@ -754,10 +751,7 @@ class _FileSink:
     def __init__(self, path: str, bpm: float, ppq: int):
         self.writer = _acquire_writer(path, bpm, ppq)
 
-    def send(self, msg: mido.Message, time: float) -> None:
-        self.writer.write(msg, time)
-
-    def send_all(self, messages: list[mido.Message], time: float) -> None:
+    def send(self, messages: list[mido.Message], time: float) -> None:
         self.writer.write_all(messages, time)
 
     def close(self) -> None:
@@ -984,7 +978,7 @@ dir.azimuth -> pan
         if getattr(self._sink, "lost", False):  # unplugged: said once when it went
             self.dropped += len(messages)
             return
-        self._sink.send_all(messages, time)  # a 14-bit value's two halves together, or neither
+        self._sink.send(messages, time)  # a 14-bit value's two halves together, or neither
         self.sent += len(messages)
 
     def param_changed(self, name: str) -> None:
@@ -1002,8 +996,7 @@ dir.azimuth -> pan
         if getattr(sink, "lost", False):  # closed when it vanished
             return
         try:
-            for m in self.sender.release():
-                sink.send(m, self.time)
+            sink.send(self.sender.release(), self.time)
         finally:
             sink.close()
 
