@@ -27,7 +27,7 @@ import os
 import threading
 import time
 import zlib
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -87,15 +87,20 @@ def read_lines(path: str | Path) -> Iterator[tuple[int, str]]:
         raise Unreadable(f"{path}:{n + 1}: the compressed data is damaged here ({exc})") from None
 
 
+def _csv_header(lines: Iterable[tuple[int, str]]) -> list[str]:
+    """The column names of a CSV recording: its first line that is neither blank nor a ``#`` comment
+    (read from ``lines`` up to it); none when there is no such line."""
+    for _, line in lines:
+        if line.strip() and not line.startswith("#"):
+            return [c.strip() for c in line.strip().split(",")]
+    return []
+
+
 def read_csv_table(path: str | Path) -> tuple[list[str], np.ndarray]:
     """Column names and rows of a CSV recording (``#`` comments, one header line; ``.gz`` allowed)."""
     path = Path(path)
     lines = read_lines(path)
-    header: list[str] = []
-    for _, line in lines:
-        if line.strip() and not line.startswith("#"):
-            header = [c.strip() for c in line.strip().split(",")]
-            break
+    header = _csv_header(lines)
     if not header or header[0] != "t":
         raise ValueError(f"{path}: expected a header line starting with 't', got {','.join(header)!r}")
     try:
@@ -184,7 +189,7 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
             self._width = len(header) - 1
         elif self.p.columns and self._fmt == "csv":
             self._width = len(self.p.columns)
-            self._fh.write(",".join(["t", *map(str, self.p.columns)]) + "\n")  # type: ignore[union-attr]
+            self._write_header()
         self._checked = time.monotonic()
 
     def _open(self, mode: str) -> None:
@@ -196,12 +201,9 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
     def _header_there(self) -> list[str] | None:
         """The header of the CSV file to append to; None when there is none yet."""
         try:
-            for _, line in read_lines(Path(self.p.file)):
-                if line.strip() and not line.startswith("#"):
-                    return [c.strip() for c in line.strip().split(",")]
+            return _csv_header(read_lines(Path(self.p.file))) or None
         except FileNotFoundError:
-            pass
-        return None
+            return None
 
     def _still_there(self) -> None:
         """Once a second: a file deleted while it is written takes every row into the void; start it anew."""
@@ -223,10 +225,13 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
             self._fh.close()
             self._open("w")
             if self._width is not None and self._fmt == "csv":
-                names = self.p.columns or (
-                    ["value"] if self._width == 1 else [f"v{i}" for i in range(self._width)]
-                )
-                self._fh.write(",".join(["t", *map(str, names)]) + "\n")  # type: ignore[union-attr]
+                self._write_header()
+
+    def _write_header(self) -> None:
+        """``t`` and the columns: ``columns``, else ``v0, v1...`` (``value`` for one) for ``_width`` numbers."""
+        assert self._fh is not None and self._width is not None
+        names = self.p.columns or (["value"] if self._width == 1 else [f"v{i}" for i in range(self._width)])
+        self._fh.write(",".join(["t", *map(str, names)]) + "\n")
 
     def on_in(self, msg: Message) -> None:
         if self._fh is None:
@@ -244,8 +249,7 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
                 )
             if self._width is None:
                 self._width = len(values)
-                names = ["value"] if len(values) == 1 else [f"v{i}" for i in range(len(values))]
-                self._fh.write(",".join(["t", *names]) + "\n")
+                self._write_header()
             if len(values) != self._width:
                 raise ValueError(f"expected {self._width} values per row (the header's), got {len(values)}")
             self._fh.write(",".join([repr(float(msg.time)), *(repr(float(v)) for v in values)]) + "\n")
