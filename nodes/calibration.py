@@ -261,10 +261,7 @@ class Scaling(Node):
                 problems.append(f"{sensor} has scales but no nulls (null 0 is no 12-bit count's middle)")
         if cal.mag_soft_iron is not None:
             W = np.asarray(cal.mag_soft_iron, dtype=float)
-            if (
-                not np.all(np.isfinite(W))
-                or abs(np.linalg.det(W)) <= 1e-9 * max(np.abs(W).max(), 1e-300) ** 3
-            ):
+            if abs(np.linalg.det(W)) <= 1e-9 * max(np.abs(W).max(), 1e-300) ** 3:  # (finite: Calibration)
                 problems.append("mag.soft_iron is singular: it would flatten the field")
         if problems:
             raise ValueError(f"calibration file {self.p.calibration}: " + "; ".join(problems))
@@ -500,7 +497,7 @@ class Calibrate(Node):
             raise ValueError(
                 f"turn_end: the glove turned mostly about {'xyz'[most]} ({turned[most]:.0f} count-seconds,"
                 f" against {turned[ax]:.0f} about {'xyz'[ax]}), not about the axis given: scale not taken;"
-                f" send turn_end {float(angle_deg):g} {most} if that was the turn, or turn again"
+                f" send turn_end {angle:g} {most} if that was the turn, or turn again"
             )
         scale = gyro_scale(samples[:, 0:3], dt, math.radians(angle), ax, null=null)
         nominal = 180.0 / (math.pi * self.p.gyro)  # counts per rad/s
@@ -509,14 +506,14 @@ class Calibrate(Node):
             raise ValueError(
                 f"turn_end: the turn gives {abs(scale):.1f} counts per rad/s, {off:.1f}"
                 f" times off the gyro's nominal {nominal:.0f} (gyro={self.p.gyro:g} deg/s per count):"
-                f" the angle given ({float(angle_deg):g} deg) is not the one turned, or the glove hardly"
+                f" the angle given ({angle:g} deg) is not the one turned, or the glove hardly"
                 f" turned between turn_begin and turn_end: scale not taken; turn again"
             )
         if not scale > 0.0:
             raise ValueError(
-                f"turn_end: the glove turned the other way ({float(angle_deg):g} deg about {'xyz'[ax]} means"
+                f"turn_end: the glove turned the other way ({angle:g} deg about {'xyz'[ax]} means"
                 f" counter-clockwise seen from the axis's tip, right-hand rule): scale not taken; turn again"
-                f" (or send turn_end {-float(angle_deg):g} {ax} after a turn that way)"
+                f" (or send turn_end {-angle:g} {ax} after a turn that way)"
             )
         self.calibration.gyro_scale[ax] = scale
         self._turned = False
