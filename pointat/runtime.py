@@ -661,8 +661,9 @@ class Runtime:
         In time order, a pass runs the timers that were due when it began; one scheduled during it
         (real time only) waits for the next pass, after the descriptors and the queue are served.  So a
         periodic timer that costs more than its period (or a ``metro`` set to a microsecond) falls
-        behind, but keeps neither the other timers nor the serial ports and sockets from running.  On a manual clock a pass runs what its timers schedule for the same
-        time too, as a Pd tick runs the clocks set during it.
+        behind, but keeps neither the other timers nor the serial ports and sockets from running.  On a
+        manual clock a pass runs what its timers schedule for the same time too, as a Pd tick runs the
+        clocks set during it.
         """
         timers = self._timers
         clock = self.clock

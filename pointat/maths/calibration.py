@@ -489,14 +489,15 @@ class Calibration:
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the JSON file at ``path`` (UTF-8): whole or not at all (a full disk leaves the old one).
         Anything but a regular file (a device, a pipe) is written to as it is."""
+        text = self.to_json() + "\n"
         if os.path.exists(path) and not os.path.isfile(path):
             with open(path, "w", encoding="utf-8") as fh:
-                fh.write(self.to_json() + "\n")
+                fh.write(text)
             return
         part = f"{os.fspath(path)}.part"
         try:
             with open(part, "w", encoding="utf-8") as fh:
-                fh.write(self.to_json() + "\n")
+                fh.write(text)
             os.replace(part, path)
         except BaseException:
             with contextlib.suppress(OSError):
