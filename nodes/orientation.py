@@ -717,13 +717,14 @@ class Reference(Node):
     """Outputs relative to a captured reference pose: "point at the front speaker and press".
 
     A bang at the right inlet (or ``set`` at the left one, ``/pointat/NODE/set`` over OSC) captures the
-    next orientation as the reference; ``clear`` forgets it.  ``mode=heading`` (the default) removes only the reference's heading: azimuth 0 is where
-    the hand pointed and elevations stay true to the room.  The heading is that of the sensor ``axis``
-    that points, as ``azi_ele``'s (give both the same ``axis`` when the hand's x is not the one that
-    points); pointing within 1 deg of straight up or down there is no heading, and the capture waits for
-    the next orientation that has one.  ``mode=full`` removes the whole reference orientation: the
-    reference pose becomes the identity, its tilt and roll too, so with a reference that is not level every
-    later direction is measured from its tilted horizon (capture a level pose, or use heading).
+    next orientation as the reference; ``clear`` forgets it.  ``mode=heading`` (the default) removes only
+    the reference's heading: azimuth 0 is where the hand pointed and elevations stay true to the room.  The
+    heading is that of the sensor ``axis`` that points, as ``azi_ele``'s (give both the same ``axis`` when
+    the hand's x is not the one that points); pointing within 1 deg of straight up or down there is no
+    heading, and the capture waits for the next orientation that has one.  ``mode=full`` removes the whole
+    reference orientation: the reference pose becomes the identity, its tilt and roll too, so with a
+    reference that is not level every later direction is measured from its tilted horizon (capture a level
+    pose, or use heading).
 
     The offset quaternion is applied in the earth frame, q_rel = q_offset ⊗ q (the reference turns the
     room, not the sensor); Bachmann et al.'s offset quaternions (VRST 2001 Eqs. 32-34) are the sensor-frame
