@@ -31,7 +31,8 @@
   instead of sleeping for that long after each input: the next sample finds it awake, with its caches
   warm, and the system's wake-up no longer adds to its latency; a CPU is busy while input flows.  With
   other Python threads in the process it waits :attr:`Runtime.SPIN_GRAIN` in select between polls, so
-  that they still get the interpreter.
+  that they still get the interpreter (threads marked with :func:`quiet_thread`, such as the console's
+  writer, do not count).
 * **Live control.**  :meth:`set_param` and :meth:`send` may be called from any thread (the OSC bridge
   uses them); they are carried out on the scheduler thread.
 """
@@ -50,6 +51,7 @@ import socket
 import struct
 import threading
 import time
+import weakref
 from collections.abc import Callable, Iterable
 from typing import Any
 
@@ -64,6 +66,7 @@ __all__ = [
     "StartError",
     "Timer",
     "keep_cpus_awake",
+    "quiet_thread",
     "realtime_priority",
 ]
 
@@ -115,6 +118,19 @@ def keep_cpus_awake(max_wake_us: int = 0) -> tuple[int | None, str | None]:
         os.close(fd)
         return None, str(exc)
     return fd, None
+
+
+#: Threads that sleep until they are handed work and then want the interpreter only for a moment.
+_QUIET: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
+
+
+def quiet_thread(thread: threading.Thread) -> threading.Thread:
+    """Mark ``thread`` as one that sleeps until it is handed work and then wants the interpreter only for a
+    moment (the console's and the log's writers): a spinning scheduler (``pointat run --spin``) polls
+    without pauses beside it, as if it were not there.  Such a thread may wait for the interpreter up to
+    :func:`sys.getswitchinterval` (5 ms) when it wakes.  Returns ``thread``."""
+    _QUIET.add(thread)
+    return thread
 
 
 class StartError(PointatError):
@@ -743,8 +759,14 @@ class Runtime:
 
     #: While other Python threads share the process (a simulated glove's writer, a replay, MIDI input),
     #: spinning waits this long in select between polls, so that they get the interpreter: a thread that
-    #: only polls would hold it nearly all the time.  The wait ends at once when input comes.
+    #: only polls would hold it nearly all the time.  The wait ends at once when input comes.  Threads
+    #: marked with :func:`quiet_thread` (the console's and the log's writers) do not count.
     SPIN_GRAIN = 50e-6
+
+    def _spin_grain(self) -> float:
+        """:attr:`SPIN_GRAIN` while a thread that may want the interpreter shares the process, else 0."""
+        others = threading.active_count() - 1 - sum(1 for t in list(_QUIET) if t.is_alive())
+        return self.SPIN_GRAIN if others > 0 else 0.0
 
     def _spin(self, selector: _Descriptors, timeout: float, waiting: Any) -> list[Any]:
         """Poll while the last input is less than :attr:`spin` old (and ``timeout`` has not passed), then
@@ -758,7 +780,7 @@ class Runtime:
         start = now = time.monotonic()
         end = start + timeout
         until = min(self._input_at + self._spin_for, end)
-        grain = self.SPIN_GRAIN if threading.active_count() > 1 else 0.0
+        grain = self._spin_grain()
         while now < until:
             ready = selector.select(0.0) if not grain else selector.wait(min(grain, until - now))
             if ready or waiting:

@@ -25,6 +25,8 @@ from collections import deque
 from collections.abc import Callable
 from typing import TextIO
 
+from .runtime import quiet_thread
+
 __all__ = ["LineHandler", "LineWriter"]
 
 
@@ -48,7 +50,8 @@ class LineWriter:
         self._cond = threading.Condition()
         self._busy = False  # the thread is writing lines it took
         self._closing = False
-        self._thread = threading.Thread(target=self._run, name=f"pointat-{name}", daemon=True)
+        # It sleeps until a line comes: a spinning scheduler need not pause for it (quiet_thread).
+        self._thread = quiet_thread(threading.Thread(target=self._run, name=f"pointat-{name}", daemon=True))
         self._thread.start()
 
     def write(self, line: str) -> None:

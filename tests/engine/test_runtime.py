@@ -1,6 +1,7 @@
 """The runtime: logical clock, deadline timers, metro drift, sources in threads, clean shutdown."""
 
 import contextlib
+import io
 import math
 import signal
 import socket
@@ -11,9 +12,11 @@ import time
 
 import pytest
 
+from pointat import runtime as runtime_module
 from pointat.message import make, vector
 from pointat.node import Node, Outlet, Param
 from pointat.runtime import Runtime
+from pointat.terminal import LineWriter
 from pointat.testing import Collect, patch, wait_until
 
 
@@ -337,6 +340,30 @@ def test_spinning_leaves_the_interpreter_to_the_other_threads_of_the_process():
         for _ in range(200):  # this thread needs the interpreter after each of 200 short sleeps
             time.sleep(0.001)
         assert time.monotonic() - t0 < 2.0  # about 0.25 s when it gets it at once
+
+
+def test_a_quiet_thread_leaves_a_spinning_scheduler_polling_without_pauses(monkeypatch):
+    """The console's and the log's writers (``pointat run`` always has them) sleep until a line comes:
+    with them alone beside it the scheduler polls without pauses, as ``--spin`` promises (with pauses,
+    ``--spin`` gave no lower latency than sleeping); a thread of any other kind still gets its grains."""
+    rt = Runtime(spin=1.0)
+    writer = LineWriter(io.StringIO(), name="test-quiet")
+    stop = threading.Event()
+    plain = threading.Thread(target=stop.wait, daemon=True)
+    plain.start()
+    try:
+        assert writer._thread in runtime_module._QUIET and plain not in runtime_module._QUIET
+        monkeypatch.setattr(threading, "active_count", lambda: 2)  # the scheduler and one other
+        assert rt._spin_grain() == 0.0  # one quiet thread alive: it is the other
+        monkeypatch.setattr(threading, "active_count", lambda: 3)  # and one that is not quiet
+        assert rt._spin_grain() == Runtime.SPIN_GRAIN
+        writer.close()
+        monkeypatch.setattr(threading, "active_count", lambda: 2)  # the writer has ended: the other is not it
+        assert rt._spin_grain() == Runtime.SPIN_GRAIN
+    finally:
+        writer.close()
+        stop.set()
+        plain.join(5)
 
 
 def test_spin_must_be_a_finite_number_of_seconds():
