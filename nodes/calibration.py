@@ -248,6 +248,7 @@ class Scaling(Node):
                 if not math.isfinite(f) or f == 0.0:
                     worst = math.inf
                 elif sensor in resolution and scale[a] != 1.0:
+                    f = abs(f)  # an axis flipped by hand is no less off
                     worst = max(worst, f / resolution[sensor], resolution[sensor] / f)
             if worst > self.PLAUSIBLE:
                 values = " ".join(f"{v:g}" for v in scale)
@@ -305,7 +306,8 @@ def _integrated(samples: np.ndarray, dt: np.ndarray, axis: int, null: np.ndarray
 class Calibrate(Node):
     """Calibrate a mote by Bachmann et al.'s procedures (VRST 2001 §3.2.1), driven by messages.
 
-    Feed it the raw counts continuously, then send, in any order (but ``rest`` before any turn):
+    Feed it the raw counts continuously, then send, in any order (but ``rest`` before any turn, in the
+    same run: nulls from the file are not taken, as a gyro's bias drifts from day to day):
 
     * ``rest``: hold still; the next ``samples`` samples give the gyro nulls (refused, with a
       ``moved`` status, when a gyro varied by more than ``still`` counts rms).
@@ -370,6 +372,7 @@ class Calibrate(Node):
         self._turned = False  # a turn ended and no scale taken from it yet: turn_end may be sent again
         self._buf: list[np.ndarray] = []
         self._times: list[float] = []
+        self._rested = False  # gyro nulls taken in this run (a file's may be days old: the bias drifts)
 
     def loadbang(self) -> None:
         """Start from the calibration already in ``file``: a step taken again replaces its part, and
@@ -391,6 +394,7 @@ class Calibrate(Node):
         """Start from no calibration at all (the file is not touched until ``save``)."""
         self.calibration = Calibration()
         self.poses = []
+        self._rested = False
         self.out(0, ("cleared",))
 
     def _start(self, what: str) -> None:
@@ -436,10 +440,10 @@ class Calibrate(Node):
         self._start("turn")
 
     def _need_rest(self, what: str) -> None:
-        if not np.any(self.calibration.gyro_null):
+        if not self._rested:  # nulls loaded from the file do not count: the bias drifts from day to day
             raise ValueError(
-                f"{what}: the gyro nulls are not known yet (the turn is integrated from them): send rest"
-                " first and hold still, then turn"
+                f"{what}: the gyro nulls of this run are not known yet (the turn is integrated from them):"
+                " send rest first and hold still, then turn"
             )
 
     def do_mag_end(self) -> None:
@@ -563,6 +567,7 @@ class Calibrate(Node):
                 return
             if what == "rest":
                 self.calibration.gyro_null = gyro_null(data[:, 0:3])
+                self._rested = True
                 self.out(0, ("rest", *self.calibration.gyro_null.tolist()))
             else:
                 self.poses.append(data[:, 3:6].mean(axis=0))

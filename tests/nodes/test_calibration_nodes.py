@@ -173,6 +173,10 @@ def test_a_calibration_file_names_itself_once_and_every_way_it_can_be_wrong(tmp_
             '"acc": {"null": [2048, 2048, 2048], "scale": [1e-320, 52, 52]}',
             "acc.scale [9.99989e-321 52 52] (counts per unit) is up to inf times off",
         ),
+        (  # the same with an axis flipped by hand
+            '"acc": {"null": [2048, 2048, 2048], "scale": [52, 52, -0.0192]}',
+            "acc.scale [52 52 -0.0192] (counts per unit) is up to",
+        ),
         (
             '"mag": {"null": [2048, 2048, 2048], "scale": [1, 1, 1], "soft_iron": [[0, 0, 0], [0, 0, 0], [0, 0, 0]]}',
             "mag.soft_iron is singular",
@@ -328,14 +332,36 @@ def test_a_gyro_axis_the_file_has_no_scale_for_keeps_its_resolution(tmp_path, ca
 def test_a_turn_before_rest_is_refused(tmp_path):
     rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
     cal = rt.nodes["cal"]
-    with pytest.raises(ValueError, match="turn_begin: the gyro nulls are not known yet.*send rest first"):
+    with pytest.raises(ValueError, match="turn_begin: the gyro nulls of this run are not known yet.*send rest first"):
         cal.receive(0, method("turn_begin"))  # said before the user turns, not after
     cal._start("turn")  # and had it started anyway (a null loaded as 0): turn_end refuses it too
     for k in range(50):
         cal.receive(0, vector([2048.0, 2048.0, 2600.0] + [2048.0] * 6, k * 0.01))
-    with pytest.raises(ValueError, match="turn_end: the gyro nulls are not known yet"):
+    with pytest.raises(ValueError, match="turn_end: the gyro nulls of this run are not known yet"):
         cal.receive(0, method("turn_end", 90, 2))
     assert cal.calibration.gyro_scale[2] == 1.0  # nothing stored: not a scale against a null of 0
+
+
+def test_a_turn_needs_the_nulls_of_this_run_not_those_loaded_from_the_file(tmp_path):
+    # the file's nulls are a day old: the bias drifted 10 counts (1 deg/s), and a turn integrated from
+    # them stored a scale 9 % off, inside the 2x check, without a word
+    path = tmp_path / "c.json"
+    Calibration(gyro_null=[2048.0, 2048.0, 2048.0]).save(path)
+    rt = patch(f"node cal calibrate file={path} samples=20\nnode st collect\ncal -> st\n")
+    rt.start()
+    cal = rt.nodes["cal"]
+    assert rt.nodes["st"].values[0] == ("loaded", str(path))
+    with pytest.raises(ValueError, match="turn_begin: the gyro nulls of this run are not known yet"):
+        cal.receive(0, method("turn_begin"))
+    cal.receive(0, method("rest"))
+    for k in range(20):
+        cal.receive(0, vector([2058.0, 2058.0, 2058.0] + [2048.0] * 6, k * 0.01))
+    cal.receive(0, method("turn_begin"))  # now it is taken
+    assert rt.nodes["st"].values[-1] == ("collecting", "turn")
+    cal.receive(0, method("clear"))  # and after clear, the nulls are gone again
+    with pytest.raises(ValueError, match="send rest first"):
+        cal.receive(0, method("turn_begin"))
+    rt.shutdown()
 
 
 def test_a_turn_the_other_way_is_refused_not_stored_as_a_negative_scale(tmp_path):
