@@ -332,7 +332,9 @@ def test_a_gyro_axis_the_file_has_no_scale_for_keeps_its_resolution(tmp_path, ca
 def test_a_turn_before_rest_is_refused(tmp_path):
     rt = patch(f"node cal calibrate file={tmp_path / 'c.json'} samples=20\nnode st collect\ncal -> st\n")
     cal = rt.nodes["cal"]
-    with pytest.raises(ValueError, match="turn_begin: the gyro nulls of this run are not known yet.*send rest first"):
+    with pytest.raises(
+        ValueError, match="turn_begin: the gyro nulls of this run are not known yet.*send rest first"
+    ):
         cal.receive(0, method("turn_begin"))  # said before the user turns, not after
     cal._start("turn")  # and had it started anyway (a null loaded as 0): turn_end refuses it too
     for k in range(50):
