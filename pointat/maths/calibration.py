@@ -24,6 +24,7 @@ import contextlib
 import json
 import math
 import os
+import shutil
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
@@ -487,17 +488,24 @@ class Calibration:
         return cls.from_dict(data, source=source)
 
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Write the JSON file at ``path`` (UTF-8): whole or not at all (a full disk leaves the old one).
-        Anything but a regular file (a device, a pipe) is written to as it is."""
+        """Write the JSON file at ``path`` (UTF-8): whole or not at all (a full disk, or the power going,
+        leaves the old one), keeping its permissions; a symbolic link is followed (the file it names is
+        written, as one glove's file shared by two patches).  Anything but a regular file (a device, a
+        pipe) is written to as it is."""
         text = self.to_json() + "\n"
+        path = os.path.realpath(path)
         if os.path.exists(path) and not os.path.isfile(path):
             with open(path, "w", encoding="utf-8") as fh:
                 fh.write(text)
             return
-        part = f"{os.fspath(path)}.part"
+        part = f"{path}.part"
         try:
             with open(part, "w", encoding="utf-8") as fh:
                 fh.write(text)
+                fh.flush()
+                os.fsync(fh.fileno())
+            with contextlib.suppress(OSError):  # none yet, or not ours to read: the default mode
+                shutil.copymode(path, part)
             os.replace(part, path)
         except BaseException:
             with contextlib.suppress(OSError):

@@ -1,6 +1,9 @@
 """Tests for pointat.maths.calibration against seeded synthetic sensors."""
 
 import json
+import os
+import stat
+import sys
 
 import numpy as np
 import pytest
@@ -291,3 +294,19 @@ def test_constructor_validates():
         Calibration(gyro_null=[1.0, np.nan, 0.0])
     with pytest.raises(ValueError, match="mag_soft_iron"):
         Calibration(mag_soft_iron=np.eye(2))
+
+
+@pytest.mark.skipif(not hasattr(os, "symlink") or sys.platform == "win32", reason="POSIX links and modes")
+def test_save_writes_through_a_link_and_keeps_the_files_mode(tmp_path):
+    # one glove's file shared by two patches through a link: save replaced the link by a file of its own
+    # (the shared file kept the old nulls), and a file made group-writable came back 0644
+    shared = tmp_path / "glove1.json"
+    Calibration().save(shared)
+    os.chmod(shared, 0o664)
+    link = tmp_path / "calibration.json"
+    os.symlink(shared, link)
+    Calibration(gyro_null=[2001.0, 2002.0, 2003.0]).save(link)
+    assert link.is_symlink()
+    assert list(Calibration.load(shared).gyro_null) == [2001.0, 2002.0, 2003.0]
+    assert stat.S_IMODE(os.stat(shared).st_mode) == 0o664
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["calibration.json", "glove1.json"]  # no .part left
