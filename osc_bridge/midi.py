@@ -392,6 +392,18 @@ class MidiSender:
         self.last = 0
         return [mido.Message("note_off", channel=self.channel - 1, note=number, velocity=0)]
 
+    def unsent(self, messages: list[mido.Message]) -> None:
+        """Take back what making ``messages`` did to the state: they were not delivered (a full disk), so
+        the next value goes out even when it is the same, a note struck is not held, and a note whose
+        note-off failed still is (the end of the take releases it)."""
+        self.last = None
+        for m in reversed(messages):
+            if m.type == "note_on" and m.velocity > 0:
+                if m.note in self.held:
+                    self.held.remove(m.note)
+            elif m.type in ("note_on", "note_off") and m.note not in self.held:
+                self.held.append(m.note)
+
     def release(self) -> list[mido.Message]:
         """Note-offs for every note held (at the end, or before the channel or number changes)."""
         out: list[mido.Message] = []
@@ -517,7 +529,7 @@ class MidiFileWriter:
             _write_all(fh, data)
             fh.seek(self._LENGTH_AT)
             _write_all(fh, struct.pack(">L", self._length + len(data)))
-        except OSError:
+        except BaseException:  # a full disk, or Ctrl-C in the middle (a runtime in a notebook)
             with contextlib.suppress(OSError):
                 fh.truncate(end)
                 fh.seek(self._LENGTH_AT)
@@ -978,7 +990,11 @@ dir.azimuth -> pan
         if getattr(self._sink, "lost", False):  # unplugged: said once when it went
             self.dropped += len(messages)
             return
-        self._sink.send(messages, time)  # a 14-bit value's two halves together, or neither
+        try:
+            self._sink.send(messages, time)  # a 14-bit value's two halves together, or neither
+        except BaseException:
+            self.sender.unsent(messages)  # owed still: a fader that stays put is written when room comes
+            raise
         self.sent += len(messages)
 
     def param_changed(self, name: str) -> None:

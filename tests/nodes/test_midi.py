@@ -335,6 +335,70 @@ def test_a_full_disk_leaves_the_file_as_it_was_and_never_half_a_14_bit_value(tmp
     assert got == [(1, 480), (33, 0), (1, 1440), (33, 0)]  # 0.5 s, then 2.0 s: nothing of the failed ones
 
 
+def test_a_write_interrupted_midway_is_cut_off_too(tmp_path):
+    # Ctrl-C in a notebook between the events and the track's length: their bytes were left behind the
+    # end-of-track that close() wrote over the first of them
+    class Interrupted:
+        def __init__(self, fh):
+            self.fh, self.calls = fh, 0
+
+        def write(self, data):
+            self.calls += 1
+            if self.calls == 2:  # the events went in; the length did not
+                raise KeyboardInterrupt
+            return self.fh.write(data)
+
+        def __getattr__(self, name):
+            return getattr(self.fh, name)
+
+    path = tmp_path / "take.mid"
+    w = MidiFileWriter(path)
+    w.write(mido.Message("control_change", control=7, value=1), 0.5)
+    size = path.stat().st_size
+    w._fh = Interrupted(w._fh)
+    with pytest.raises(KeyboardInterrupt):
+        w.write(mido.Message("control_change", control=7, value=2), 1.0)
+    w._fh = w._fh.fh
+    assert path.stat().st_size == size
+    w.close()
+    data = path.read_bytes()
+    assert len(data) == 14 + 8 + int.from_bytes(data[18:22], "big")  # nothing behind the track
+    assert [m.value for m in mido.MidiFile(path).tracks[0] if not m.is_meta] == [1]
+
+
+def test_what_a_full_disk_refused_is_still_owed_when_room_comes(tmp_path, monkeypatch):
+    # the fader's value was taken for sent though the disk refused it: with change=true the take held the
+    # old value until the fader moved; a note-off refused was forgotten, and the note hung to the end
+    import errno
+
+    path = tmp_path / "take.mid"
+    rt = patch(
+        f"""
+node vol midi_out kind=cc number=7 range=[0, 1] file="{path}"
+node gate midi_out kind=note number=60 file="{path}"
+"""
+    )
+    rt.advance(0.0)
+    vol, gate = rt.nodes["vol"], rt.nodes["gate"]
+    writer = vol._sink.writer
+    vol.receive(0, make(0.0, 0.0))
+    gate.receive(0, make(1.0, 0.0))  # note on
+
+    def full(messages, time):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(writer, "write_all", full)
+    with pytest.raises(OSError):
+        vol.receive(0, make(1.0, 0.5))
+    with pytest.raises(OSError):
+        gate.receive(0, make(0.0, 0.5))  # note off
+    monkeypatch.undo()  # room again
+    vol.receive(0, make(1.0, 1.0))  # the fader stayed up: written now
+    rt.shutdown()  # the note still sounding in the file is released at the end
+    events = [m.hex() for m in mido.MidiFile(path).tracks[0] if not m.is_meta]
+    assert events == ["B0 07 00", "90 3C 64", "B0 07 7F", "80 3C 00"]
+
+
 def test_no_port_and_no_file_falls_back_to_a_file_when_there_is_no_midi_system(tmp_path, monkeypatch, caplog):
     def no_system():
         raise ImportError("No module named 'rtmidi'")
