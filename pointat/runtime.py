@@ -45,6 +45,7 @@ import logging
 import math
 import os
 import queue
+import re
 import select
 import selectors
 import socket
@@ -319,7 +320,7 @@ class Runtime:
         self.depth = 0
         self.bus: dict[str, list[Node]] = {}
         self.dropped = 0
-        self._failures: dict[tuple[str | None, str], int] = {}  # failed events, by node and error
+        self._failures: dict[tuple[str | None, str, str], int] = {}  # failed events (_failed)
         self.stopping = threading.Event()
         self._timers: list[Timer] = []
         self._seq = itertools.count()
@@ -876,8 +877,17 @@ class Runtime:
             self.depth = 0
         return False
 
+    #: Failed events are counted by node, error type and message with its numbers blanked (``moved 3.2
+    #: deg`` and ``moved 4.1 deg`` are one): a new failure is told at once, a repeated one at its 1st,
+    #: 2nd, 3rd, 10th, 100th...  Past this many different messages, by node and type alone.
+    FAILURE_KINDS = 256
+    _NUMBERS = re.compile(r"[-+]?[0-9][0-9.eE+-]*")
+
     def _failed(self, node: Node | None, exc: BaseException) -> int:
-        """How many times events of ``node`` failed so with the same kind of error, this one included."""
-        key = (None if node is None else node.name, type(exc).__name__)
+        """How many times events of ``node`` failed so, this one included."""
+        who, kind = None if node is None else node.name, type(exc).__name__
+        key = (who, kind, self._NUMBERS.sub("#", str(exc))[:120])
+        if key not in self._failures and len(self._failures) >= self.FAILURE_KINDS:
+            key = (who, kind, "")
         n = self._failures[key] = self._failures.get(key, 0) + 1
         return n

@@ -817,4 +817,17 @@ def test_an_event_that_fails_at_every_tick_is_told_of_a_few_times(caplog):
         rt._guard(rt.nodes["m"], fails)
     said = [r.getMessage() for r in caplog.records if "feedback loop" in r.getMessage()]
     assert len(said) == 5 and said[-1].endswith("(100 so far)")  # the 1st, 2nd, 3rd, 10th, 100th
+
+    # the same failure with other numbers counts on; another failure of the same type is told at once
+    # (a soundcheck's three ValueErrors hid the show's "disk full" for good)
+    def failing(text: str):
+        def fail() -> None:
+            raise ValueError(text)
+
+        return fail
+
+    for text in ("moved 3.25 deg", "moved 4.5 deg", "moved 5.5 deg", "moved 6.5 deg", "the disk is full"):
+        rt._guard(rt.nodes["m"], failing(text))
+    said = [r.getMessage() for r in caplog.records if "ValueError" in r.getMessage()]
+    assert len(said) == 4 and "moved 5.5 deg" in said[2] and "the disk is full" in said[3]
     rt.shutdown()
