@@ -670,6 +670,8 @@ class Runtime:
     #: once every :attr:`LATE_EVERY` seconds.
     LATE = 0.1
     LATE_EVERY = 10.0
+    #: Timers one pass of a manual clock runs at most, for one logical time (see :meth:`_run_due`).
+    MANUAL_PASS = 100_000
 
     def _run_due(self) -> float:
         """Run the timers that are due; return the seconds until the next one (at most :attr:`IDLE`; 0
@@ -680,7 +682,8 @@ class Runtime:
         periodic timer that costs more than its period (or a ``metro`` set to a microsecond) falls
         behind, but keeps neither the other timers nor the serial ports and sockets from running.  On a
         manual clock a pass runs what its timers schedule for the same time too, as a Pd tick runs the
-        clocks set during it.
+        clocks set during it; past :attr:`MANUAL_PASS` of them it raises :class:`FeedbackError` (a
+        ``delay 0`` that triggers itself would run forever, in Pd too), leaving the rest scheduled.
         """
         timers = self._timers
         clock = self.clock
@@ -689,6 +692,7 @@ class Runtime:
         if timers and timers[0].when <= start:
             self._passing = True
             later: list[Timer] = []  # scheduled during this pass, and due already: the next pass's
+            ran = 0
             try:
                 while timers and timers[0].when <= start:
                     t = heapq.heappop(timers)
@@ -699,6 +703,15 @@ class Runtime:
                         continue
                     if start - t.when > self.LATE and self.realtime:
                         self._late(t, start - t.when)
+                    ran += 1
+                    if ran > self.MANUAL_PASS and not self.realtime:
+                        heapq.heappush(timers, t)
+                        who = f" (node '{t.node.name}')" if t.node is not None else ""
+                        raise FeedbackError(
+                            f"more than {self.MANUAL_PASS} timers at {start:g} s: a timer that schedules"
+                            f" itself for the same time{who}, such as a delay 0 that triggers itself,"
+                            " would run forever"
+                        )
                     if t.node is not None:
                         t.node.time = t.when
                         self._guard(t.node, t.fn, *t.args)

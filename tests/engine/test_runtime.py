@@ -803,6 +803,17 @@ def test_a_timer_that_falls_behind_keeps_no_other_timer_from_running():
     assert len(rt.nodes["sink"].messages) > 100  # and the fast one as fast as the passes go
 
 
+def test_a_delay_0_that_triggers_itself_is_an_error_on_a_manual_clock_not_a_hang():
+    # live, the passes keep it from holding anything up; on a test's manual clock advance() never returned
+    from pointat.errors import FeedbackError
+
+    rt = patch("node go loadbang\nnode d delay 0\nnode n collect\ngo -> d\nd -> d\nd -> n\n", realtime=False)
+    with pytest.raises(FeedbackError, match=r"more than 100000 timers at 0 s: .*\(node 'd'\).*delay 0"):
+        rt.advance(0.01)
+    assert len(rt.nodes["n"].messages) == Runtime.MANUAL_PASS
+    rt.shutdown()
+
+
 def test_an_event_that_fails_at_every_tick_is_told_of_a_few_times(caplog):
     # a 300-node chain (loop-free, but deeper than the depth guard) fed by a metro logged at every tick
     from pointat.errors import FeedbackError
