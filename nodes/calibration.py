@@ -325,7 +325,8 @@ class Calibrate(Node):
       the file through their ``calibration`` parameter.
 
     When ``file`` exists as the patch starts, the calibration starts from it (status ``loaded``): redo one
-    step and ``save``, and the others stay as they were.  ``clear`` starts from no calibration.
+    step and ``save``, and the others stay as they were.  ``clear`` starts from no calibration.  A file
+    that does not read (a hand edit gone wrong) is not replaced by ``save`` until ``clear`` is sent.
     """
 
     #: How far (a factor) a gyro scale from a turn may be from the nominal ``gyro`` resolution's.
@@ -373,6 +374,7 @@ class Calibrate(Node):
         self._buf: list[np.ndarray] = []
         self._times: list[float] = []
         self._rested = False  # gyro nulls taken in this run (a file's may be days old: the bias drifts)
+        self._unread: str | None = None  # the file, when it was there but did not read at the start
 
     def loadbang(self) -> None:
         """Start from the calibration already in ``file``: a step taken again replaces its part, and
@@ -383,8 +385,12 @@ class Calibrate(Node):
         try:
             self.calibration = _load(path)
         except ValueError as exc:
+            self._unread = path
             log.warning(
-                "calibrate '%s': %s; starting from no calibration, and save will replace it", self.name, exc
+                "calibrate '%s': %s; starting from no calibration (save refuses to replace the file until"
+                " clear is sent)",
+                self.name,
+                exc,
             )
             return
         log.info("calibrate '%s': starting from %s (clear: from nothing)", self.name, path)
@@ -395,6 +401,7 @@ class Calibrate(Node):
         self.calibration = Calibration()
         self.poses = []
         self._rested = False
+        self._unread = None
         self.out(0, ("cleared",))
 
     def _start(self, what: str) -> None:
@@ -525,12 +532,18 @@ class Calibrate(Node):
 
     def do_save(self, path: Any = None) -> None:
         target = str(path) if path is not None else self.p.file
+        if self._unread is not None and os.path.realpath(target) == os.path.realpath(self._unread):
+            raise ValueError(
+                f"save: {target} did not read at the start (see the warning then), and what it holds"
+                " would be lost: mend it and send load, send clear to replace it, or save PATH elsewhere"
+            )
         self.calibration.save(target)
         self.out(0, ("saved", target))
 
     def do_load(self, path: Any = None) -> None:
         target = str(path) if path is not None else self.p.file
         self.calibration = _load(target)
+        self._unread = None
         self.out(0, ("loaded", target))
 
     def _take(self, what: str) -> np.ndarray:

@@ -482,8 +482,19 @@ def test_redoing_one_step_and_saving_keeps_the_rest_of_the_calibration(tmp_path,
     cal.receive(0, method("save"))
     assert list(Calibration.load(path).acc_scale) == [1.0] * 3
     rt.shutdown()
-    path.write_text("{not json")  # a file that does not read: the patch starts all the same
+    # a file that does not read (a hand edit gone wrong): the patch starts all the same, and save does not
+    # throw away what the file holds (it replaced it with what this run took) until clear is sent
+    edited = path.read_text().replace('"acc": {', '"acc": {,')
+    path.write_text(edited)
     rt = patch(f"node cal calibrate file={path}\n")
     rt.start()
     assert f"calibration file {path}" in caplog.text and "starting from no calibration" in caplog.text
+    cal = rt.nodes["cal"]
+    with pytest.raises(ValueError, match="did not read at the start.*send clear to replace it"):
+        cal.receive(0, method("save"))
+    assert path.read_text() == edited
+    cal.receive(0, method("save", str(tmp_path / "other.json")))  # elsewhere: fine
+    cal.receive(0, method("clear"))
+    cal.receive(0, method("save"))
+    assert Calibration.load(path).acc_scale.tolist() == [1.0] * 3
     rt.shutdown()
