@@ -12,7 +12,7 @@
 #   4. /pointat/cal/turn_begin, turn the glove by a known angle about one of its axes (90 deg flat on
 #      a table, against a square edge, counter-clockwise seen from the axis's tip: for z, from above),
 #      then /pointat/cal/turn_end 90 2 (the angle, the axis: 0 x, 1 y, 2 z): that gyro axis's scale
-#      (Eq. 31).  Again for the other two axes.  After step 1.
+#      (Eq. 31).  Again for the other two axes.  After step 1, in the same run.
 #   5. /pointat/cal/save                  writes calibration.json next to this patch (or cal.file=...)
 # Steps 2-4 may be left out: a sensor the file does not calibrate keeps Torre's nominal resolution.
 # An existing calibration.json is the starting point ("loaded"): redo one step, save, and the others
