@@ -866,6 +866,7 @@ phone.quat -> dir
         self._clocks: dict[tuple[str, int], TagClock] = {}  # timetags: each sender's clock
         self.refused_control = 0
         self._refused_at: dict[str, int] = {}  # refused control messages per address
+        self._refused_last: dict[str, float] = {}  # when the last one came, per address (monotonic)
 
     def start(self) -> None:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -904,6 +905,9 @@ phone.quat -> dir
     REFUSED_NAMED = 16
     #: Addresses whose refused control is counted (and told) each on its own; more share one count.
     REFUSED_ADDRESSES = 32
+    #: A refusal that comes this many seconds after the last one at its address is told whatever the
+    #: count: a person trying a command again, not a flood.
+    REFUSED_QUIET = 3.0
 
     def _readable(self) -> None:
         """Scheduler thread, the socket has data: read what is there (up to :attr:`BURST` datagrams, or
@@ -1049,12 +1053,17 @@ phone.quat -> dir
 
     def _refuse(self, address: str, why: str) -> None:
         """A live-control message that did nothing: counted, and logged the first times at its address,
-        then every 10th, 100th...: a flood of them keeps the console readable, and a typo is still told."""
+        then every 10th, 100th...: a flood of them keeps the console readable, and a typo is still told.
+        One that follows :attr:`REFUSED_QUIET` seconds without any at its address is always told (the
+        fourth ``turn_end`` of a calibration, refused, must not pass in silence)."""
         self.refused_control += 1
         counts = self._refused_at
         key = address if address in counts or len(counts) < self.REFUSED_ADDRESSES else ""
         n = counts[key] = counts.get(key, 0) + 1  # a flood of made-up addresses shares one count
-        if worth_reporting(n):  # counted per address: a stray fader must not silence a typo after it
+        now = time.monotonic()
+        quiet = now - self._refused_last.get(key, -math.inf) >= self.REFUSED_QUIET
+        self._refused_last[key] = now
+        if worth_reporting(n) or quiet:  # counted per address: a stray fader must not silence a typo
             log.warning(
                 "osc_in '%s' (port %d): %s refused: %s%s",
                 self.name,

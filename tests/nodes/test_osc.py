@@ -751,6 +751,19 @@ def test_a_flood_of_bad_control_is_counted_and_logged_sparingly_and_good_control
     assert max(len(x) for x in lines) < 400  # the 5000-character string is not echoed whole
 
 
+def test_a_refused_command_tried_again_after_a_pause_is_told_every_time(started, caplog, monkeypatch):
+    # the 4th refused turn_end of a calibration passed in silence (only the 10th, 100th... were told)
+    rt, imu, addr = in_patch(started, "", "node m metro 100")
+    monkeypatch.setattr(imu, "REFUSED_QUIET", 0.2)  # a person's pause, shortened for the test
+    with sender() as tx:
+        for k in range(5):
+            tx.sendto(osc("/pointat/m/intervl", 5.0).dgram, addr)
+            assert wait_for(rt, lambda k=k: imu.refused_control == k + 1)
+            time.sleep(0.3)
+    lines = [r.getMessage() for r in caplog.records if "intervl refused" in r.getMessage()]
+    assert len(lines) == 5 and lines[-1].endswith("(5 refused at this address so far)")
+
+
 def test_a_flood_of_made_up_control_addresses_is_told_of_sparingly_too(started, caplog):
     rt, imu, addr = in_patch(started, "", "node m metro 100")
     with sender() as tx:
