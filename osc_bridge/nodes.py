@@ -29,7 +29,7 @@ from typing import Any
 
 from pythonosc.osc_packet import OscPacket
 
-from pointat.errors import did_you_mean, worth_reporting
+from pointat.errors import Repeats, did_you_mean, worth_reporting
 from pointat.message import Message, as_float, floats, make, method
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
@@ -865,8 +865,7 @@ phone.quat -> dir
         self._refused_from: set[str] = set()  # the senders outside allow named in the log
         self._clocks: dict[tuple[str, int], TagClock] = {}  # timetags: each sender's clock
         self.refused_control = 0
-        self._refused_at: dict[str, int] = {}  # refused control messages per address
-        self._refused_last: dict[str, float] = {}  # when the last one came, per address (monotonic)
+        self._refusals = Repeats(self.REFUSED_ADDRESSES, quiet=self.REFUSED_QUIET)  # control, by address
 
     def start(self) -> None:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -1057,13 +1056,9 @@ phone.quat -> dir
         One that follows :attr:`REFUSED_QUIET` seconds without any at its address is always told (the
         fourth ``turn_end`` of a calibration, refused, must not pass in silence)."""
         self.refused_control += 1
-        counts = self._refused_at
-        key = address if address in counts or len(counts) < self.REFUSED_ADDRESSES else ""
-        n = counts[key] = counts.get(key, 0) + 1  # a flood of made-up addresses shares one count
-        now = time.monotonic()
-        quiet = now - self._refused_last.get(key, -math.inf) >= self.REFUSED_QUIET
-        self._refused_last[key] = now
-        if worth_reporting(n) or quiet:  # counted per address: a stray fader must not silence a typo
+        # counted per address: a stray fader must not silence a typo; made-up addresses share one count
+        n, tell = self._refusals.add(address, "")
+        if tell:
             log.warning(
                 "osc_in '%s' (port %d): %s refused: %s%s",
                 self.name,

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable
+import math
+import time
+from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
 
 __all__ = [
@@ -74,6 +76,36 @@ def worth_reporting(n: int, first: int = 3) -> bool:
     [1, 10, 100, 1000]
     """
     return 1 <= n <= first or (n >= 10 and 10 ** (len(str(n)) - 1) == n)
+
+
+class Repeats:
+    """Counts a run-time problem by its kind and says whether to log this one: the 1st, 2nd, 3rd, 10th,
+    100th... of its kind (:func:`worth_reporting`) and, with ``quiet``, any that comes ``quiet`` seconds
+    or more after the last of its kind (a person trying a command again, not a flood).  Past ``kinds``
+    different kinds, a new one counts under the ``fallback`` kind given with it, so that a flood of
+    made-up ones stays a few lines and a few entries.
+
+    >>> r = Repeats(kinds=2)
+    >>> [r.add(k) for k in ("a", "a", "b", "c", "d")]
+    [(1, True), (2, True), (1, True), (1, True), (2, True)]
+    """
+
+    def __init__(self, kinds: int, quiet: float | None = None) -> None:
+        self.kinds, self.quiet = kinds, quiet
+        self.counts: dict[Hashable, int] = {}
+        self._last: dict[Hashable, float] = {}  # monotonic time of the last one, by kind (with quiet)
+
+    def add(self, kind: Hashable, fallback: Hashable = None) -> tuple[int, bool]:
+        """Count one of ``kind``: how many of its kind so far, this one included, and whether to log it."""
+        if kind not in self.counts and len(self.counts) >= self.kinds:
+            kind = fallback
+        n = self.counts[kind] = self.counts.get(kind, 0) + 1
+        tell = worth_reporting(n)
+        if self.quiet is not None:
+            now = time.monotonic()
+            tell = tell or now - self._last.get(kind, -math.inf) >= self.quiet
+            self._last[kind] = now
+        return n, tell
 
 
 def closest(name: str, names: Iterable[str]) -> str | None:

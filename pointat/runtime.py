@@ -56,7 +56,7 @@ import weakref
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from .errors import FeedbackError, PointatError, worth_reporting
+from .errors import FeedbackError, PointatError, Repeats, worth_reporting
 from .message import Message, make, method
 from .node import Node
 
@@ -320,7 +320,7 @@ class Runtime:
         self.depth = 0
         self.bus: dict[str, list[Node]] = {}
         self.dropped = 0
-        self._failures: dict[tuple[str | None, str, str], int] = {}  # failed events (_failed)
+        self._failures = Repeats(self.FAILURE_KINDS)  # failed events (_failed)
         self.stopping = threading.Event()
         self._timers: list[Timer] = []
         self._seq = itertools.count()
@@ -871,12 +871,12 @@ class Runtime:
             fn(*args)
             return True
         except FeedbackError as exc:
-            n = self._failed(node, exc)
-            if worth_reporting(n):
+            n, tell = self._failed(node, exc)
+            if tell:
                 log.error("%s%s", exc, f" ({n} so far)" if n > 3 else "")
         except Exception as exc:
-            n = self._failed(node, exc)
-            if worth_reporting(n):  # a timer that fails at every tick must not flood the console
+            n, tell = self._failed(node, exc)
+            if tell:  # a timer that fails at every tick must not flood the console
                 who = f"node '{node.name}' ({node.type_name})" if node is not None else "runtime"
                 log.error(
                     "%s: %s: %s%s",
@@ -896,11 +896,7 @@ class Runtime:
     FAILURE_KINDS = 256
     _NUMBERS = re.compile(r"[-+]?[0-9][0-9.eE+-]*")
 
-    def _failed(self, node: Node | None, exc: BaseException) -> int:
-        """How many times events of ``node`` failed so, this one included."""
+    def _failed(self, node: Node | None, exc: BaseException) -> tuple[int, bool]:
+        """How many times events of ``node`` failed so, this one included, and whether to log this one."""
         who, kind = None if node is None else node.name, type(exc).__name__
-        key = (who, kind, self._NUMBERS.sub("#", str(exc))[:120])
-        if key not in self._failures and len(self._failures) >= self.FAILURE_KINDS:
-            key = (who, kind, "")
-        n = self._failures[key] = self._failures.get(key, 0) + 1
-        return n
+        return self._failures.add((who, kind, self._NUMBERS.sub("#", str(exc))[:120]), (who, kind, ""))

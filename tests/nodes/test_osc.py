@@ -754,7 +754,7 @@ def test_a_flood_of_bad_control_is_counted_and_logged_sparingly_and_good_control
 def test_a_refused_command_tried_again_after_a_pause_is_told_every_time(started, caplog, monkeypatch):
     # the 4th refused turn_end of a calibration passed in silence (only the 10th, 100th... were told)
     rt, imu, addr = in_patch(started, "", "node m metro 100")
-    monkeypatch.setattr(imu, "REFUSED_QUIET", 0.2)  # a person's pause, shortened for the test
+    monkeypatch.setattr(imu._refusals, "quiet", 0.2)  # REFUSED_QUIET: a person's pause, shortened
     with sender() as tx:
         for k in range(5):
             tx.sendto(osc("/pointat/m/intervl", 5.0).dgram, addr)
