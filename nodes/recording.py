@@ -345,15 +345,22 @@ source.mag -> fuse.mag
     def setup(self) -> None:
         self.emitted = 0
 
+    @classmethod
+    def check_files(cls, values: Mapping[str, Any]) -> None:
+        cls("check", values)._read()  # the recording is read as the patch starts, not as the node is built
+
     def start(self) -> None:
+        self._read()
+        self.active = True
+        self.spawn(self._pump, "replay")
+
+    def _read(self) -> None:
         path = self.p.file
         if _format(path, self.p.format) == "ndjson":
             self._load_ndjson(path)
         else:
             self._load_csv(path)
         self._check_times(path)
-        self.active = True
-        self.spawn(self._pump, "replay")
 
     def _check_times(self, path: str) -> None:
         """Say where the time column is not a time line; keep the rows that have no time, or one too far

@@ -28,7 +28,7 @@ examples:
   pointat run my.pat --set fuse.k=0.2              override a parameter
   pointat run --rt my.pat                          at real-time priority, as Pd's -rt
   pointat run --spin 2 my.pat                      poll instead of sleeping: lower latency, a busy CPU
-  pointat check my.pat                              validate without running
+  pointat check my.pat                              validate without running (files read too)
   pointat nodes                                     list the node types
   pointat help tqt                                  a node's inlets, outlets, parameters, example
   pointat graph my.pat -o my.dot                    Graphviz (also my.svg when dot is installed)
@@ -117,7 +117,11 @@ def _parser() -> argparse.ArgumentParser:
         "than the time between samples: two periods, 2 at 1 kHz, 20 at 100 Hz",
     )
 
-    p = sub.add_parser("check", help="validate a patch without running it")
+    p = sub.add_parser(
+        "check",
+        help="validate a patch without running it, and read the files its nodes will read (calibrations, "
+        "loudspeaker layouts, recordings)",
+    )
     _add_patch_args(p)
 
     p = sub.add_parser("graph", help="write the patch as Graphviz dot (and SVG when dot is installed)")
@@ -179,8 +183,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
 
-def _checked(args: argparse.Namespace, registry: Registry):
-    checked = check(read_spec(args.patch), registry, parse_overrides(args.set))
+def _checked(args: argparse.Namespace, registry: Registry, read_files: bool = False):
+    checked = check(read_spec(args.patch), registry, parse_overrides(args.set), read_files=read_files)
     for w in checked.warnings:
         print(w, file=sys.stderr)
     return checked
@@ -261,7 +265,7 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
 
 
 def cmd_check(args: argparse.Namespace, registry: Registry) -> int:
-    checked = _checked(args, registry)
+    checked = _checked(args, registry, read_files=True)
     print(
         f"{args.patch}: ok ({len(checked.nodes)} nodes, {len(checked.wires)} wires"
         f"{f', {len(checked.warnings)} warning' + 's' * (len(checked.warnings) > 1) if checked.warnings else ''})"

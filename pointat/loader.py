@@ -275,10 +275,15 @@ def check(
     spec: PatchSpec,
     registry: Registry | None = None,
     overrides: Sequence[tuple[str, str, Any]] = (),
+    *,
+    read_files: bool = False,
 ) -> Checked:
     """Expand and check ``spec``; raise :class:`PatchError` with every error, or return the result.
 
-    ``overrides`` are ``(node, param, value)`` triples (``--set node.param=value``).
+    ``overrides`` are ``(node, param, value)`` triples (``--set node.param=value``).  ``read_files``
+    also reads the files that nodes read when they start (calibrations, loudspeaker layouts,
+    recordings: :meth:`Node.check_files`), as ``pointat check`` does; a missing one is a warning either
+    way (a calibration may be taken before the patch runs).
     """
     registry = registry or default_registry
     problems: list[Problem] = []
@@ -351,16 +356,22 @@ def check(
             problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}{hint(decl.name)}"))
             continue
         result.nodes[decl.name] = Resolved(decl, cls, values, ins, outs)
-        for p in cls.params:
-            if p.reads and values.get(p.name) and not Path(values[p.name]).exists():
-                result.warnings.append(
-                    Problem(
-                        decl.where,
-                        f"{label} ({decl.type}): parameter '{p.name}': no file {values[p.name]!r} "
-                        "(it cannot start without it)",
-                        "warning",
-                    )
+        files = [p.name for p in cls.params if p.reads and values.get(p.name)]
+        missing = [name for name in files if not Path(values[name]).exists()]
+        for name in missing:
+            result.warnings.append(
+                Problem(
+                    decl.where,
+                    f"{label} ({decl.type}): parameter '{name}': no file {values[name]!r} "
+                    "(it cannot start without it)",
+                    "warning",
                 )
+            )
+        if read_files and files and not missing:
+            try:
+                cls.check_files(values)
+            except Exception as exc:  # what building or starting the node would say
+                problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}{hint(decl.name)}"))
     # an abstraction checked on its own: where its inlets and outlets lead must exist
     for head, ports, side in (("inlet", flat.inlets, "inlets"), ("outlet", flat.outlets, "outlets")):
         arrow = "->" if head == "inlet" else "<-"
@@ -627,6 +638,7 @@ def build(checked: Checked, *, realtime: bool = True) -> Runtime:
             raise PatchError(
                 f"node '{name}' ({r.decl.type}): cannot be created: {exc}", r.decl.where
             ) from exc
+        node.where = r.decl.where
         rt.add(node)
     for src, o, dst, i in checked.wires:
         rt.connect(src, o, dst, i)

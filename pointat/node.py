@@ -45,6 +45,7 @@ from .errors import FeedbackError, did_you_mean, worth_reporting
 from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
+    from .errors import Where
     from .runtime import Runtime, Timer
 
 __all__ = ["REQUIRED", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError"]
@@ -89,7 +90,8 @@ class Param:
     and ``vector`` (numbers, ``size`` of them when given).  ``choices`` restricts a symbol.  ``variadic``
     collects every remaining positional creation argument (``trigger b b f``).  ``live`` parameters can be
     set while the patch runs (by a message to the node, or from outside by name).  ``reads`` marks a
-    ``path`` the node reads when it starts: ``pointat check`` warns when nothing is there.  A ``float``
+    ``path`` the node reads when it starts: ``pointat check`` warns when nothing is there, and reads it
+    when it is (:meth:`Node.check_files`).  A ``float``
     is a finite number, or NaN where NaN is the default (its "none", such as a dip still to learn);
     ``minimum``, ``above`` and ``maximum`` bound a number (``pointat help`` shows them, ``check`` and live
     changes refuse a value outside).
@@ -279,6 +281,9 @@ class Node:
     stub_values: ClassVar[dict[str, Any]] = {}
     #: Where the class came from (module, entry point or plugin file), for error messages.
     origin: ClassVar[str] = ""
+    #: Where the node is declared (patch file and line), when it was built from a patch: the runtime's
+    #: errors name the place.
+    where: Where | None = None
 
     # ----------------------------------------------------------------- declaration
     @classmethod
@@ -293,6 +298,17 @@ class Node:
         Runs when a patch is checked, so the error carries the patch line, and before every live change,
         so a bad change is refused and the old values stay.  Override it; the default accepts anything.
         """
+
+    @classmethod
+    def check_files(cls, values: Mapping[str, Any]) -> None:
+        """Read the files the node reads (its ``reads`` parameters, all of them there) as it will when the
+        patch starts, and raise what it would raise: ``pointat check`` calls this, so that a calibration
+        file spoiled by a hand edit is found before the show, not at it.
+
+        The default builds the node, for a node reads its files as it is built (:meth:`setup`); a node
+        that reads them in :meth:`start` overrides it.
+        """
+        cls("check", values).close()
 
     @classmethod
     def param(cls, name: str) -> Param | None:

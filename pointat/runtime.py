@@ -56,7 +56,7 @@ import weakref
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from .errors import FeedbackError, PointatError, Repeats, worth_reporting
+from .errors import FeedbackError, PatchError, Problem, Repeats, worth_reporting
 from .message import Message, make, method
 from .node import Node
 
@@ -134,8 +134,8 @@ def quiet_thread(thread: threading.Thread) -> threading.Thread:
     return thread
 
 
-class StartError(PointatError):
-    """Some nodes could not start; the message names each one and why."""
+class StartError(PatchError):
+    """Some nodes could not start; a problem for each, with its place in the patch and why."""
 
 
 class RealClock:
@@ -564,10 +564,12 @@ class Runtime:
             try:
                 node.start()
             except Exception as exc:  # a port that cannot open, a file that cannot be read...
-                failures.append(f"node '{node.name}' ({node.type_name}): cannot start: {exc}")
+                failures.append(
+                    Problem(node.where, f"node '{node.name}' ({node.type_name}): cannot start: {exc}")
+                )
         if failures:
             self.shutdown()
-            raise StartError("\n".join(failures))
+            raise StartError(failures)
         for node in list(self.nodes.values()):
             self._guard(node, node.loadbang)
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from pointat.cli import main
+from pointat.maths.calibration import Calibration
 from pointat.registry import default_registry
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -335,7 +336,40 @@ def test_a_node_that_cannot_start_is_an_error_exit_not_a_traceback(tmp_path):
     bad.write_text("node src replay file=missing.csv\n")
     out = pointat("run", bad)
     assert out.returncode == 2 and "Traceback" not in out.stderr
-    assert "node 'src' (replay): cannot start" in out.stderr and "missing.csv" in out.stderr
+    assert f"{bad}:1: error: node 'src' (replay): cannot start" in out.stderr and "missing.csv" in out.stderr
+
+
+def test_check_reads_the_files_the_nodes_will_read(tmp_path, capsys):
+    # what `run` would find only as the patch starts, `check` finds before the show: a calibration spoiled
+    # by a hand edit, a recording that is not one, a loudspeaker layout that does not parse
+    (tmp_path / "cal.json").write_text('{"gyro_null": [1, 2,\n')
+    (tmp_path / "take.csv").write_text("a,b\n1,2\n")
+    (tmp_path / "room.json").write_text('{"loudspeakers": "all of them"}')
+    patch = tmp_path / "p.pat"
+    patch.write_text(
+        "node nulls offset calibration=cal.json\n"
+        "node src replay file=take.csv\n"
+        "node spk vbap file=room.json\n"
+        "node show print\n"
+        "src.gyro -> show\n"
+        "spk.speaker -> show\n"
+    )
+    assert main(["check", str(patch)]) == 2
+    err = capsys.readouterr().err
+    assert f"{patch}:1: error: node 'nulls' (offset): calibration file " in err
+    assert "not valid JSON" in err
+    assert f"{patch}:2: error: node 'src' (replay): " in err and "expected a header line" in err
+    assert f"{patch}:3: error: node 'spk' (vbap): " in err
+    assert "3 errors" in err
+    # mended, the same patch checks; a file not there yet is a warning (calibrate may write it first)
+    cal = Calibration()
+    cal.acc_null[:] = (2040.0, 2051.0, 2046.0)
+    cal.save(tmp_path / "cal.json")
+    (tmp_path / "take.csv").write_text("t,gyr_x,gyr_y,gyr_z\n0.0,0,0,0\n0.01,0,0,0\n")
+    (tmp_path / "room.json").unlink()
+    assert main(["check", str(patch)]) == 0
+    err = capsys.readouterr().err
+    assert "parameter 'file': no file" in err and "error" not in err
 
 
 @pytest.mark.parametrize("value", ["nan", "-1", "inf", "soon"])
