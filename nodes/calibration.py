@@ -60,11 +60,13 @@ class Offset(Node):
     Gyro nulls: the average of the first ``samples`` samples at rest (the gyros' bias); ``recalibrate``
     starts a new average.  Accelerometer and magnetometer nulls: from ``calibration`` (a file written by
     ``calibrate``), else the ADC mid-scale ``null``.  Nothing is output while the first gyro average
-    runs; during a ``recalibrate`` the output goes on with the nulls it has.  An average over which a
+    runs, unless the file has gyro nulls too: then the output flows from the first sample with the
+    file's, until the average (the gyros' bias of today) replaces them.  During a ``recalibrate`` the
+    output goes on with the nulls it has.  An average over which a
     gyro varied by more than ``still`` counts rms (50: 5 deg/s at the nominal resolution, well above a
     resting hand's tremor, which averages out) was taken while the glove moved: it is refused (a
-    ``moved`` status and a warning) and the nulls stay as they were; the first average then starts
-    again, until the glove is held still.
+    ``moved`` status and a warning) and the nulls stay as they were; until one average has been taken,
+    it then starts again, until the glove is held still.
     """
 
     pure = True
@@ -92,13 +94,16 @@ class Offset(Node):
 
     def setup(self) -> None:
         nulls = [self.p.null] * 9
+        filed = False  # gyro nulls from the file
         if self.p.calibration:
             cal = _load(self.p.calibration)
             for i, sensor in enumerate(("gyro", "acc", "mag")):
                 if _calibrated(cal, sensor):
                     nulls[3 * i : 3 * i + 3] = getattr(cal, f"{sensor}_null").tolist()
+                    filed = filed or sensor == "gyro"
         self.nulls: tuple[float, ...] = tuple(float(n) for n in nulls)
-        self._ready = self.p.samples == 0  # gyro nulls averaged once: the output may flow
+        self._ready = self.p.samples == 0  # gyro nulls averaged once in this run
+        self._flowing = self._ready or filed  # gyro nulls to subtract: the output may flow
         self._moved = 0  # averages refused in a row
         self.do_recalibrate()
 
@@ -110,9 +115,9 @@ class Offset(Node):
     def on_adc(self, msg: Message) -> None:
         counts = as_floats(msg, 9)
         if self._n < self.p.samples:
-            ready = self._ready
+            flowing = self._flowing
             self._average(counts)
-            if not ready:  # the first average: nothing to subtract yet
+            if not flowing:  # the first average, and no nulls from a file: nothing to subtract yet
                 return
         c, n = counts, self.nulls  # written out: a third of the time of a zip over the nine channels
         d = (
@@ -157,12 +162,13 @@ class Offset(Node):
                 self.p.still,
                 "kept the nulls it had; hold it still and recalibrate again"
                 if self._ready
-                else "hold it still; taking them again",
+                else "hold it still; taking them again"
+                + (" (the calibration file's meanwhile)" if self._flowing else ""),
             )
             return self._moved_again()
         self._moved = 0
         self.nulls = (*means, *self.nulls[3:])
-        self._ready = True
+        self._ready = self._flowing = True
         self.out(1, ("ready", *(round(x, 3) for x in self.nulls[:3])))
 
 

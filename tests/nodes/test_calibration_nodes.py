@@ -54,6 +54,29 @@ def test_offset_refuses_gyro_nulls_taken_while_the_glove_moved(caplog):
     assert rt.nodes["out"].values[-1][:3] == (0.0, 0.0, 0.0)
 
 
+def test_offset_with_the_files_gyro_nulls_outputs_at_once_until_todays_average_replaces_them(tmp_path):
+    # a performer who starts the patch with the glove on and moving gets output from the first sample
+    cal = Calibration()
+    cal.gyro_null[:] = (2050.0, 2045.0, 2047.0)  # a day old: today's bias is a count or two off
+    cal.acc_null[:] = (2048.0, 2048.0, 2048.0)
+    cal.save(tmp_path / "cal.json")
+    rt = patch(
+        f"node nulls offset samples=20 calibration={tmp_path / 'cal.json'}\n"
+        "node out collect\nnode status collect\nnulls -> out\nnulls.status -> status\n"
+    )
+    nulls, out = rt.nodes["nulls"], rt.nodes["out"]
+    rest = [2051.0, 2046.0, 2049.0, 2048.0, 2048.0, 2559.0, 2448.0, 2048.0, 1606.0]
+    for k in range(20):  # moving: the average is refused, the output flows with the file's nulls
+        nulls.receive(0, vector([*rest[:2], rest[2] + 300.0 * math.sin(k), *rest[3:]], k * 0.01))
+    assert len(out.messages) == 20 and out.values[0][:2] == (1.0, 1.0)
+    assert rt.nodes["status"].values[-1][:2] == ("moved", "z")
+    for k in range(20):  # still: taken again (not given up, as after an average of this run)
+        nulls.receive(0, vector(rest, 0.2 + k * 0.01))
+    assert rt.nodes["status"].values[-1] == ("ready", 2051.0, 2046.0, 2049.0)
+    nulls.receive(0, vector(rest, 0.5))
+    assert out.values[-1][:3] == (0.0, 0.0, 0.0) and len(out.messages) == 41
+
+
 def test_scaling_converts_to_si_right_to_left():
     rt = patch("""
 node units scaling gyro=0.1 accel=0.02 mag=0.001
