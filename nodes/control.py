@@ -39,7 +39,16 @@ class Metro(Node):
         Inlet("interval", ("float", "int"), "set the interval (ms)", param="interval"),
     )
     outlets = (Outlet("out", "bang", "a bang per tick"),)
-    params = (Param("interval", "float", 100.0, "time between bangs", unit="ms", live=True),)
+    params = (
+        Param(
+            "interval",
+            "float",
+            100.0,
+            "time between bangs (0 or less: 1, as Pd's metro)",
+            unit="ms",
+            live=True,
+        ),
+    )
     example = """
 node tick metro 50
 node show print
@@ -70,9 +79,7 @@ tick -> show
             self._timer = None
 
     def _period(self) -> float:
-        if self.p.interval <= 0:
-            raise ValueError(f"interval must be positive, got {self.p.interval}")
-        return self.p.interval / 1000.0
+        return (self.p.interval if self.p.interval > 0 else 1.0) / 1000.0  # Pd's metro takes 1 ms
 
     def _tick(self) -> None:
         self._last_tick = self.time

@@ -157,7 +157,7 @@ class GyroIntegratorNode(SampleClock, Flagged, Node):
             choices=("torre", "exact"),
             live=True,
         ),
-        Param("renormalize", "int", 100, "re-orthonormalise every N samples"),
+        Param("renormalize", "int", 100, "re-orthonormalise every N samples", minimum=1),
         RATE,
     )
 

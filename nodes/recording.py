@@ -314,7 +314,12 @@ class Replay(Node):
         Outlet("gyro", "vector", "angular rate, rad/s (gyr_*/gyro_* columns)"),
         Outlet("accel", "vector", "specific force, m/s² (acc_*/accel_* columns)"),
         Outlet("mag", "vector", "magnetic field (mag_* columns)"),
-        Outlet("truth", "vector", "ground-truth quaternion, sensor -> NWU (gt_q* from ENU, or q* as is)"),
+        Outlet(
+            "truth",
+            "vector",
+            "a quaternion: gt_q* (BROAD's ground truth, ENU) turned to sensor -> NWU; q* as they are, in"
+            " whatever frame the file has (evaluate_*.pat write ENU)",
+        ),
         Outlet("row", "any", "every row but t, as one vector (NDJSON: the message as recorded)"),
         Outlet("done", "bang", "at the end of the file"),
     )

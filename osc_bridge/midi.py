@@ -849,7 +849,7 @@ class MidiOut(_PortWatch, Node):
             "number",
             "int",
             10,
-            "controller (cc 0..127, cc14 0..31), NRPN (0..16383) or note number",
+            "controller (cc 0..119: 120..127 are channel mode messages; cc14 0..31), NRPN (0..16383) or note number",
             live=True,
         ),
         Param(

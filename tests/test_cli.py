@@ -194,12 +194,19 @@ def test_rt_keeps_the_cpus_out_of_deep_idle_while_it_runs_or_says_why_not(tmp_pa
 
 def test_a_bad_patch_gives_located_errors_and_no_traceback(tmp_path):
     bad = tmp_path / "bad.pat"
-    bad.write_text("node a metr 100\nnode b print\nnode c tqt k=fast\na -> b.3\n")
+    bad.write_text(
+        "node a metr 100\nnode b print\nnode c tqt k=fast\na -> b.3\nnode g gyro_integrator renormalize=0\n"
+    )
     out = pointat("check", bad)
     assert out.returncode == 2
     assert "Traceback" not in out.stderr
     assert f"{bad}:1: error: node 'a': unknown node type 'metr' (did you mean 'metro'?)" in out.stderr
     assert f"{bad}:3: error: node 'c' (tqt): parameter 'k' expects a number; got 'fast'" in out.stderr
+    # refused by check, not only when run builds the node
+    assert (
+        f"{bad}:5: error: node 'g' (gyro_integrator): parameter 'renormalize' expects a whole number >= 1"
+        in (out.stderr)
+    )
     out = pointat("run", bad)
     assert out.returncode == 2 and "Traceback" not in out.stderr
 

@@ -57,6 +57,14 @@ def test_metro_interval_change_counts_from_the_last_tick():
     assert [round(m.time, 6) for m in rt.nodes["out"].messages] == [0, 0.1, 0.12, 0.14, 0.16, 0.18, 0.2]
 
 
+@pytest.mark.parametrize("interval", ["0", "-5"])
+def test_metro_of_zero_or_less_ticks_every_millisecond_as_pds(interval):
+    rt = patch(f"node lb loadbang\nnode m metro {interval}\nnode out collect\nlb -> m -> out\n")
+    rt.advance(0.0105)
+    assert [round(m.time, 6) for m in rt.nodes["out"].messages] == [k / 1000 for k in range(11)]
+    assert rt.nodes["m"].errors == 0
+
+
 def test_speedlim_keeps_the_last_message():
     rt = patch("node s speedlim 100\nnode out collect\ns -> out\n")
     rt.start()
