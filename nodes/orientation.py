@@ -516,7 +516,14 @@ class TQTBankNode(Node):
     MAX_GAP = SampleClock.MAX_GAP
 
     params = (
-        Param("sensors", "int", 2, "number of sensors (inlets gyroI, accelI, magI; outlet quatI)", minimum=1),
+        Param(
+            "sensors",
+            "int",
+            2,
+            "number of sensors (inlets gyroI, accelI, magI; outlet quatI)",
+            minimum=1,
+            maximum=1024,
+        ),
         *TQT.params,
         Param(
             "backend",

@@ -6,6 +6,8 @@ The math is in :mod:`pointat.maths.vbap`; this module only moves messages.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
 from pointat.maths.vbap import Layout, Panner, parse_layout, read_layout
 from pointat.message import Message, as_float, vector
@@ -83,6 +85,18 @@ spk.speaker -> ch
 ch.0 -> ch1
 ch.1 -> ch2
 """
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        # what building the node would refuse, refused by check (with the patch line) and by a live change
+        if values["dim"] not in (0, 2, 3):
+            raise ValueError(f"dim must be 2 or 3 (or 0: inferred); got {values['dim']}")
+        if values["file"] and values["layout"]:
+            raise ValueError("give the loudspeakers by layout or by file, not both")
+        if not values["file"]:  # a file is read by check_files (pointat check) and at the start
+            if not values["layout"]:
+                raise ValueError("no loudspeakers: give layout=[az, ...] or file=LAYOUT")
+            Panner(parse_layout(values["layout"], dim=values["dim"]))
 
     def setup(self) -> None:
         self.layout = self._load()

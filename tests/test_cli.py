@@ -195,7 +195,7 @@ def test_rt_keeps_the_cpus_out_of_deep_idle_while_it_runs_or_says_why_not(tmp_pa
 def test_a_bad_patch_gives_located_errors_and_no_traceback(tmp_path):
     bad = tmp_path / "bad.pat"
     bad.write_text(
-        "node a metr 100\nnode b print\nnode c tqt k=fast\na -> b.3\nnode g gyro_integrator renormalize=0\n"
+        "node a metr 100\nnode b print\nnode c tqt k=fast\na -> b.3\nnode g gyro_integrator renormalize=0\nnode v vbap layout=[0, 0]\n"
     )
     out = pointat("check", bad)
     assert out.returncode == 2
@@ -203,6 +203,7 @@ def test_a_bad_patch_gives_located_errors_and_no_traceback(tmp_path):
     assert f"{bad}:1: error: node 'a': unknown node type 'metr' (did you mean 'metro'?)" in out.stderr
     assert f"{bad}:3: error: node 'c' (tqt): parameter 'k' expects a number; got 'fast'" in out.stderr
     # refused by check, not only when run builds the node
+    assert f"{bad}:6: error: node 'v' (vbap): loudspeakers 1 and 2 point the same way" in out.stderr
     assert (
         f"{bad}:5: error: node 'g' (gyro_integrator): parameter 'renormalize' expects a whole number >= 1"
         in (out.stderr)
@@ -406,3 +407,36 @@ def test_send_delivers_one_osc_message_with_typed_arguments():
     assert [t for t in msg.dgram.split(b",", 1)[1][:4].decode()] == ["i", "f", "s", "f"]
     bad = pointat("send", "99999", "/x")
     assert bad.returncode == 2 and "expected a port 1..65535 or host:port" in bad.stderr
+
+
+def test_what_building_a_node_refuses_check_refuses_first():
+    # a number a node's constructor would refuse (renormalize=0, seed=-1) must not pass `check` and fail
+    # only as the show starts: every numeric parameter of every node type, at 0, -1 and 1e9
+    import logging
+
+    from pointat.node import ParamError
+
+    failures = []
+    logging.disable(logging.CRITICAL)
+    try:
+        for name in sorted(default_registry.load_builtins().names()):
+            cls = default_registry.get(name)
+            if cls.type_name != name or name == "record":  # record opens its file as it is built
+                continue
+            for p in cls.params:
+                if p.type not in ("int", "float"):
+                    continue
+                for v in (0, -1, 10**9):
+                    try:
+                        values = cls.resolve_params((), {p.name: v})
+                        cls.validate(values)
+                        cls.layout(values)
+                    except (ParamError, ValueError):
+                        continue  # refused by check: fine
+                    try:
+                        cls(name, values).close()
+                    except Exception as exc:
+                        failures.append(f"{name}.{p.name}={v}: {exc}")
+    finally:
+        logging.disable(logging.NOTSET)
+    assert failures == []
