@@ -89,14 +89,23 @@ ch.1 -> ch2
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
         # what building the node would refuse, refused by check (with the patch line) and by a live change
+        listed = cls._listed(values)
+        if listed is not None:
+            Panner(listed)
+
+    @classmethod
+    def _listed(cls, values: Mapping[str, Any]) -> Layout | None:
+        """The loudspeakers given by ``layout``, or None when they are in ``file`` (read as the node is
+        built, and by ``pointat check``); refuses a ``dim``, or a choice of the two, that cannot work."""
         if values["dim"] not in (0, 2, 3):
             raise ValueError(f"dim must be 2 or 3 (or 0: inferred); got {values['dim']}")
         if values["file"] and values["layout"]:
             raise ValueError("give the loudspeakers by layout or by file, not both")
-        if not values["file"]:  # a file is read by check_files (pointat check) and at the start
-            if not values["layout"]:
-                raise ValueError("no loudspeakers: give layout=[az, ...] or file=LAYOUT")
-            Panner(parse_layout(values["layout"], dim=values["dim"]))
+        if values["file"]:
+            return None
+        if not values["layout"]:
+            raise ValueError("no loudspeakers: give layout=[az, ...] or file=LAYOUT")
+        return parse_layout(values["layout"], dim=values["dim"])
 
     def setup(self) -> None:
         self.layout = self._load()
@@ -106,18 +115,13 @@ ch.1 -> ch2
         self._el = 0.0
 
     def _load(self) -> Layout:
-        if self.p.dim not in (0, 2, 3):
-            raise ValueError(f"dim must be 2 or 3 (or 0: inferred); got {self.p.dim}")
-        if self.p.file and self.p.layout:
-            raise ValueError("give the loudspeakers by layout or by file, not both")
-        if self.p.file:
-            layout = read_layout(self.p.file)
-            if self.p.dim and layout.dim != self.p.dim:
-                raise ValueError(f"{self.p.file} is a {layout.dim}-D layout, but dim={self.p.dim}")
-            return layout
-        if not self.p.layout:
-            raise ValueError("no loudspeakers: give layout=[az, ...] or file=LAYOUT")
-        return parse_layout(self.p.layout, dim=self.p.dim)
+        listed = self._listed(vars(self.p))
+        if listed is not None:
+            return listed
+        layout = read_layout(self.p.file)
+        if self.p.dim and layout.dim != self.p.dim:
+            raise ValueError(f"{self.p.file} is a {layout.dim}-D layout, but dim={self.p.dim}")
+        return layout
 
     def param_changed(self, name: str) -> None:
         if name == "layout":
