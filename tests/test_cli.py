@@ -1,5 +1,6 @@
 """The command line as a user meets it: every shipped patch checks and runs; errors never show a traceback."""
 
+import logging
 import os
 import re
 import shutil
@@ -12,6 +13,7 @@ import pytest
 
 from pointat.cli import main
 from pointat.maths.calibration import Calibration
+from pointat.node import ParamError
 from pointat.registry import default_registry
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -412,10 +414,6 @@ def test_send_delivers_one_osc_message_with_typed_arguments():
 def test_what_building_a_node_refuses_check_refuses_first():
     # a number a node's constructor would refuse (renormalize=0, seed=-1) must not pass `check` and fail
     # only as the show starts: every numeric parameter of every node type, at 0, -1 and 1e9
-    import logging
-
-    from pointat.node import ParamError
-
     failures = []
     logging.disable(logging.CRITICAL)
     try:
