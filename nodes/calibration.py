@@ -344,7 +344,7 @@ class Calibrate(Node):
     inlets = (ADC,)
     outlets = (STATUS,)
     params = (
-        Param("file", "path", "calibration.json", "where save and load go"),
+        Param("file", "path", "calibration.json", "where save and load go", writes=True),
         Param("samples", "int", 200, "samples averaged per rest or pose", minimum=2),
         Param(
             "mag_fit",

@@ -148,7 +148,7 @@ class Record(Node):
 
     inlets = (Inlet("in", ("any",), "the stream to record"),)
     params = (
-        Param("file", "path", doc="the file to write (.csv, .ndjson)"),
+        Param("file", "path", doc="the file to write (.csv, .ndjson)", writes=True),
         FORMAT,
         Param("columns", "list", (), "CSV column names after t"),
         Param("append", "bool", False, "append instead of replacing the file"),
@@ -164,8 +164,6 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
                 f"file {values['file']!r}: record writes plain text, line by line, so that nothing is lost"
                 " if the patch stops: name it without .gz (and compress it afterwards)"
             )
-        if Path(values["file"]).is_dir():
-            raise ValueError(f"file {values['file']!r} is a folder: name a file in it")
 
     def setup(self) -> None:
         self._fh: TextIO | None = None

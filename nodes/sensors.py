@@ -443,7 +443,7 @@ class Simulate(Node):
         Param("seed", "int", 0, "noise and bias seed (the same seed, the same data)", minimum=0),
         Param("noise", "bool", True, "false: ideal sensors (no bias, no noise)"),
         Param("duration", "float", 0.0, "stop after this long; 0: run until the patch stops", unit="s"),
-        Param("link", "path", "", "also make this path a symlink to the pty (output=pty)"),
+        Param("link", "path", "", "also make this path a symlink to the pty (output=pty)", writes=True),
     )
     example = """
 node glove simulate rate=100

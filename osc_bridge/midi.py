@@ -872,7 +872,7 @@ class MidiOut(_PortWatch, Node):
         Param("length", "float", 100.0, "how long a banged note sounds (kind=note)", unit="ms", live=True),
         Param("port", "symbol", "", "MIDI output port name (needs python-rtmidi and a MIDI system)"),
         Param("virtual", "bool", False, "create a virtual port named port (default 'pointat')"),
-        Param("file", "path", "", "write a standard MIDI file here instead of a port"),
+        Param("file", "path", "", "write a standard MIDI file here instead of a port", writes=True),
         Param("bpm", "float", 120.0, "tempo of the MIDI file", unit="beats/min"),
         Param("ppq", "int", 480, "MIDI file resolution, ticks per quarter note"),
     )
@@ -922,7 +922,10 @@ dir.azimuth -> pan
 
     def _open_sink(self) -> _PortSink | _FileSink:
         if self.p.file:
-            return _FileSink(self.p.file, self.p.bpm, self.p.ppq)
+            try:
+                return _FileSink(self.p.file, self.p.bpm, self.p.ppq)
+            except OSError as exc:  # the folder went away since the patch was checked, a full disk
+                raise OSError(f"cannot write {self.p.file}: {exc.strerror or exc}") from exc
         if self.p.port or self.p.virtual:
             name = self.p.port or "pointat"
             port = _open_port(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import functools
 import logging
 import math
@@ -17,6 +18,7 @@ from .errors import PatchError, PointatError, did_you_mean
 from .loader import build, check, parse_overrides, read_spec
 from .registry import Registry, default_registry
 from .runtime import CPU_DMA_LATENCY, keep_cpus_awake, realtime_priority
+from .spec import is_pd_file
 from .terminal import LineHandler, LineWriter
 
 log = logging.getLogger("pointat")
@@ -266,11 +268,15 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
 
 def cmd_check(args: argparse.Namespace, registry: Registry) -> int:
     checked = _checked(args, registry, read_files=True)
-    print(
-        f"{args.patch}: ok ({len(checked.nodes)} nodes, {len(checked.wires)} wires"
-        f"{f', {len(checked.warnings)} warning' + 's' * (len(checked.warnings) > 1) if checked.warnings else ''})"
-    )
+    counts = [_count(len(checked.nodes), "node"), _count(len(checked.wires), "wire")]
+    if checked.warnings:
+        counts.append(_count(len(checked.warnings), "warning"))
+    print(f"{args.patch}: ok ({', '.join(counts)})")
     return 0
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}{'s' * (n != 1)}"
 
 
 def cmd_graph(args: argparse.Namespace, registry: Registry) -> int:
@@ -324,7 +330,7 @@ def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
     spec = read_spec(args.source)
     target = Path(args.target)
     check(spec, registry)  # never convert a broken patch
-    if target.suffix == ".pd":
+    if is_pd_file(target):
         from .pdfile import flatten, write_pd, write_stubs
 
         spec = flatten(spec)  # its header says which abstractions
@@ -336,9 +342,12 @@ def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
             )
             return 2
         rebase_paths(spec, registry, target.parent)
-        _write(target, write_pd(spec, registry))
-        if not args.no_stubs:
+        text = write_pd(spec, registry)
+        if not args.no_stubs:  # first: where they cannot be written, the patch is not written either
+            if not target.parent.is_dir():  # (nor a folder made for them where the patch cannot go)
+                raise PointatError(f"cannot write {target}: {os.strerror(errno.ENOENT)}")
             write_stubs(target.parent / "pointat-stubs", registry)
+        _write(target, text)
     else:
         rebase_paths(spec, registry, target.parent)
         _write(target, write_patch(spec))
@@ -373,6 +382,8 @@ def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
     from osc_bridge.nodes import udp_port
 
     host, _, text = args.to.rpartition(":")
+    if host.startswith("[") and host.endswith("]"):  # [::1]:9001, as IPv6 addresses are written with a port
+        host = host[1:-1]
     try:
         port = udp_port(text, f"{args.to!r}: expected a port 1..65535 or host:port; port")
     except ValueError as exc:

@@ -22,18 +22,18 @@ from .node import Inlet, Node, Outlet, ParamError
 from .patchfile import format_value, parse_value, read_patch
 from .registry import Registry, default_registry
 from .runtime import Runtime
-from .spec import NodeDecl, PatchSpec, PortDecl, Wire
+from .spec import NodeDecl, PatchSpec, PortDecl, Wire, is_abstraction, is_pd_file
 
 __all__ = ["Checked", "build", "check", "expand", "load", "read_spec"]
 
-ABSTRACTION_SUFFIX = ".pat"
 _DOLLAR = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*|0)")
 
 
 def read_spec(path: str | Path) -> PatchSpec:
-    """Read a patch file of either format, by its extension (``.pd`` is Pure Data, the rest native)."""
+    """Read a patch file of either format, by its extension (``.pd`` is Pure Data, the rest native; a
+    native file whose text is Pd's is read as Pd)."""
     path = Path(path)
-    if path.suffix == ".pd":
+    if is_pd_file(path):
         from .pdfile import read_pd
 
         return read_pd(path)
@@ -41,10 +41,6 @@ def read_spec(path: str | Path) -> PatchSpec:
 
 
 # --------------------------------------------------------------------------- abstractions
-def _is_abstraction(type_name: str) -> bool:
-    return type_name.endswith(ABSTRACTION_SUFFIX) or "/" in type_name
-
-
 def _names(args: Mapping[str, Any]) -> str:
     """The arguments a patch declares ($0, which every instance has, left out)."""
     return ", ".join(k for k in args if k != "0") or "none"
@@ -81,8 +77,10 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> 
     in parameter values, ``$0`` by the instance's full name (``left/fuse`` for an instance ``fuse`` inside
     an instance ``left``: unique in the whole patch, however deep).
     """
-    if not _stack and spec.args:  # an abstraction checked, run or converted on its own: its defaults hold
+    if not _stack:  # the top patch: an abstraction checked, run or converted on its own has its defaults;
+        # any other $name is a mistake at its own line, not one to meet inside an abstraction it is given to
         spec = _with_arguments(spec, {**spec.args, "0": Path(spec.path).stem})
+        _stack = (str(Path(spec.path).resolve()),)
     out = PatchSpec(path=spec.path, args=dict(spec.args))
     out.doc = spec.doc
     # (instance, port name) -> [(node, port)] for inlets; -> (node, port) for outlets
@@ -91,7 +89,7 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> 
     problems: list[Problem] = []
     failed: set[str] = set()
     for decl in spec.nodes:
-        if not _is_abstraction(decl.type):
+        if not is_abstraction(decl.type):
             out.nodes.append(decl)
             continue
         try:
@@ -111,7 +109,7 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> 
         for port in sub.outlets:
             for key in (port.name, names.index(port.name)):
                 outlet_map[(decl.name, key)] = (port.node, port.port)
-    instances = {d.name for d in spec.nodes if _is_abstraction(d.type)}
+    instances = {d.name for d in spec.nodes if is_abstraction(d.type)}
     # this patch's own inlets and outlets may lead into an abstraction it holds: through to its nodes
     out.inlets, out.outlets = [], []
     for port in spec.inlets:
@@ -169,6 +167,8 @@ def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
 def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], outer: str = "") -> PatchSpec:
     base = Path(parent.path).parent
     path = _abstraction_path(parent, decl)
+    if path.is_dir():
+        raise PatchError(f"abstraction '{decl.type}' is a folder ({path}), not a patch file", decl.where)
     if not path.exists():
         near = [str(f.relative_to(base)) for f in (*base.glob("*.pat"), *base.glob("*/*.pat"))]
         hint = closest(decl.type, near)
@@ -178,7 +178,12 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], oute
             decl.where,
         )
     if str(path) in stack:
-        raise PatchError(f"abstraction '{decl.type}' includes itself", decl.where)
+        loop = [Path(p).name for p in stack[stack.index(str(path)) :]] + [path.name]
+        raise PatchError(
+            f"abstraction '{decl.type}' includes itself"
+            + (f": {' -> '.join(loop)}" if len(loop) > 2 else ""),
+            decl.where,
+        )
     sub = read_spec(path)
     if decl.args:
         raise PatchError(
@@ -271,6 +276,17 @@ def _kinds_meet(outlet: Outlet, inlet: Inlet) -> bool:
     return outlet.kind in inlet.accepts
 
 
+def _origin(decl: NodeDecl, top: str) -> str:
+    """Where a node of an expanded patch comes from (``top``: the patch's own file), for a message
+    that names two of them."""
+    if decl.where is None:
+        return "at ?"
+    instance, _, inner = decl.name.rpartition("/")
+    if instance and decl.where.file != top:  # from an abstraction's file
+        return f"at {decl.where} (node '{inner}' of instance '{instance}')"
+    return f"at {decl.where}"
+
+
 def check(
     spec: PatchSpec,
     registry: Registry | None = None,
@@ -287,7 +303,7 @@ def check(
     """
     registry = registry or default_registry
     problems: list[Problem] = []
-    instances = {d.name for d in spec.nodes if _is_abstraction(d.type)}
+    instances = {d.name for d in spec.nodes if is_abstraction(d.type)}
     # an instance's arguments given on the command line: a node inside it that refuses a value says so
     argued: dict[str, list[str]] = {}
     for node, arg, value in overrides:
@@ -295,8 +311,14 @@ def check(
             argued.setdefault(node, []).append(f"--set {node}.{arg}={format_value(value)}")
 
     def hint(name: str) -> str:
+        """What the command line gave that may be to blame for a refusal at the file's line."""
+        own = [f"--set {name}.{k}={format_value(v)}" for k, v in over.get(name, {}).items()]
         given = argued.get(name.split("/", 1)[0], []) if "/" in name else []
-        return f" (its instance's arguments given: {', '.join(given)})" if given else ""
+        return "".join(
+            f" ({what}: {', '.join(items)})"
+            for what, items in (("given on the command line", own), ("its instance's arguments given", given))
+            if items
+        )
 
     spec, overrides = _set_arguments(spec, overrides, problems)
     try:
@@ -306,9 +328,17 @@ def check(
     result = Checked(flat)
     names: dict[str, NodeDecl] = {}
     for decl in flat.nodes:
-        if decl.name in names:
-            problems.append(Problem(decl.where, f"node '{decl.name}' is defined twice"))
-        names[decl.name] = decl
+        first = names.get(decl.name)
+        if first is None:
+            names[decl.name] = decl
+            continue
+        # (a hand-written 'a/b' meets node 'b' of an abstraction instance 'a': say which is which)
+        problems.append(
+            Problem(
+                decl.where,
+                f"node '{decl.name}' is defined twice: {_origin(first, flat.path)} and {_origin(decl, flat.path)}; rename one",
+            )
+        )
     over: dict[str, dict[str, Any]] = {}
     for node, param, value in overrides:
         if node not in names:
@@ -327,7 +357,10 @@ def check(
             problems.append(
                 Problem(
                     decl.where,
-                    f"{label}: unknown node type '{decl.type}'" + did_you_mean(decl.type, registry.names()),
+                    f"{label}: unknown node type "
+                    # (a NUL or a control character that an editor left in the box: shown, not hidden)
+                    + (f"'{decl.type}'" if decl.type.isprintable() else repr(decl.type))
+                    + did_you_mean(decl.type, registry.names()),
                 )
             )
             continue
@@ -350,6 +383,9 @@ def check(
             continue
         try:
             _anchor_paths(cls, values, decl, over.get(decl.name, {}))
+            for p in cls.params:
+                if p.writes and values.get(p.name):
+                    _writable(p.name, values[p.name])
             cls.validate(values)
             ins, outs = cls.layout(values)
         except (ParamError, ValueError) as exc:
@@ -443,6 +479,10 @@ def check(
                 )
             )
     result.warnings += _never_triggered(result)
+    if not flat.nodes:  # all comments, or a file of another kind: it would run and do nothing
+        result.warnings.append(
+            Problem(Where(flat.path), "the patch has no nodes: it does nothing", "warning")
+        )
     if not problems:
         problems += _cycles(result)
     if problems:
@@ -470,7 +510,7 @@ def _set_arguments(
 ) -> tuple[PatchSpec, list[tuple[str, str, Any]]]:
     """``--set INSTANCE.ARG=value`` on an abstraction instance of ``spec`` gives the instance that
     argument (``--set tqt.mode=paper``); the other overrides are returned for the nodes."""
-    instances = {d.name: d for d in spec.nodes if _is_abstraction(d.type)}
+    instances = {d.name: d for d in spec.nodes if is_abstraction(d.type)}
     rest = [o for o in overrides if o[0] not in instances]
     if len(rest) == len(overrides):
         return spec, rest
@@ -480,7 +520,7 @@ def _set_arguments(
             continue
         decl = instances[node]
         path = _abstraction_path(spec, decl)
-        known = read_spec(path).args if path.exists() else None  # a missing file is reported by expand
+        known = read_spec(path).args if path.is_file() else None  # a missing one is reported by expand
         if known is not None and arg not in known:
             problems.append(
                 Problem(
@@ -525,6 +565,18 @@ def _never_triggered(result: Checked) -> list[Problem]:
     return found
 
 
+def _writable(name: str, value: str) -> None:
+    """Refuse a file a node will write but could not: a folder, or a file in a folder that is not there
+    (found at the desk, not when the show starts)."""
+    path = Path(value)
+    if path.is_dir():
+        raise ValueError(f"parameter '{name}': {value!r} is a folder: name a file in it")
+    folder = path.parent
+    if not folder.is_dir():
+        what = "is a file, not a folder" if folder.exists() else "does not exist"
+        raise ValueError(f"parameter '{name}': cannot write {value!r}: the folder {str(folder)!r} {what}")
+
+
 def _anchor_paths(
     cls: type[Node], values: dict[str, Any], decl: NodeDecl, overridden: Mapping[str, Any]
 ) -> None:
@@ -553,7 +605,7 @@ def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) ->
         return Path(os.path.relpath(Path(written).parent / value, target_dir)).as_posix()
 
     for decl in spec.nodes:
-        if _is_abstraction(decl.type):
+        if is_abstraction(decl.type):
             decl.type = moved(decl.type, decl)
             continue
         cls = registry.get(decl.type)

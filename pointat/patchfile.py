@@ -40,6 +40,8 @@ __all__ = ["format_value", "parse_patch", "parse_value", "read_patch", "write_pa
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 #: Node names may have path parts: ``left/fuse`` (a node inside an abstraction or a Pd subpatch).
 _NODE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*\Z")
+#: How deep lists may nest in a value (``[[[1]]]`` is 3).
+MAX_NESTING = 100
 _INT = re.compile(r"[+-]?\d+\Z")
 _FLOAT = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+)([eE][+-]?\d+)?\Z")
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
@@ -63,6 +65,10 @@ def read_patch(path: str | Path) -> PatchSpec:
             f"not UTF-8 text: byte 0x{raw[exc.start]:02x} cannot be read; save the patch as UTF-8",
             Where(str(path), line),
         ) from None
+    if text.lstrip().startswith("#N canvas"):  # a Pd patch under another name (my.pat, a download)
+        from .pdfile import parse_pd
+
+        return parse_pd(text, str(path))
     return parse_patch(text, str(path))
 
 
@@ -93,7 +99,7 @@ def tokenize(line: str) -> list[str]:
     ['node', 'm', 'msg', 'set', '1', ',', 'bang', ';', 'bus', '"a, b"', '[1, 2]']
     """
     tokens: list[str] = []
-    cur = ""
+    cur: list[str] = []  # the word so far, in pieces (adding to a str char by char is quadratic)
     i, n = 0, len(line)
     depth = 0
     while i < n:
@@ -104,7 +110,7 @@ def tokenize(line: str) -> list[str]:
                 j += 2 if line[j] == "\\" else 1
             if j >= n:
                 raise ValueError("unclosed quote")
-            cur += line[i : j + 1]
+            cur.append(line[i : j + 1])
             i = j + 1
             continue
         if c == "[":
@@ -118,30 +124,30 @@ def tokenize(line: str) -> list[str]:
                 break
             if c.isspace():
                 if cur:
-                    tokens.append(cur)
-                    cur = ""
+                    tokens.append("".join(cur))
+                    cur = []
                 i += 1
                 continue
             if line.startswith("->", i) or line.startswith("<-", i):
                 if cur:
-                    tokens.append(cur)
-                    cur = ""
+                    tokens.append("".join(cur))
+                    cur = []
                 tokens.append(line[i : i + 2])
                 i += 2
                 continue
             if c in ",;":  # a message box's separators stand alone, written apart or not (as in Pd)
                 if cur:
-                    tokens.append(cur)
-                    cur = ""
+                    tokens.append("".join(cur))
+                    cur = []
                 tokens.append(c)
                 i += 1
                 continue
-        cur += c
+        cur.append(c)
         i += 1
     if depth:
         raise ValueError("unclosed '['")
     if cur:
-        tokens.append(cur)
+        tokens.append("".join(cur))
     return tokens
 
 
@@ -163,22 +169,26 @@ def parse_value(token: str) -> Any:
         if not token.endswith("]"):
             raise ValueError(f"bad list {token!r}")
         inner = token[1:-1]
-        items, depth, cur, inq = [], 0, "", False
+        items: list[Any] = []
+        cur: list[str] = []  # the item so far, in pieces (adding to a str char by char is quadratic)
+        depth, inq = 0, False
         for c in inner:
             if c == '"':
                 inq = not inq
             if not inq and c == "[":
                 depth += 1
+                if depth >= MAX_NESTING:  # each level is a call deeper: Python's stack would end first
+                    raise ValueError(f"lists nested more than {MAX_NESTING} deep")
             elif not inq and c == "]":
                 depth -= 1
             if not inq and depth == 0 and (c == "," or c.isspace()):
                 if cur:
-                    items.append(parse_value(cur))
-                    cur = ""
+                    items.append(parse_value("".join(cur)))
+                    cur = []
                 continue
-            cur += c
+            cur.append(c)
         if cur:
-            items.append(parse_value(cur))
+            items.append(parse_value("".join(cur)))
         return items
     if _INT.match(token):
         return int(token)
@@ -244,7 +254,8 @@ def _statement(spec: PatchSpec, tokens: list[str], where: Where) -> None:
         name, typ = tokens[1], tokens[2]
         if not _NODE.match(name):
             raise ValueError(
-                f"bad node name {name!r}: use letters, digits and '_', not starting with a digit"
+                f"bad node name {name!r}: use letters, digits and '_', not starting with a digit "
+                "('/' only between two such parts, as in left/fuse)"
             )
         if spec.node(name) is not None:
             raise ValueError(f"node '{name}' is defined twice (first at line {spec.node(name).where.line})")
@@ -265,6 +276,8 @@ def _statement(spec: PatchSpec, tokens: list[str], where: Where) -> None:
             m = _KEY.match(tok)
             if not m:
                 raise ValueError(f"expected 'args name=default ...', got {tok!r}")
+            if m.group(1) in spec.args:
+                raise ValueError(f"argument '{m.group(1)}' given twice")
             spec.args[m.group(1)] = parse_value(m.group(2))
         spec.args_where = where
     elif head in ("inlet", "outlet"):

@@ -71,11 +71,11 @@ from itertools import accumulate
 from pathlib import Path
 from typing import Any
 
-from .errors import PatchError, Problem, Where
+from .errors import PatchError, PointatError, Problem, Where
 from .node import REQUIRED, Inlet, Node, Outlet
 from .patchfile import format_value, parse_value
 from .registry import Registry, default_registry
-from .spec import NodeDecl, PatchSpec, Wire
+from .spec import NodeDecl, PatchSpec, Wire, is_abstraction
 
 __all__ = ["STUB_FOLDER", "VANILLA", "flatten", "parse_pd", "read_pd", "write_pd", "write_stubs"]
 
@@ -462,7 +462,8 @@ class _Reader:
         what = "source" if out else "destination"
         if idx >= len(boxes):
             self.problem(
-                con.line, f"connect {what} box {idx} does not exist (the canvas has {len(boxes)} boxes)"
+                con.line,
+                f"connect {what} box {idx} does not exist (the canvas has {len(boxes)} box{'es' * (len(boxes) != 1)})",
             )
             return None
         box = boxes[idx]
@@ -829,14 +830,10 @@ def _place(outs: list[_Out], edges: list[tuple[int, int]]) -> None:
             outs[k].column, outs[k].row = col, row
 
 
-def _is_abstraction(type_name: str) -> bool:
-    return type_name.endswith(".pat") or "/" in type_name
-
-
 def flatten(spec: PatchSpec) -> PatchSpec:
     """``spec`` with its abstraction instances expanded into their nodes (named ``INSTANCE/NODE``), as a
     Pd file holds them, and a line of its header naming the instances; ``spec`` itself when it has none."""
-    instances = [f"{n.name} ({n.type})" for n in spec.nodes if _is_abstraction(n.type)]
+    instances = [f"{n.name} ({n.type})" for n in spec.nodes if is_abstraction(n.type)]
     if not instances:
         return spec
     from .loader import expand
@@ -967,12 +964,18 @@ def write_stubs(
         unknown = [n for n in names if registry.get(n) is None]
         if unknown:
             raise PatchError(f"no stub for unknown node type(s): {', '.join(unknown)}")
-    folder.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name in names:
-        cls = registry.get(name)
-        assert cls is not None
-        path = folder / f"{name}.pd"
-        path.write_text(_stub(name, cls), encoding="utf-8")
-        paths.append(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for name in names:
+            cls = registry.get(name)
+            assert cls is not None
+            path = folder / f"{name}.pd"
+            path.write_text(_stub(name, cls), encoding="utf-8")
+            paths.append(path)
+    except OSError as exc:  # a file where the folder should be, no permission, a full disk
+        raise PointatError(
+            f"cannot write the stubs to {folder}: {exc.strerror or exc}"
+            + (f" ({exc.filename})" if exc.filename and str(exc.filename) != str(folder) else "")
+        ) from None
     return paths

@@ -7,11 +7,27 @@ A :class:`PatchSpec` is pure data: it knows nothing of node classes.  The loader
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import PurePath
 from typing import Any
 
 from .errors import Where
 
-__all__ = ["NodeDecl", "PatchSpec", "PortDecl", "Wire"]
+__all__ = ["NodeDecl", "PatchSpec", "PortDecl", "Wire", "is_abstraction", "is_pd_file"]
+
+#: What a patch file's name ends with (in any case): native, Pure Data.
+PATCH_SUFFIXES = (".pat", ".pd")
+
+
+def is_abstraction(type_name: str) -> bool:
+    """Whether a node's type names a patch file (an abstraction) rather than a node class: it ends in
+    ``.pat`` or ``.pd``, or has a folder in it."""
+    return type_name.lower().endswith(PATCH_SUFFIXES) or "/" in type_name
+
+
+def is_pd_file(path: str | PurePath) -> bool:
+    """Whether a patch file is Pure Data's, by its name: ``.pd``, in any case (``OK.PD`` from a
+    system that ignores case)."""
+    return PurePath(path).suffix.lower() == ".pd"
 
 
 @dataclass

@@ -4,6 +4,7 @@ import logging
 import os
 import re
 import shutil
+import socket
 import subprocess
 import sys
 import time
@@ -438,3 +439,78 @@ def test_what_building_a_node_refuses_check_refuses_first():
     finally:
         logging.disable(logging.NOTSET)
     assert failures == []
+
+
+def test_a_pd_file_is_read_as_pd_whatever_its_name_says_and_an_empty_patch_is_told(tmp_path, capsys):
+    pd_text = (
+        "#N canvas 0 0 450 300 12;\n#X obj 10 10 loadbang;\n#X obj 10 40 print hi;\n#X connect 0 0 1 0;\n"
+    )
+    for name in ("OK.PD", "ok.pat"):  # from a system that ignores case; a download saved under another name
+        (tmp_path / name).write_text(pd_text)
+        assert main(["check", str(tmp_path / name)]) == 0
+        assert capsys.readouterr().out == f"{tmp_path / name}: ok (2 nodes, 1 wire)\n"
+    (tmp_path / "notes.pat").write_text("# only a comment\n")
+    assert main(["check", str(tmp_path / "notes.pat")]) == 0
+    captured = capsys.readouterr()
+    assert "ok (0 nodes, 0 wires, 1 warning)" in captured.out
+    assert f"{tmp_path / 'notes.pat'}: warning: the patch has no nodes: it does nothing" in captured.err
+    (tmp_path / "g.pat").write_text("node a loadbang\n")
+    assert main(["convert", str(tmp_path / "g.pat"), str(tmp_path / "G.PD"), "--no-stubs"]) == 0
+    assert (tmp_path / "G.PD").read_text().startswith("#N canvas")  # Pd's text, not the native one
+
+
+def test_files_a_node_would_write_where_it_cannot_are_refused_by_check(tmp_path, capsys):
+    (tmp_path / "afile").write_text("")
+    patch = tmp_path / "out.pat"
+    patch.write_text(
+        "node l loadbang\n"
+        "node r record file=nodir/x.csv\n"
+        "node m midi_out file=afile/x.mid\n"
+        "node c calibrate file=nodir/calibration.json\n"
+        "node f record file=.\n"
+        "l -> r\n"
+    )
+    assert main(["check", str(patch)]) == 2
+    err = capsys.readouterr().err
+    nodir = tmp_path / "nodir"
+    assert (
+        f"{patch}:2: error: node 'r' (record): parameter 'file': cannot write '{nodir}/x.csv': the folder '{nodir}' does not exist"
+        in err
+    )
+    assert f"{patch}:3: error: node 'm' (midi_out): parameter 'file': cannot write" in err
+    assert f"the folder '{tmp_path / 'afile'}' is a file, not a folder" in err
+    assert f"{patch}:4: error: node 'c' (calibrate): parameter 'file': cannot write" in err
+    assert (
+        f"{patch}:5: error: node 'f' (record): parameter 'file': '{tmp_path}' is a folder: name a file in it"
+        in err
+    )
+
+
+def test_stubs_that_cannot_be_written_are_an_error_and_convert_then_writes_nothing(tmp_path, capsys):
+    (tmp_path / "g.pat").write_text("node a loadbang\n")
+    (tmp_path / "taken").write_text("")
+    assert main(["stubs", str(tmp_path / "taken")]) == 2
+    assert f"error: cannot write the stubs to {tmp_path / 'taken'}: File exists" in capsys.readouterr().err
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "pointat-stubs").write_text("")  # a file where convert puts its stubs folder
+    assert main(["convert", str(tmp_path / "g.pat"), str(tmp_path / "out" / "g.pd")]) == 2
+    assert "error: cannot write the stubs to" in capsys.readouterr().err
+    assert not (tmp_path / "out" / "g.pd").exists()
+
+
+def test_a_value_given_on_the_command_line_is_blamed_with_the_line_it_lands_on(tmp_path, capsys):
+    assert main(["check", "patches/glove_tqt.pat", "--set", "out.port=70000"]) == 2
+    err = capsys.readouterr().err
+    assert "(osc_out): " in err and "(given on the command line: --set out.port=70000)" in err
+
+
+def test_send_takes_an_ipv6_address_in_brackets():
+    with socket.socket(socket.AF_INET6, socket.SOCK_DGRAM) as sock:
+        try:
+            sock.bind(("::1", 0))
+        except OSError as exc:  # a container without IPv6
+            pytest.skip(f"no IPv6 loopback here: {exc}")
+        sock.settimeout(5)
+        port = sock.getsockname()[1]
+        assert main(["send", f"[::1]:{port}", "/x", "1"]) == 0
+        assert sock.recv(100).startswith(b"/x\x00")

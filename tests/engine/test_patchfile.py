@@ -361,3 +361,58 @@ def test_a_comment_line_ending_in_a_backslash_does_not_swallow_the_next_line():
     assert [(n.name, n.type, n.args, n.params) for n in spec.nodes] == [
         ("a", "metro", [100], {"interval": 50})
     ]
+
+
+def test_an_abstraction_loop_names_each_file_and_folder_or_pd_abstractions_are_told_apart(tmp_path):
+    (tmp_path / "a.pat").write_text("node x b.pat\n")
+    (tmp_path / "b.pat").write_text("node y a.pat\n")
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "a.pat"), REG)
+    [problem] = info.value.problems
+    assert problem.where.file.endswith("b.pat") and problem.where.line == 1
+    assert problem.message == "abstraction 'a.pat' includes itself: a.pat -> b.pat -> a.pat"
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "dir.pat").mkdir()
+    (tmp_path / "ok.pd").write_text(
+        "#N canvas 0 0 450 300 12;\n#X obj 10 10 loadbang;\n#X obj 10 40 print;\n"
+    )
+    (tmp_path / "main.pat").write_text("node f lib/\nnode g dir.pat\nnode h ok.pd\n")
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "main.pat"), REG)
+    assert [(p.where.line, p.message.split(" (")[0]) for p in info.value.problems] == [
+        (1, "abstraction 'lib/' is a folder"),  # the line that uses it, not a bare "Is a directory"
+        (2, "abstraction 'dir.pat' is a folder"),
+    ]  # and ok.pd, with no folder in its name, is an abstraction as ok.pat would be
+    ok = check(parse_patch("node h ok.pd\n", str(tmp_path / "m.pat")), REG)
+    assert [n.name for n in ok.spec.nodes] == ["h/loadbang_0", "h/print_1"]
+
+
+def test_a_dollar_name_in_a_patch_without_arguments_is_an_error_at_its_own_line(tmp_path):
+    (tmp_path / "good.pat").write_text("args n=1\nnode b metro $n\n")
+    (tmp_path / "top.pat").write_text("node lb loadbang\nnode i good.pat n=$z\n")
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "top.pat"), REG)
+    [problem] = info.value.problems
+    assert problem.where.file.endswith("top.pat") and problem.where.line == 2  # not inside good.pat
+    assert problem.message == "$z is not an argument (arguments: none)"
+
+
+def test_a_hand_written_name_meeting_an_abstractions_node_names_both_and_blames_neither_wrongly(tmp_path):
+    (tmp_path / "sub.pat").write_text("args x=1\nnode b metro $x\noutlet o <- b\n")
+    (tmp_path / "top.pat").write_text("node a sub.pat\nnode a/b print\na -> a/b\n")
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "top.pat"), REG)
+    [problem] = info.value.problems  # no second error about a print node's outlet
+    sub, top = tmp_path / "sub.pat", tmp_path / "top.pat"
+    assert problem.message == (
+        f"node 'a/b' is defined twice: at {sub}:2 (node 'b' of instance 'a') and at {top}:2; rename one"
+    )
+
+
+def test_lists_nested_too_deep_long_words_and_arguments_given_twice_are_located():
+    deep = "node m msg " + "[" * 1000 + "]" * 1000 + "\n"
+    assert errors_of(deep) == [(1, "lists nested more than 100 deep")]
+    word = "w" * 300_000  # read in linear time (it once took quadratic: a 5 MB line did not end)
+    assert parse_patch(f"node p print prefix={word}\n").node("p").params["prefix"] == word
+    assert errors_of("args n=1 n=2\nnode m metro $n\n") == [(1, "argument 'n' given twice")]
+    assert errors_of("args n=1\nargs n=2\nnode m metro $n\n") == [(2, "argument 'n' given twice")]

@@ -393,10 +393,12 @@ def test_replay_in_real_time_keeps_the_pace(tmp_path):
 def test_a_source_that_cannot_start_stops_the_patch_with_a_clear_error(tmp_path):
     from pointat.runtime import StartError
 
+    (tmp_path / "gone").mkdir()
     rt = patch(
-        f"node src replay file={tmp_path / 'nope.csv'}\nnode sink record file={tmp_path}/no/dir.csv\n",
+        f"node src replay file={tmp_path / 'nope.csv'}\nnode sink record file={tmp_path}/gone/take.csv\n",
         realtime=True,
     )
+    (tmp_path / "gone").rmdir()  # after check (which refuses a folder that is not there), before the start
     with pytest.raises(StartError) as info:
         rt.run(2)
     assert "node 'src' (replay): cannot start:" in str(info.value) and "nope.csv" in str(info.value)
