@@ -269,6 +269,15 @@ def child_process(cmd: list[str], log_path: Path) -> Iterator[subprocess.Popen]:
             stop_process(proc)
 
 
+def _last_words(log: Path, limit: int = 300) -> str:
+    """The end of what a failed child printed (its log lives in a folder removed after the run)."""
+    try:
+        lines = [ln.strip() for ln in log.read_text(errors="replace").splitlines() if ln.strip()]
+    except OSError:
+        return ""
+    return f"; it printed: {' | '.join(lines[-3:])[-limit:]}" if lines else "; it printed nothing"
+
+
 def stop_process(proc: subprocess.Popen) -> None:
     """Terminate a child (and its process group) and reap it; kill it if it does not go within 3 s."""
     if proc.poll() is None:
@@ -669,7 +678,7 @@ def _measure(
         with child_process(cmd, log) as proc:
             _finish(res, proc, drive(src.tick, rate, sock, phases, proc), key, period, n_sources)
     except RuntimeError as exc:
-        res.error = str(exc)
+        res.error = str(exc) + _last_words(log)
     finally:
         src.close()
         sock.close()

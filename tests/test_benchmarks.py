@@ -281,3 +281,18 @@ def test_a_quick_or_partial_run_never_replaces_the_full_report(tmp_path):
     assert report_path(None, False, ["throughput"]) == PARTIAL_REPORT
     assert report_path(tmp_path / "r.md", True, ["memory"]) == tmp_path / "r.md"
     assert "/benchmarks/results/" in (FULL_REPORT.parents[1] / ".gitignore").read_text().split()
+
+
+def test_a_failed_child_is_reported_with_the_end_of_what_it_printed(tmp_path):
+    from benchmarks.latency import _last_words
+
+    log = tmp_path / "child.log"
+    log.write_text(
+        "INFO starting\n\nerror: node 'ctl' (osc_in): cannot start: port 40000 is in use\n3 errors\n"
+    )
+    assert _last_words(log) == (
+        "; it printed: INFO starting | error: node 'ctl' (osc_in): cannot start: port 40000 is in use | 3 errors"
+    )
+    log.write_text("")
+    assert _last_words(log) == "; it printed nothing"
+    assert _last_words(tmp_path / "none.log") == ""
