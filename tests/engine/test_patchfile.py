@@ -363,12 +363,18 @@ def test_a_comment_line_ending_in_a_backslash_does_not_swallow_the_next_line():
     ]
 
 
+def the_problem(path):
+    """The one problem that checking the patch at ``path`` finds."""
+    with pytest.raises(PatchError) as info:
+        check(read_spec(path), REG)
+    [problem] = info.value.problems
+    return problem
+
+
 def test_an_abstraction_loop_names_each_file_and_folder_or_pd_abstractions_are_told_apart(tmp_path):
     (tmp_path / "a.pat").write_text("node x b.pat\n")
     (tmp_path / "b.pat").write_text("node y a.pat\n")
-    with pytest.raises(PatchError) as info:
-        check(read_spec(tmp_path / "a.pat"), REG)
-    [problem] = info.value.problems
+    problem = the_problem(tmp_path / "a.pat")
     assert problem.where.file.endswith("b.pat") and problem.where.line == 1
     assert problem.message == "abstraction 'a.pat' includes itself: a.pat -> b.pat -> a.pat"
     (tmp_path / "lib").mkdir()
@@ -390,9 +396,7 @@ def test_an_abstraction_loop_names_each_file_and_folder_or_pd_abstractions_are_t
 def test_a_dollar_name_in_a_patch_without_arguments_is_an_error_at_its_own_line(tmp_path):
     (tmp_path / "good.pat").write_text("args n=1\nnode b metro $n\n")
     (tmp_path / "top.pat").write_text("node lb loadbang\nnode i good.pat n=$z\n")
-    with pytest.raises(PatchError) as info:
-        check(read_spec(tmp_path / "top.pat"), REG)
-    [problem] = info.value.problems
+    problem = the_problem(tmp_path / "top.pat")
     assert problem.where.file.endswith("top.pat") and problem.where.line == 2  # not inside good.pat
     assert problem.message == "$z is not an argument (arguments: none)"
 
@@ -400,9 +404,7 @@ def test_a_dollar_name_in_a_patch_without_arguments_is_an_error_at_its_own_line(
 def test_a_hand_written_name_meeting_an_abstractions_node_names_both_and_blames_neither_wrongly(tmp_path):
     (tmp_path / "sub.pat").write_text("args x=1\nnode b metro $x\noutlet o <- b\n")
     (tmp_path / "top.pat").write_text("node a sub.pat\nnode a/b print\na -> a/b\n")
-    with pytest.raises(PatchError) as info:
-        check(read_spec(tmp_path / "top.pat"), REG)
-    [problem] = info.value.problems  # no second error about a print node's outlet
+    problem = the_problem(tmp_path / "top.pat")  # no second error about a print node's outlet
     sub, top = tmp_path / "sub.pat", tmp_path / "top.pat"
     assert problem.message == (
         f"node 'a/b' is defined twice: at {sub}:2 (node 'b' of instance 'a') and at {top}:2; rename one"
