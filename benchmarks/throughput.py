@@ -495,7 +495,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
 
     from pointat.maths import tqt_compiled
 
-    backends = ["numba", "numpy"] if tqt_compiled.available() else ["numpy"]
+    backends = ["numba", "python"] if tqt_compiled.available() else ["python"]
     if not tqt_compiled.available():
         errors.append('TQTBank numba backend: numba is not installed (pip install ".[fast]")')
     for backend in backends:
@@ -508,7 +508,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
 
         best, med = _rounds(bank, nb * k15, rounds)
         note = "per sensor-sample; " + (
-            "compiled loop (numba)" if backend == "numba" else "numpy, vectorised"
+            "compiled loop (numba)" if backend == "numba" else "a Python loop over the sensors"
         )
         out.append(FilterCost(f"TQTBank robust, 15 sensors, {backend}", "pointat", best, med, note))
     G15, A15, M15 = G.tolist(), A.tolist(), M.tolist()

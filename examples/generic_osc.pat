@@ -23,11 +23,14 @@ node dir    azi_ele
 node roll   roll_distance
 node out    osc_out profile=generic address=/glove/{n}/direction fields=[az, el, dist01] \
                     host=127.0.0.1 port=9000 to=[9002] rate=100
+node state  print prefix="glove"
 
 glove.adc -> nulls -> units
 units.mag -> fuse.mag
 units.accel -> fuse.accel
+units.range -> fuse.range
 units.gyro -> fuse.gyro
+fuse.flags -> state
 fuse.quat -> ref
 ref -> dir
 ref -> roll

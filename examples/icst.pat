@@ -20,11 +20,14 @@ node ref    reference mode=heading capture_first=true
 node dir    azi_ele
 node roll   roll_distance
 node out    osc_out profile=icst host=127.0.0.1 port=50001 source=1 rate=50
+node state  print prefix="glove"
 
 glove.adc -> nulls -> units
 units.mag -> fuse.mag
 units.accel -> fuse.accel
+units.range -> fuse.range
 units.gyro -> fuse.gyro
+fuse.flags -> state
 fuse.quat -> ref
 ref -> dir
 ref -> roll

@@ -19,11 +19,14 @@ node fuse   tqt mode=robust
 node ref    reference mode=heading capture_first=true
 node dir    azi_ele
 node out    osc_out profile=iem_stereo host=127.0.0.1 port=8000 bundle=true rate=60
+node state  print prefix="glove"
 
 glove.adc -> nulls -> units
 units.mag -> fuse.mag
 units.accel -> fuse.accel
+units.range -> fuse.range
 units.gyro -> fuse.gyro
+fuse.flags -> state
 fuse.quat -> ref -> dir
 dir.elevation -> out.elevation
 dir.azimuth -> out.azimuth

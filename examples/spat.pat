@@ -21,11 +21,14 @@ node ref    reference mode=heading capture_first=true
 node dir    azi_ele
 node roll   roll_distance
 node out    osc_out profile=spat host=127.0.0.1 port=9000 source=1 radius=2 rate=50
+node state  print prefix="glove"
 
 glove.adc -> nulls -> units
 units.mag -> fuse.mag
 units.accel -> fuse.accel
+units.range -> fuse.range
 units.gyro -> fuse.gyro
+fuse.flags -> state
 fuse.quat -> ref
 ref -> dir
 ref -> roll

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from pointat.devices.mote_frame import DEFAULT_RESOLUTION
+from pointat.devices.mote_frame import ADC_MAX, ADC_NULL, DEFAULT_RESOLUTION
 from pointat.errors import worth_reporting
 from pointat.maths.calibration import (
     Calibration,
@@ -183,15 +183,25 @@ class Scaling(Node):
     accelerometer scales are more than 4 times off the resolutions (``PLAUSIBLE``), that has scales
     without nulls, or a singular soft-iron matrix, is refused, naming the key.  Outputs right to left:
     mag, accel, then gyro, so a filter whose hot inlet is the gyro sees a complete sample.
+
+    The 12-bit ADC clips: ``range`` says once, when the patch starts, how far the accelerometer and the
+    gyro read before an axis sticks at its rail (m/s², rad/s; the nearer rail of the least sensitive
+    axis), so that a ``tqt`` wired to it knows a saturated axis rather than guessing.  The nulls are the
+    calibration file's; without them, mid-scale less 5 % of the span (``RAIL_COUNTS``), for nulls a little
+    off the middle: a rail is then said a little early, never late.
     """
 
     pure = True
+
+    #: Counts from the null to the nearer rail when the file gives no nulls.
+    RAIL_COUNTS = ADC_NULL - 0.05 * ADC_MAX
 
     inlets = (Inlet("adc", ("vector", "list"), "nine counts relative to their nulls (from offset)"),)
     outlets = (
         Outlet("gyro", "vector", "angular rate, rad/s"),
         Outlet("accel", "vector", "specific force, m/s²"),
         Outlet("mag", "vector", "magnetic field, gauss"),
+        Outlet("range", "list", "full scale: accelerometer m/s², gyro rad/s, once at start (to tqt's range)"),
     )
     params = (
         Param("gyro", "float", DEFAULT_RESOLUTION["gyro"], "gyro resolution", unit="deg/s per count"),
@@ -211,6 +221,7 @@ class Scaling(Node):
     def setup(self) -> None:
         self.soft_iron: tuple[float, ...] | None = None  # row major
         factor = [math.radians(self.p.gyro)] * 3 + [self.p.accel] * 3 + [self.p.mag] * 3
+        cal = None
         if self.p.calibration:
             cal = _load(self.p.calibration)
             nominal = []
@@ -236,6 +247,20 @@ class Scaling(Node):
                     ", ".join(nominal),
                 )
         self.factor: tuple[float, ...] = tuple(float(f) for f in factor)
+        self.full_scale = (self._full_scale(cal, 3), self._full_scale(cal, 0))
+
+    def _full_scale(self, cal: Calibration | None, first: int) -> float:
+        """The reading at which the least sensitive of three axes (from channel ``first``) sticks."""
+        nulls = None
+        if cal is not None:
+            n = np.asarray(cal.gyro_null if first == 0 else cal.acc_null, dtype=float)
+            if np.all((n > 0.0) & (n < ADC_MAX)):
+                nulls = n.tolist()
+        counts = [self.RAIL_COUNTS] * 3 if nulls is None else [min(n, ADC_MAX - n) for n in nulls]
+        return min(c * abs(self.factor[first + a]) for a, c in enumerate(counts))
+
+    def loadbang(self) -> None:
+        self.out(3, self.full_scale)
 
     #: How far (a factor) a file's gyro or accelerometer scale may be from the nominal resolution's.
     PLAUSIBLE = 4.0

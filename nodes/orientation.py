@@ -23,6 +23,7 @@ import numpy as np
 
 from pointat.errors import worth_reporting
 from pointat.maths import scalar as sq
+from pointat.maths.calibration import STANDARD_GRAVITY
 from pointat.maths.fusion import GyroIntegrator, RollDistance
 from pointat.maths.quaternion import (
     enu_to_nwu,
@@ -348,15 +349,24 @@ class TQT(SampleClock, Flagged, Node):
     """McGhee/Bachmann's quaternion MARG filter: gyro rates corrected by gravity and the magnetic field.
 
     Gauss-Newton correction with the reduced 3x3 X matrix (Bachmann patent Eq. 29), gain ``k`` (errors
-    decay as e^(-k t); crossover k/2pi Hz in paper mode, lower in robust mode, which low-passes the
-    acceleration over 2 s first: 0.067 Hz at k = 1), magnetometer weight ``rho``.  ``mode=paper`` is
-    the seeds' filter exactly (glitches aside, below); ``mode=robust`` (default) adds heading-only magnetic correction, gyro
-    bias learned at rest, earth-frame acceleration averaging and magnetic gating.  ``use_gyro=false``
-    tracks from accel/mag alone.  A glitch is skipped like NaN: a rate beyond 100 rad/s, or a specific
-    force beyond 8 times the first one read (at rest, gravity; ``ACC_LIMIT``), which would tilt the
-    acceleration average for minutes; 50 such readings in a row set that limit anew.
-    Send the gyro last (the left inlet is hot): mote and scaling nodes output right to left, so wiring
-    gyro, accel and mag outlets to the same-named inlets does this.
+    decay as e^(-k t)), magnetometer weight ``rho``.  ``mode=paper`` is the seeds' filter exactly (glitches
+    aside); ``mode=robust`` (default) corrects heading only from the magnetometer, learns the gyro bias
+    while the glove rests, averages gravity in the room's frame over 2 s and ignores a disturbed field.
+
+    Strikes, shakes and drumming: the gravity average takes every reading a hand can make (only a
+    corrupt one, NaN or a thousand g, is dropped), and a hand's pushes and pulls cancel in it, so hard
+    strokes do not tip the sound.  When an axis clips at its full scale the reading is wrong, so that
+    whole stretch of motion is left out of the average (never only the clipped peaks, which would tip
+    it) and the gyro carries the orientation through it.  When the gyro itself clips (a turn faster
+    than it measures), the orientation is re-found from gravity and the field within about a second
+    afterwards.  To know a clipped axis the filter needs the sensor's full scale: wire ``scaling``'s
+    ``range`` outlet to the ``range`` inlet (the glove's ADC), or set ``acc_range`` and ``gyro_range``.
+    ``flags`` says ``acc_saturated``, ``gyro_saturated`` and ``shaking`` while they last (and
+    ``mag_disturbed``, ``bad_gyro``..., or ``ok``).
+
+    ``use_gyro=false`` tracks from accel/mag alone, heading and tilt at gain ``k`` (robust default 50:
+    within 20 ms of the measurement).  Send the gyro last (the left inlet is hot): mote and scaling
+    nodes output right to left, so wiring gyro, accel and mag outlets to the same-named inlets does this.
     """
 
     pure = True
@@ -365,6 +375,11 @@ class TQT(SampleClock, Flagged, Node):
         Inlet("gyro", ("vector", "list"), "angular rate, rad/s, sensor frame"),
         Inlet("accel", ("vector", "list"), "specific force (+g up at rest), sensor frame"),
         Inlet("mag", ("vector", "list"), "magnetic field, sensor frame"),
+        Inlet(
+            "range",
+            ("list",),
+            "full scale per axis, accelerometer then gyro, in the accel and gyro inlets' units (scaling.range)",
+        ),
     )
     outlets = (Outlet("quat", "vector", "orientation quaternion (w, x, y, z), sensor -> earth (NWU)"), FLAGS)
     params = (
@@ -379,7 +394,7 @@ class TQT(SampleClock, Flagged, Node):
             "k",
             "float",
             0.0,
-            "gravity-correction gain (0: the mode's default: robust 1, paper 0.1)",
+            "gravity-correction gain (0: the mode's default: robust 1, without gyro 50; paper 0.1)",
             unit="1/s",
             live=True,
             minimum=0.0,
@@ -397,6 +412,24 @@ class TQT(SampleClock, Flagged, Node):
             minimum=0.0,
         ),
         Param("dip", "float", float("nan"), "magnetic dip; NaN: learned from the first sample", unit="deg"),
+        Param(
+            "acc_range",
+            "float",
+            0.0,
+            "accelerometer full scale per axis, for accel in m/s² (0: not known; the range inlet sets it too)",
+            unit="g",
+            live=True,
+            minimum=0.0,
+        ),
+        Param(
+            "gyro_range",
+            "float",
+            0.0,
+            "gyro full scale per axis (0: not known; the range inlet sets it too)",
+            unit="deg/s",
+            live=True,
+            minimum=0.0,
+        ),
         RATE,
     )
     example = """
@@ -404,10 +437,13 @@ node glove simulate
 node nulls offset samples=150
 node cal   scaling
 node fuse  tqt mode=robust
+node state print prefix=glove
 glove -> nulls -> cal
+cal.range -> fuse.range
 cal.gyro -> fuse.gyro
 cal.accel -> fuse.accel
 cal.mag -> fuse.mag
+fuse.flags -> state
 """
 
     @classmethod
@@ -426,6 +462,7 @@ cal.mag -> fuse.mag
             use_gyro=self.p.use_gyro,
             dip=dip,
             k_heading=self.p.k_heading,
+            **_ranges(self.p.acc_range, self.p.gyro_range),
         )
         self._bits = 0  # the flags last reported ("ok" until a flag is up)
         self.reset_clock()
@@ -433,8 +470,17 @@ cal.mag -> fuse.mag
     def param_changed(self, name: str) -> None:
         value = getattr(self.p, name)
         if name == "k" and value == 0:  # 0: the mode's own gain, live as at load
-            value = TQTFilter.DEFAULT_K[self.p.mode]
-        self.filter.retune(**{name: value})
+            value = TQTFilter.default_k(self.p.mode, self.p.use_gyro)
+        if name in ("acc_range", "gyro_range"):
+            self.filter.retune(**_ranges(**{name: value}))
+        else:
+            self.filter.retune(**{name: value})
+
+    def on_range(self, msg: Message) -> None:
+        acc, gyro = as_floats(msg, 2)
+        if not (acc >= 0.0 and gyro >= 0.0 and math.isfinite(acc) and math.isfinite(gyro)):
+            raise ValueError(f"range must be two finite numbers >= 0 (accelerometer, gyro), got {acc} {gyro}")
+        self.filter.retune(acc_range=acc, gyro_range=gyro)
 
     def on_gyro(self, msg: Message) -> None:
         gyro = as_floats(msg, 3)
@@ -459,6 +505,16 @@ cal.mag -> fuse.mag
 
 
 _NOT_REST = ~int(TQTFlags.REST)  # resting is normal, not a status to report
+
+
+def _ranges(acc_range: float | None = None, gyro_range: float | None = None) -> dict[str, float]:
+    """The nodes' full scales (g, deg/s) in the filter's units (m/s², rad/s)."""
+    out = {}
+    if acc_range is not None:
+        out["acc_range"] = acc_range * STANDARD_GRAVITY
+    if gyro_range is not None:
+        out["gyro_range"] = math.radians(gyro_range)
+    return out
 
 
 #: (bit, name) of every flag, lowest bit first: the order the ``flags`` outlet names them in.
@@ -529,8 +585,8 @@ class TQTBankNode(Node):
             "backend",
             "symbol",
             "auto",
-            "auto (numba when installed and mode=robust), numba or numpy",
-            choices=("auto", "numba", "numpy"),
+            "auto (numba when installed and mode=robust), numba or python",
+            choices=("auto", "numba", "python"),
         ),
     )
     example = """
@@ -569,7 +625,7 @@ right.gyro -> suit.gyro2
     def validate(cls, values: Mapping[str, Any]) -> None:
         TQT.validate(values)
         if values["backend"] == "numba" and values["mode"] != "robust":
-            raise ValueError("backend=numba runs mode=robust only (paper: backend=numpy or auto)")
+            raise ValueError("backend=numba runs mode=robust only (paper: backend=python or auto)")
         # find_spec, not an import: numba costs a quarter of a second and ~50 MB to import, which a patch
         # pays only when it builds a bank that runs it
         if values["backend"] == "numba" and importlib.util.find_spec("numba") is None:
@@ -588,6 +644,7 @@ right.gyro -> suit.gyro2
             dip=dip,
             k_heading=p.k_heading,
             backend=p.backend,
+            **_ranges(p.acc_range, p.gyro_range),
         )
         self._gyro = [_NAN3] * n
         self._accel = [_NAN3] * n
@@ -612,8 +669,11 @@ right.gyro -> suit.gyro2
     def param_changed(self, name: str) -> None:
         value = getattr(self.p, name)
         if name == "k" and value == 0:
-            value = TQTBank.DEFAULT_K[self.p.mode]
-        self.bank.retune(**{name: value})
+            value = TQTBank.default_k(self.p.mode, self.p.use_gyro)
+        if name in ("acc_range", "gyro_range"):
+            self.bank.retune(**_ranges(**{name: value}))
+        else:
+            self.bank.retune(**{name: value})
 
     def _make_handler(self, index: int, inlet: Inlet) -> Any:
         sensor, part = divmod(index, 3)

@@ -25,12 +25,15 @@ node both   pack 0 0 0
 node slow   speedlim 500
 node show   print prefix="azimuth elevation distance"
 node cue    print prefix="gyro nulls (hold the glove still)"
+node state  print prefix="glove"
 
 glove.device -> base
 base.m1 -> nulls -> units
 units.mag -> tqt.mag
 units.accel -> tqt.accel
+units.range -> tqt.range
 units.gyro -> tqt.gyro
+tqt.flags -> state
 press -> tqt.reference
 tqt.distance -> out.distance
 tqt.distance -> both.2

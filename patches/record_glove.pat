@@ -20,13 +20,16 @@ node press  msg bang
 node out    osc_out profile=pointat host=127.0.0.1 port=9000
 node ctl    osc_in port=9001
 node cue    print prefix="gyro nulls (hold the glove still)"
+node state  print prefix="glove"
 
 glove.device -> base
 base.m1 -> take
 base.m1 -> nulls -> units
 units.mag -> tqt.mag
 units.accel -> tqt.accel
+units.range -> tqt.range
 units.gyro -> tqt.gyro
+tqt.flags -> state
 press -> tqt.reference
 tqt.distance -> out.distance
 tqt.elevation -> out.elevation

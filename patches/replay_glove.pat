@@ -14,11 +14,14 @@ node ctl    osc_in port=9001
 node both   pack 0 0 0
 node slow   speedlim 500
 node show   print prefix="azimuth elevation distance"
+node state  print prefix="glove"
 
 source.row -> nulls -> units
 units.mag -> tqt.mag
 units.accel -> tqt.accel
+units.range -> tqt.range
 units.gyro -> tqt.gyro
+tqt.flags -> state
 press -> tqt.reference
 tqt.distance -> out.distance
 tqt.distance -> both.2

@@ -19,6 +19,7 @@ node out   osc_out profile=generic host=127.0.0.1 port=$port source=$id address=
 nulls -> units
 units.mag -> tqt.mag
 units.accel -> tqt.accel
+units.range -> tqt.range
 units.gyro -> tqt.gyro
 tqt.distance -> out.distance
 tqt.elevation -> out.elevation

@@ -2,12 +2,14 @@
 # reference pose, then azimuth, elevation and (roll gesture) distance.
 # gyro, accel, mag (rad/s, m/s², any field unit) -> quat, azimuth, elevation, distance.
 # Send mag and accel before gyro (the hot inlet), as scaling and replay do.
-# Its "reference" inlet: a bang captures the current pointing direction as azimuth 0.
+# Its "reference" inlet: a bang captures the current pointing direction as azimuth 0; its "range" inlet
+# takes scaling's range (the sensor's full scale), so that a clipped axis is known.
 
 args rate=100 mode=robust
 inlet  gyro -> fuse.gyro
 inlet  accel -> fuse.accel
 inlet  mag -> fuse.mag
+inlet  range -> fuse.range
 inlet  reference -> ref.capture
 outlet quat <- ref.quat
 outlet azimuth <- roll.azimuth

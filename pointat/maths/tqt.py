@@ -64,9 +64,9 @@ from typing import ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pointat.maths.fusion import accmag_quat
+from pointat.maths import tqt_step
 from pointat.maths.quaternion import quat_multiply, quat_normalize
-from pointat.maths.scalar import MAX_RATE_SQUARED
+from pointat.maths.tqt_step import ACC_LIMIT, ACC_RELEARN, _mul_exp
 
 __all__ = [
     "ACC_LIMIT",
@@ -90,18 +90,7 @@ __all__ = [
 GRAVITY_REF = np.array([0.0, 0.0, 1.0])
 
 _INF = math.inf
-#: A specific force more than this many times the one the filter started with (at rest: gravity) is not
-#: taken for gravity, like NaN: no hand makes it, and one corrupt sample that large (a damaged recording,
-#: a float sensor's glitch) would tilt the earth-frame low-pass for minutes.  The unit stays free.
-ACC_LIMIT = 8.0
-_ACC_LIMIT_SQUARED = ACC_LIMIT * ACC_LIMIT
-#: Samples in a row beyond the limit after which the limit is learned again from the reading: a glitch is
-#: a sample or a few, while a first reading that was too small (a sensor settling at power-on) must not
-#: refuse gravity for good.
-ACC_RELEARN = 50
 _TWO_PI = 2.0 * math.pi
-# below this squared half-angle the exponential map uses its Taylor series (error < 1e-18)
-_EXP_TAYLOR = 1e-8
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -458,8 +447,8 @@ class TQTFlags(IntFlag):
     NONE = 0
     #: gyro not finite, or beyond :data:`~pointat.maths.scalar.MAX_RATE`: no rate propagation this step
     GYRO_INVALID = 1
-    #: accelerometer zero, not finite, or beyond :data:`ACC_LIMIT` times the first reading (for fewer
-    #: than :data:`ACC_RELEARN` samples in a row): no gravity correction this step
+    #: accelerometer zero, not finite, or impossible (beyond half again its full scale; with no full scale
+    #: known, :data:`ACC_LIMIT` times the first reading): no gravity correction this step
     ACC_INVALID = 2
     #: magnetometer zero or not finite: no magnetic correction this step
     MAG_INVALID = 4
@@ -471,28 +460,31 @@ class TQTFlags(IntFlag):
     MAG_DISTURBED = 32
     #: robust mode: the sensor is at rest, the gyro bias is being learned
     REST = 64
+    #: robust mode: an accelerometer axis reached its full scale (``acc_range``) within the last 0.5 s
+    ACC_SATURATED = 128
+    #: robust mode: a gyro axis reached its full scale (``gyro_range``) within the last 0.5 s
+    GYRO_SATURATED = 256
+    #: robust mode: the specific force's norm swings by more than half a g (RMS over 0.5 s; down below 0.3)
+    SHAKING = 512
 
 
 _GYRO_INVALID = int(TQTFlags.GYRO_INVALID)
 _ACC_INVALID = int(TQTFlags.ACC_INVALID)
 _MAG_INVALID = int(TQTFlags.MAG_INVALID)
-_DT_INVALID = int(TQTFlags.DT_INVALID)
 _UNINITIALISED = int(TQTFlags.UNINITIALISED)
-_MAG_DISTURBED = int(TQTFlags.MAG_DISTURBED)
-_REST = int(TQTFlags.REST)
 
-# learning rate (time constant, s) of the magnetic norm / dip reference at rest (robust mode)
-_MAG_REF_TAU = 5.0
-# time constant (s) of the gyro / accelerometer low-pass the rest detector compares against (as VQF)
-_REST_TAU = 0.5
 
 Mode = Literal["robust", "paper"]
+
+#: ``k`` of robust mode without a gyro (``use_gyro=False``): nothing carries the orientation between
+#: corrections, so they follow the measurement within 1/k = 20 ms.
+K_NO_GYRO = 50.0
 
 
 class _TQTParams:
     """Parameters shared by :class:`TQTFilter` and :class:`TQTBank` (validated once, documented there)."""
 
-    #: The gain ``k`` of each mode when none is given.
+    #: The gain ``k`` of each mode when none is given (robust without a gyro: :data:`K_NO_GYRO`).
     DEFAULT_K: ClassVar[dict[str, float]] = {"robust": 1.0, "paper": 0.1}
 
     def __init__(
@@ -513,11 +505,13 @@ class _TQTParams:
         rest_acc: float = 0.05,
         bias_tau: float = 5.0,
         bias_clip: float = math.radians(2.0),
+        acc_range: float = 0.0,
+        gyro_range: float = 0.0,
     ) -> None:
         if mode not in ("robust", "paper"):
             raise ValueError(f"mode must be 'robust' or 'paper', got {mode!r}")
         if k is None:
-            k = self.DEFAULT_K[mode]
+            k = self.default_k(mode, use_gyro)
         for name, value in (
             ("k", k),
             ("rho", rho),
@@ -530,6 +524,8 @@ class _TQTParams:
             ("rest_acc", rest_acc),
             ("bias_tau", bias_tau),
             ("bias_clip", bias_clip),
+            ("acc_range", acc_range),
+            ("gyro_range", gyro_range),
         ):
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
@@ -554,16 +550,41 @@ class _TQTParams:
         self.rest_acc = float(rest_acc)
         self.bias_tau = float(bias_tau)
         self.bias_clip = float(bias_clip)
+        self.acc_range = float(acc_range)
+        self.gyro_range = float(gyro_range)
+        self._p = self._params()
         self.reset()
 
-    def _coefficients(self, dt: float) -> None:
-        self._dt = dt
-        self._c_acc = 1.0 - math.exp(-dt / self.acc_tau)
-        self._c_rest = 1.0 - math.exp(-dt / _REST_TAU)
-        self._c_bias = 1.0 - math.exp(-dt / self.bias_tau)
-        self._c_ref = 1.0 - math.exp(-dt / _MAG_REF_TAU)
-        self._alpha = min(self.k * dt, 1.0)
-        self._alpha_mag = min(self.k_heading * dt, 1.0)
+    @classmethod
+    def default_k(cls, mode: Mode, use_gyro: bool = True) -> float:
+        """The gain ``k`` a filter of this mode takes when none is given.
+
+        >>> TQTFilter.default_k("robust"), TQTFilter.default_k("robust", use_gyro=False)
+        (1.0, 50.0)
+        """
+        if mode == "robust" and not use_gyro:
+            return K_NO_GYRO
+        return cls.DEFAULT_K[mode]
+
+    def _params(self) -> list[float]:
+        """The parameter vector of :mod:`pointat.maths.tqt_step`, paper mode's ``rho`` and ``iterations``
+        after it."""
+        return tqt_step.params(
+            self.k,
+            self.k_heading,
+            self.acc_tau,
+            self.bias_tau,
+            self.mag_norm_tol,
+            self.mag_dip_tol,
+            self.rest_time,
+            self.rest_gyro,
+            self.rest_acc,
+            self.bias_clip,
+            self.use_gyro,
+            self.dip is not None,
+            self.acc_range,
+            self.gyro_range,
+        ) + [self.rho, float(self.iterations)]
 
     @property
     def crossover(self) -> float:
@@ -578,12 +599,13 @@ class _TQTParams:
                   a = 1 / \tau_a, \qquad f_c = \omega_c / 2\pi
 
         (0.067 Hz at the defaults k = 1, acc_tau = 2 s, where k / 2 pi would say 0.16 Hz).  The heading
-        correction of robust mode has its own, :attr:`heading_crossover`.
+        correction of robust mode has its own, :attr:`heading_crossover`.  Without a gyro there is no
+        low-pass: :math:`k / 2\pi`.
 
         >>> round(TQTFilter(1.0, mode="paper").crossover, 4), round(TQTFilter(1.0).crossover, 4)
         (0.1592, 0.0667)
         """
-        if self.mode == "paper":
+        if self.mode == "paper" or not self.use_gyro:
             return crossover_from_gain(self.k)
         k2, a2 = self.k * self.k, 1.0 / (self.acc_tau * self.acc_tau)
         w2 = 0.5 * (math.sqrt((k2 + a2) ** 2 + 4.0 * k2 * a2) - (k2 + a2))
@@ -593,15 +615,18 @@ class _TQTParams:
     def heading_crossover(self) -> float:
         r"""robust mode: the heading correction's crossover in Hz, :math:`k_{heading} / 2\pi` (below it the
         heading follows the magnetometer, above it the gyro; 0.008 Hz at the default 0.05)."""
-        return crossover_from_gain(self.k_heading)
+        return crossover_from_gain(self.k_heading if self.use_gyro else self.k)
 
     def reset(self, q: ArrayLike | None = None) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 
-    _TUNABLE = ("k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "bias_tau")
+    _TUNABLE = (
+        "k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "bias_tau", "acc_range", "gyro_range",
+    )  # fmt: skip
 
     def retune(self, **gains: float) -> None:
-        """Change gains while running (``k``, ``rho``, ``k_heading``, ``acc_tau``...); the state is kept.
+        """Change gains while running (``k``, ``rho``, ``k_heading``, ``acc_tau``, ``acc_range``...); the
+        state is kept.
 
         >>> f = TQTFilter()
         >>> f.retune(k=0.5, k_heading=0.1)
@@ -617,7 +642,7 @@ class _TQTParams:
             if value == 0.0 and name in ("acc_tau", "bias_tau"):  # time constants: as the constructor says
                 raise ValueError(f"{name} must be > 0, got {value!r}")
             setattr(self, name, value)
-        self._dt = -1.0  # recompute the per-step coefficients
+        self._p[:] = self._params()  # in place: a bank's compiled kernel holds the same vector
 
 
 class TQTFilter(_TQTParams):
@@ -643,7 +668,8 @@ class TQTFilter(_TQTParams):
     :math:`\Delta v` is the minimum-norm Gauss-Newton step of the other alone.
 
     **robust** (default) -- the same Gauss-Newton corrections, decoupled, after the propagation
-    :math:`\hat q^- = \hat q_n \otimes \exp(\tfrac{\Delta t}{2}(\omega - b))`, plus four extensions:
+    :math:`\hat q^- = \hat q_n \otimes \exp(\tfrac{\Delta t}{2}(\omega - b))`, plus five extensions
+    (:mod:`pointat.maths.tqt_step`, the one implementation every form runs):
 
     1. *The magnetometer corrects heading only.*  Gravity rows and magnetometer rows are solved separately;
        the magnetic correction is projected onto the earth vertical: the one-parameter Gauss-Newton fit of
@@ -656,20 +682,32 @@ class TQTFilter(_TQTParams):
        for ``rest_time`` seconds, with the gyro low-pass below ``bias_clip``; at rest the bias follows the
        gyro low-pass, :math:`b \leftarrow b + (1 - e^{-\Delta t/\tau_b})(\bar\omega - b)`.
     3. *Time-weighted summing of acceleration* (Patent col. 4): the vertical is the direction of the
-       acceleration low-passed in the earth frame, :math:`e \leftarrow e + (1 - e^{-\Delta t/\tau_a})
-       (\hat q^- \otimes a \otimes \hat q^{-*} - e)`; every correction of :math:`\hat q` turns
-       :math:`e` with it, so past samples stay in the current frame.  Linear accelerations average out,
-       gravity does not.  The gravity rows' Gauss-Newton fit, solved exactly (the rotation by
-       :math:`\theta = \angle(e, \text{up})` about :math:`e \times \text{up}`), is applied with
+       acceleration averaged in the earth frame, :math:`e \leftarrow e + (1 - e^{-T/\tau_a})(\bar a^e_T -
+       e)`, fed with the means :math:`\bar a^e_T` of 0.1 s chunks of :math:`\hat q^- \otimes a \otimes
+       \hat q^{-*}` (a plain mean while less than ``acc_tau`` is in); every correction of :math:`\hat q`
+       turns :math:`e` with it, so past samples stay in the current frame.  Linear accelerations average
+       out, gravity does not: the error a hand's motion leaves in :math:`e` is its velocity over
+       :math:`\tau_a`, however hard it strikes.  The gravity rows' Gauss-Newton fit, solved exactly (the
+       rotation by :math:`\theta = \angle(e, \text{up})` about :math:`e \times \text{up}`), is applied with
        :math:`\alpha = k\Delta t`.
     4. *Magnetic gating.*  The magnetometer is ignored while its norm deviates more than
        ``mag_norm_tol`` (relative) or its dip more than ``mag_dip_tol`` from the reference, learned on the
-       first sample and refined at rest (within the gate only).  Gating on the accelerometer norm is not
-       done: it made every variant worse on BROAD.
+       first sample and refined at rest (within the gate only).
+    5. *Saturation* (when the source gives ``acc_range`` / ``gyro_range``, the sensor's full scale per
+       axis).  A chunk of acceleration goes into :math:`e` only if neither it nor its neighbours saw an
+       axis at full scale: a stroke is left out whole, swing and impact, never one side of it, so the
+       average stays unbiased.  A saturated gyro turned the estimate by less than the hand turned: the
+       average starts again after it, and for a second both corrections run at 5 1/s, the magnetometer
+       gated by its norm alone.
+
+    Nothing a hand can produce is refused: a reading counts as corrupt only beyond half again the full
+    scale, or with none known beyond :data:`ACC_LIMIT` (1000) times the first reading.  :attr:`flags`
+    says ``ACC_SATURATED``, ``GYRO_SATURATED`` and ``SHAKING`` while they last.
 
     ``use_gyro=False`` gives accelerometer / magnetometer only tracking (VRST §4.4): no propagation, the
-    corrections alone (give ``k`` - and in robust mode ``k_heading`` - values fast enough for the motion,
-    e.g. 5-20 1/s).
+    corrections alone.  Robust mode then takes each reading as it comes (no average: there is no frame to
+    average in), heading and tilt at the one gain ``k`` (default :data:`K_NO_GYRO`), the field gated by
+    its norm.
 
     Bad input never poisons the state: a non-finite gyro skips the propagation, a zero or non-finite
     accelerometer or magnetometer skips that correction, a bad ``dt`` skips the step; :attr:`flags` says
@@ -681,7 +719,7 @@ class TQTFilter(_TQTParams):
         Gravity-correction gain (1/s), :math:`\alpha = k\Delta t` (VRST Eq. 14, capped at 1), errors decay
         as :math:`e^{-kt}`; crossover :attr:`crossover` (paper :math:`f_c = k/2\pi`, Theory Eq. 59,
         :func:`gain_from_crossover`; robust lower, as it low-passes the acceleration first).  Default: robust
-        1.0, paper 0.1.
+        1.0 (50 without a gyro), paper 0.1.
     rho : float, keyword-only
         Magnetometer weight (Theory Eq. 57), paper mode.  Default 0.5.
     iterations : int, keyword-only
@@ -694,30 +732,32 @@ class TQTFilter(_TQTParams):
     k_heading : float, keyword-only
         Robust mode: heading-correction gain (1/s).  Default 0.05.
     acc_tau : float, keyword-only
-        Robust mode: time constant (s) of the earth-frame acceleration low-pass.  Default 2.0.
+        Robust mode: time constant (s) of the earth-frame acceleration average.  Default 2.0.
     mag_norm_tol, mag_dip_tol : float, keyword-only
         Robust mode: magnetic gate, relative norm deviation (0.1) and dip deviation in radians (5°).
     rest_time, rest_gyro, rest_acc, bias_tau, bias_clip : float, keyword-only
         Robust mode rest detection: minimum duration (s, 1.5), gyro deviation (rad/s, 2°/s), accelerometer
         deviation relative to its norm (0.05, ~0.5 m/s²), bias time constant (s, 5.0), largest bias learned
         (rad/s per axis, 2°/s).
+    acc_range, gyro_range : float, keyword-only
+        Robust mode: the sensor's full scale per axis, in the readings' units (m/s² or whatever the
+        accelerometer reads in; rad/s), 0 (default) when not known.  A reading at or beyond it is
+        saturated (extension 5).
 
     Notes
     -----
-    One parameter set for every motion, chosen on the ten BROAD trials (Laidig et al. 2021; one is vendored
-    in ``pointat/data``), with round values on a flat optimum (mean total RMSE 1.94°, leave-one-trial-out
-    2.04°; VQF, the state of the art, 2.45° tuned):
+    The defaults, and the evidence for each, are in ``benchmarks/README.md`` (leave-one-trial-out over
+    the ten BROAD trials, Laidig et al. 2021, one vendored in ``pointat/data``, and simulated strokes,
+    shakes and clipping with known truth):
 
     * ``k = 1`` (f_c ≈ 0.16 Hz): the tilt follows the averaged vertical within about a second; the
-      smoothing is the 2 s summing of extension 3 (the patent's "time weighted summing"; 2-3 s are within
-      0.04° of each other).
+      smoothing is the 2 s summing of extension 3 (the patent's "time weighted summing").
     * ``k_heading = 0.05`` (a 20 s time constant): heading errors are dominated by the field varying over
-      the room; a slow heading correction lets the gyro carry the heading through them (0.03-0.07 differ
-      by < 0.1°).
+      the room; a slow heading correction lets the gyro carry the heading through them.
     * ``bias_tau = 5`` s averages the gyro noise at rest; the rest and gate thresholds are VQF's
       (Laidig & Seel 2023) and the REFERENCE's (10 %, 5°).
-    * Paper mode: ``k = 0.1, rho = 0.5`` (f_c ≈ 0.016 Hz) is the best plain setting (5.09°); McGhee
-      suggests 0.1 <= k <= 1.
+    * Paper mode: ``k = 0.1, rho = 0.5`` (f_c ≈ 0.016 Hz) is the best plain setting; McGhee suggests
+      0.1 <= k <= 1.
 
     >>> f = TQTFilter(mode="paper")
     >>> _ = f.update((0.0, 0.0, 0.0), (0.0, 0.0, 9.81), (20.0, 0.0, -40.0), 0.01)
@@ -733,7 +773,7 @@ class TQTFilter(_TQTParams):
     def reset(self, q: ArrayLike | None = None) -> None:
         """Forget everything; start again from ``q`` (sensor -> NWU) or from the next valid acc / mag pair.
 
-        The gyro bias, rest timer, acceleration low-pass and magnetic reference are cleared too (the dip
+        The gyro bias, rest timer, acceleration average and magnetic reference are cleared too (the dip
         given to the constructor is kept).
 
         Parameters
@@ -741,29 +781,16 @@ class TQTFilter(_TQTParams):
         q : array_like, shape (4,), optional
             Known orientation; normalised here.
         """
-        self._initialised = False
-        self._w, self._x, self._y, self._z = 1.0, 0.0, 0.0, 0.0
-        if q is not None:
-            qn = quat_normalize(q)
-            self._w, self._x, self._y, self._z = (float(c) for c in qn)
-            self._initialised = True
-        self._flags = 0 if self._initialised else _UNINITIALISED
-        self._bias = (0.0, 0.0, 0.0)
-        self._rest_t = 0.0
-        self._lp_gyr: tuple[float, float, float] | None = None
-        self._lp_acc = (0.0, 0.0, 0.0)
-        self._acc_e: tuple[float, float, float] | None = None  # earth-frame acceleration low-pass
-        self._a2_max = _INF  # ACC_LIMIT times the first reading, squared, once there is one
-        self._a_over = 0  # samples in a row beyond it
-        self._mag_norm: float | None = None  # reference |B|
-        self._dip_ref: float | None = self.dip
-        self._n = (0.0, 0.0, 0.0) if self.dip is None else (math.cos(self.dip), 0.0, -math.sin(self.dip))
-        self._dt = -1.0
+        q0 = None if q is None else tuple(float(c) for c in quat_normalize(q))
+        self._s = tqt_step.new_state(q0, self.dip)  # type: ignore[arg-type]
+        self._flags = 0 if q0 is not None else _UNINITIALISED
+        self._step = tqt_step.robust_step if self.mode == "robust" else _paper_step
 
     @property
     def q(self) -> tuple[float, float, float, float]:
         """Current orientation ``(w, x, y, z)``, sensor -> NWU."""
-        return (self._w, self._x, self._y, self._z)
+        s = self._s
+        return (s[0], s[1], s[2], s[3])
 
     @property
     def flags(self) -> TQTFlags:
@@ -778,17 +805,20 @@ class TQTFilter(_TQTParams):
     @property
     def initialised(self) -> bool:
         """Whether the orientation has been set (first valid acc / mag pair, or :meth:`reset` with ``q``)."""
-        return self._initialised
+        return self._s[tqt_step.S_INIT] != 0.0
 
     @property
     def bias(self) -> tuple[float, float, float]:
         """Gyro bias learned at rest (rad/s, sensor frame; robust mode)."""
-        return self._bias
+        b = tqt_step.S_BIAS
+        return (self._s[b], self._s[b + 1], self._s[b + 2])
 
     @property
     def magnetic_dip(self) -> float | None:
         """Dip reference in radians (``None`` until learned)."""
-        return self._dip_ref
+        if self.dip is None and not self._s[tqt_step.S_MAG_KNOWN]:
+            return None
+        return self._s[tqt_step.S_DIP]
 
     # -- update --------------------------------------------------------------------------------------------
 
@@ -813,288 +843,45 @@ class TQTFilter(_TQTParams):
         tuple of 4 floats
             ``(w, x, y, z)``, sensor -> NWU; never NaN.
         """
-        # plain Python floats are several times faster than numpy scalars in the arithmetic below
+        # plain Python floats are several times faster than numpy scalars in the arithmetic
         gx, gy, gz = gyro.tolist() if isinstance(gyro, np.ndarray) else gyro
         ax, ay, az = acc.tolist() if isinstance(acc, np.ndarray) else acc
         mx, my, mz = mag.tolist() if isinstance(mag, np.ndarray) else mag
-        dt = float(dt)
-        if not 0.0 < dt < _INF:  # also catches NaN
-            self._flags = _DT_INVALID | (0 if self._initialised else _UNINITIALISED)
-            return (self._w, self._x, self._y, self._z)
-        g_ok = gx * gx + gy * gy + gz * gz < MAX_RATE_SQUARED  # NaN compares False
-        a2 = ax * ax + ay * ay + az * az
-        if a2 < self._a2_max:
-            a_ok = 0.0 < a2
-            if self._a_over:
-                self._a_over = 0
-        else:  # beyond the limit (or NaN): a glitch, unless it lasts
-            a_ok = self._over_limit(a2)
-        m2 = mx * mx + my * my + mz * mz
-        m_ok = 0.0 < m2 < _INF
-        flags = (0 if g_ok else _GYRO_INVALID) | (0 if a_ok else _ACC_INVALID) | (0 if m_ok else _MAG_INVALID)
-        if self._acc_e is None or self._mag_norm is None:
-            was_initialised = self._initialised
-            self._learn(a_ok, m_ok, g_ok, (gx, gy, gz), (ax, ay, az), (mx, my, mz))
-            if not self._initialised:
-                self._flags = flags | _UNINITIALISED
-                return (self._w, self._x, self._y, self._z)
-            if not was_initialised:  # this sample set the orientation: nothing more to do
-                self._flags = flags
-                return (self._w, self._x, self._y, self._z)
-        m_use = m_ok and self._mag_norm is not None  # no reference yet: nothing to compare with
-        if self.mode == "paper":
-            flags |= self._update_paper(g_ok, gx, gy, gz, a_ok, ax, ay, az, a2, m_use, mx, my, mz, m2, dt)
-        else:
-            flags |= self._update_robust(g_ok, gx, gy, gz, a_ok, ax, ay, az, m_use, mx, my, mz, dt)
-        self._flags = flags
-        return (self._w, self._x, self._y, self._z)
+        s = self._s
+        self._flags = self._step(s, self._p, gx, gy, gz, ax, ay, az, mx, my, mz, float(dt))
+        return (s[0], s[1], s[2], s[3])
 
-    def _over_limit(self, a2: float) -> bool:
-        """A reading beyond :data:`ACC_LIMIT`: refused, but the :data:`ACC_RELEARN`-th in a row sets the
-        limit anew (NaN and infinity are never taken)."""
-        if not a2 < _INF:
-            self._a_over = 0
-            return False
-        self._a_over += 1
-        if self._a_over < ACC_RELEARN:
-            return False
-        self._a2_max, self._a_over = _ACC_LIMIT_SQUARED * a2, 0
-        return True
 
-    def _learn(
-        self,
-        a_ok: bool,
-        m_ok: bool,
-        g_ok: bool,
-        gyro: tuple[float, float, float],
-        acc: tuple[float, float, float],
-        mag: tuple[float, float, float],
-    ) -> None:
-        """Learn what is still unknown: the orientation (TRIAD), the low-pass states, the magnetic reference."""
-        if not self._initialised:
-            if not (a_ok and m_ok):
-                return
-            q0 = accmag_quat(acc, mag)
-            if q0 is None:  # acc and mag (nearly) parallel: no heading, wait for a better sample
-                return
-            self._w, self._x, self._y, self._z = (float(c) for c in q0)
-            self._initialised = True
-        if self._acc_e is None and a_ok:
-            self._acc_e = _rotate(self._w, self._x, self._y, self._z, *acc)
-            self._a2_max = _ACC_LIMIT_SQUARED * (acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2])
-            self._lp_acc = acc
-            self._lp_gyr = gyro if g_ok else (0.0, 0.0, 0.0)
-        if self._mag_norm is None and m_ok and (a_ok or self._dip_ref is not None):
-            # dip from the angle between the measured vectors (independent of the estimate)
-            self._mag_norm = math.sqrt(mag[0] * mag[0] + mag[1] * mag[1] + mag[2] * mag[2])
-            if self._dip_ref is None:
-                up = math.sqrt(acc[0] * acc[0] + acc[1] * acc[1] + acc[2] * acc[2])
-                sin_dip = -(acc[0] * mag[0] + acc[1] * mag[1] + acc[2] * mag[2]) / (up * self._mag_norm)
-                self._dip_ref = math.asin(max(-1.0, min(1.0, sin_dip)))
-                self._n = (math.cos(self._dip_ref), 0.0, -math.sin(self._dip_ref))
-
-    def _update_paper(
-        self,
-        g_ok: bool,
-        gx: float,
-        gy: float,
-        gz: float,
-        a_ok: bool,
-        ax: float,
-        ay: float,
-        az: float,
-        a2: float,
-        m_ok: bool,
-        mx: float,
-        my: float,
-        mz: float,
-        m2: float,
-        dt: float,
-    ) -> int:
-        if dt != self._dt:
-            self._coefficients(dt)
-        w, x, y, z = self._w, self._x, self._y, self._z
-        vx = vy = vz = 0.0
-        if a_ok or m_ok:
-            ia = 1.0 / math.sqrt(a2) if a_ok else 0.0
-            im = 1.0 / math.sqrt(m2) if m_ok else 0.0
-            vx, vy, vz = _gauss_newton_floats(
-                w,
-                x,
-                y,
-                z,
-                ax * ia,
-                ay * ia,
-                az * ia,
-                mx * im,
-                my * im,
-                mz * im,
-                a_ok,
-                m_ok,
-                self._n,
-                self.rho,
-                self.iterations,
-            )
-        alpha = self._alpha
-        if g_ok and self.use_gyro:
-            h = 0.5 * dt
-            hx, hy, hz = h * gx + alpha * vx, h * gy + alpha * vy, h * gz + alpha * vz
-        else:
-            hx, hy, hz = alpha * vx, alpha * vy, alpha * vz
-        w, x, y, z = _mul_exp(w, x, y, z, hx, hy, hz)
-        self._store(w, x, y, z)
-        return 0
-
-    def _update_robust(
-        self,
-        g_ok: bool,
-        gx: float,
-        gy: float,
-        gz: float,
-        a_ok: bool,
-        ax: float,
-        ay: float,
-        az: float,
-        m_ok: bool,
-        mx: float,
-        my: float,
-        mz: float,
-        dt: float,
-    ) -> int:
-        if dt != self._dt:
-            self._coefficients(dt)
-        flags = 0
-        w, x, y, z = self._w, self._x, self._y, self._z
-        bx, by, bz = self._bias
-        # (0) propagation with the bias-corrected rate, exact over the sample
-        if g_ok and self.use_gyro:
-            h = 0.5 * dt
-            w, x, y, z = _mul_exp(w, x, y, z, h * (gx - bx), h * (gy - by), h * (gz - bz))
-        # (2) rest detection and gyro bias
-        rest = False
-        if g_ok and a_ok:
-            c = self._c_rest
-            lgx, lgy, lgz = self._lp_gyr  # type: ignore[misc]
-            lax, lay, laz = self._lp_acc
-            lgx += c * (gx - lgx)
-            lgy += c * (gy - lgy)
-            lgz += c * (gz - lgz)
-            lax += c * (ax - lax)
-            lay += c * (ay - lay)
-            laz += c * (az - laz)
-            self._lp_gyr = (lgx, lgy, lgz)
-            self._lp_acc = (lax, lay, laz)
-            dgx, dgy, dgz = gx - lgx, gy - lgy, gz - lgz
-            dax, day, daz = ax - lax, ay - lay, az - laz
-            clip = self.bias_clip
-            thr = self.rest_acc
-            if (
-                dgx * dgx + dgy * dgy + dgz * dgz < self.rest_gyro * self.rest_gyro
-                and dax * dax + day * day + daz * daz < thr * thr * (lax * lax + lay * lay + laz * laz)
-                and -clip < lgx < clip
-                and -clip < lgy < clip
-                and -clip < lgz < clip
-            ):
-                self._rest_t += dt
-                if self._rest_t >= self.rest_time:
-                    rest = True
-                    flags |= _REST
-                    c = self._c_bias
-                    self._bias = (bx + c * (lgx - bx), by + c * (lgy - by), bz + c * (lgz - bz))
-            else:
-                self._rest_t = 0.0
-        else:
-            self._rest_t = 0.0
-        # (3) gravity: earth-frame acceleration low-pass, Gauss-Newton alignment with the vertical
-        if a_ok:
-            ex, ey, ez = self._acc_e  # type: ignore[misc]
-            aex, aey, aez = _rotate(w, x, y, z, ax, ay, az)
-            c = self._c_acc
-            ex += c * (aex - ex)
-            ey += c * (aey - ey)
-            ez += c * (aez - ez)
-            eh2 = ex * ex + ey * ey
-            if eh2 > 0.0:
-                eh = math.sqrt(eh2)
-                f = 0.5 * self._alpha * math.atan2(eh, ez) / eh  # half the correction angle, per |e_h|
-                sx, sy = f * ey, -f * ex  # half rotation vector about (e x up)
-                s2 = sx * sx + sy * sy
-                if s2 < _EXP_TAYLOR:
-                    cw, sinc = 1.0 - 0.5 * s2, 1.0 - s2 / 6.0
-                else:
-                    s = math.sqrt(s2)
-                    cw, sinc = math.cos(s), math.sin(s) / s
-                sx *= sinc
-                sy *= sinc
-                # q <- C q and e <- C e, C = (cw, sx, sy, 0) in the earth frame
-                w, x, y, z = (
-                    cw * w - sx * x - sy * y,
-                    cw * x + sx * w + sy * z,
-                    cw * y + sy * w - sx * z,
-                    cw * z + sx * y - sy * x,
-                )
-                ex, ey, ez = _rotate(cw, sx, sy, 0.0, ex, ey, ez)
-            self._acc_e = (ex, ey, ez)
-        # (1) + (4) magnetometer: gated heading-only correction
-        if m_ok:
-            bex, bey, bez = _rotate(w, x, y, z, mx, my, mz)
-            bh = math.hypot(bex, bey)
-            norm = math.sqrt(bh * bh + bez * bez)
-            dip = math.atan2(-bez, bh)
-            ref = self._mag_norm
-            if abs(norm - ref) > self.mag_norm_tol * ref or abs(dip - self._dip_ref) > self.mag_dip_tol:  # type: ignore[operator]
-                flags |= _MAG_DISTURBED
-            elif bh > 0.0:
-                half = -0.5 * self._alpha_mag * math.atan2(bey, bex)
-                cz, sz = math.cos(half), math.sin(half)
-                w, x, y, z = cz * w - sz * z, cz * x - sz * y, cz * y + sz * x, cz * z + sz * w
-                if self._acc_e is not None:  # the low-pass lives in the estimated earth frame: turn it too
-                    ex, ey, ez = self._acc_e
-                    c2, s2 = cz * cz - sz * sz, 2.0 * sz * cz
-                    self._acc_e = (c2 * ex - s2 * ey, s2 * ex + c2 * ey, ez)
-                if rest:
-                    c = self._c_ref
-                    self._mag_norm = ref + c * (norm - ref)  # type: ignore[operator]
-                    self._dip_ref = self._dip_ref + c * (dip - self._dip_ref)  # type: ignore[operator]
-        self._store(w, x, y, z)
+def _paper_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
+    """One sample of paper mode on the state vector of :mod:`pointat.maths.tqt_step` (``p`` holds ``k``;
+    ``rho`` and ``iterations`` ride after the robust parameters)."""
+    flags, go = tqt_step.paper_begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
+    if not go:
         return flags
-
-    def _store(self, w: float, x: float, y: float, z: float) -> None:
-        n2 = w * w + x * x + y * y + z * z
-        if 0.0 < n2 < _INF:
-            n = 1.0 / math.sqrt(n2)
-            self._w, self._x, self._y, self._z = w * n, x * n, y * n, z * n
-
-
-def _rotate(
-    w: float, x: float, y: float, z: float, vx: float, vy: float, vz: float
-) -> tuple[float, float, float]:
-    """:math:`q \\otimes v \\otimes q^*` for floats: ``v + w t + u x t`` with ``t = 2 u x v``."""
-    tx = 2.0 * (y * vz - z * vy)
-    ty = 2.0 * (z * vx - x * vz)
-    tz = 2.0 * (x * vy - y * vx)
-    return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
-
-
-def _mul_exp(
-    w: float, x: float, y: float, z: float, hx: float, hy: float, hz: float
-) -> tuple[float, float, float, float]:
-    """:math:`q \\otimes \\exp(0, h)` for floats (``h`` = half the rotation vector, body frame)."""
-    n2 = hx * hx + hy * hy + hz * hz
-    if n2 < _EXP_TAYLOR:
-        c, s = 1.0 - 0.5 * n2, 1.0 - n2 / 6.0
+    a_ok = not flags & _ACC_INVALID
+    m_ok = not flags & _MAG_INVALID and s[tqt_step.S_MAG_KNOWN] != 0.0  # no reference yet: no field
+    w, x, y, z = s[0], s[1], s[2], s[3]
+    vx = vy = vz = 0.0
+    if a_ok or m_ok:
+        ia = 1.0 / math.sqrt(ax * ax + ay * ay + az * az) if a_ok else 0.0
+        im = 1.0 / math.sqrt(mx * mx + my * my + mz * mz) if m_ok else 0.0
+        vx, vy, vz = _gauss_newton_floats(
+            w, x, y, z, ax * ia, ay * ia, az * ia, mx * im, my * im, mz * im, a_ok, m_ok,
+            (s[tqt_step.S_NX], 0.0, s[tqt_step.S_NZ]), p[_P_RHO], int(p[_P_ITERATIONS]),
+        )  # fmt: skip
+    alpha = p[tqt_step.P_ALPHA]
+    if not flags & _GYRO_INVALID and p[tqt_step.P_USE_GYRO]:
+        h = 0.5 * dt
+        hx, hy, hz = h * gx + alpha * vx, h * gy + alpha * vy, h * gz + alpha * vz
     else:
-        n = math.sqrt(n2)
-        c, s = math.cos(n), math.sin(n) / n
-    hx *= s
-    hy *= s
-    hz *= s
-    return (
-        w * c - x * hx - y * hy - z * hz,
-        w * hx + x * c + y * hz - z * hy,
-        w * hy - x * hz + y * c + z * hx,
-        w * hz + x * hy - y * hx + z * c,
-    )
+        hx, hy, hz = alpha * vx, alpha * vy, alpha * vz
+    tqt_step._store(s, *_mul_exp(w, x, y, z, hx, hy, hz))
+    return flags
+
+
+# paper mode's two settings ride at the end of the parameter vector
+_P_RHO = tqt_step.PARAM_SIZE
+_P_ITERATIONS = tqt_step.PARAM_SIZE + 1
 
 
 def _normal_equations(rw, rx, ry, rz, hx, hy, hz, bx, by, bz, nx, nz, r2):  # type: ignore[no-untyped-def]
@@ -1204,18 +991,16 @@ def _gauss_newton_floats(
 
 
 class TQTBank(_TQTParams):
-    r""":class:`TQTFilter` vectorised over ``n`` sensors (a body suit: ~15), same parameters, same results.
+    r""":class:`TQTFilter` for ``n`` sensors at once (a body suit: ~15), same parameters, same results.
 
-    State is ``(n, 4)``; :meth:`update` takes ``(n, 3)`` arrays and one ``dt`` and returns ``(n, 4)``
-    quaternions (sensor -> NWU).  Every sensor follows exactly the algorithm of :class:`TQTFilter` (its own
-    initialisation, rest detection, bias, references and flags), so a bank agrees with ``n`` independent
-    filters to rounding (~1e-13).
+    State is one row per sensor; :meth:`update` takes ``(n, 3)`` arrays and one ``dt`` and returns ``(n, 4)``
+    quaternions (sensor -> NWU).  Every sensor runs the very step of :class:`TQTFilter`
+    (:mod:`pointat.maths.tqt_step`), so a bank agrees with ``n`` independent filters to the last bit.
 
-    Two ways to run it (``backend``): ``numba`` runs the robust update as one compiled loop over the
-    sensors (:mod:`pointat.maths.tqt_compiled`; ``pip install "pointat[fast]"``), well under a
-    microsecond per sensor; ``numpy`` vectorises across the sensors, whose per-call overhead makes one
-    step cost about as much as ~50 scalar updates (~0.3 ms) whatever ``n``, so that it only pays off from
-    about 50 sensors.  ``auto`` (default) takes numba when it is installed and the mode is robust.
+    Two ways to run it (``backend``): ``numba`` runs the robust step compiled, as one loop over the sensors
+    (:mod:`pointat.maths.tqt_compiled`; ``pip install "pointat[fast]"``), well under a microsecond per
+    sensor; ``python`` loops over the sensors in Python, a few microseconds each.  ``auto`` (default)
+    takes numba when it is installed and the mode is robust.
 
     Parameters
     ----------
@@ -1223,8 +1008,8 @@ class TQTBank(_TQTParams):
         Number of sensors.
     k, **params
         As :class:`TQTFilter`.
-    backend : {"auto", "numba", "numpy"}
-        How the update runs (the results agree to rounding).
+    backend : {"auto", "numba", "python"}
+        How the update runs (the results agree).
 
     >>> bank = TQTBank(2)
     >>> acc = np.array([[0.0, 0.0, 9.81], [0.0, 0.0, 0.0]])           # sensor 1: accelerometer dropped out
@@ -1239,11 +1024,11 @@ class TQTBank(_TQTParams):
         if int(n) != n or n < 1:
             raise ValueError(f"n must be a positive integer, got {n!r}")
         self.n = int(n)
-        super().__init__(k, **params)  # type: ignore[arg-type]
         from pointat.maths import tqt_compiled
 
-        if backend not in ("auto", "numba", "numpy"):
-            raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', got {backend!r}")
+        if backend not in ("auto", "numba", "python"):
+            raise ValueError(f"backend must be 'auto', 'numba' or 'python', got {backend!r}")
+        super().__init__(k, **params)  # type: ignore[arg-type]
         if backend == "numba" and (not tqt_compiled.available() or self.mode != "robust"):
             raise ValueError(
                 "backend='numba' needs numba (pip install \"pointat[fast]\") and mode='robust'"
@@ -1252,14 +1037,18 @@ class TQTBank(_TQTParams):
         numba = backend == "numba" or (
             backend == "auto" and tqt_compiled.available() and self.mode == "robust"
         )
-        self.backend = "numba" if numba else "numpy"
-        self._kernel = tqt_compiled.robust_step if numba else None
+        self.backend = "numba" if numba else "python"
+        self._kernel = tqt_compiled.robust_bank if numba else None
+        self._p = np.array(self._p) if numba else self._p
         if numba and not tqt_compiled.compiled():
             # numba compiles the kernel (or loads it from its cache) on its first call, up to a second or
             # two: here, where a patch loads, not on the first update, where it would stall a live one
             zeros = np.zeros((self.n, 3))
             self.update(zeros, zeros, zeros, 0.01)
             self.reset()
+
+    def retune(self, **gains: float) -> None:
+        super().retune(**gains)
 
     def reset(self, q: ArrayLike | None = None) -> None:
         """Forget everything (all sensors); start from ``q`` or from each sensor's next valid acc / mag pair.
@@ -1269,34 +1058,14 @@ class TQTBank(_TQTParams):
         q : array_like, shape (4,) or (n, 4), optional
             Known orientations (sensor -> NWU); normalised here.
         """
-        n = self.n
-        # state stored component-major, (4, n) and (3, n): rows are cheap views for the arithmetic
-        self._q = np.zeros((4, n))
-        self._q[0] = 1.0
-        self._initialised = np.zeros(n, dtype=bool)
-        if q is not None:
-            self._q = np.array(np.broadcast_to(quat_normalize(q), (n, 4)).T)
-            self._initialised[:] = True
-        self._flags = np.where(self._initialised, 0, _UNINITIALISED).astype(np.int64)
-        self._bias = np.zeros((3, n))
-        self._rest_t = np.zeros(n)
-        self._lp_gyr = np.zeros((3, n))
-        self._lp_acc = np.zeros((3, n))
-        self._acc_e = np.zeros((3, n))
-        self._acc_known = np.zeros(n, dtype=bool)
-        self._a2_max = np.full(n, _INF)  # as TQTFilter's
-        self._a_over = np.zeros(n, dtype=np.int64)
-        self._mag_norm = np.zeros(n)
-        self._mag_known = np.zeros(n, dtype=bool)
-        dip = math.nan if self.dip is None else self.dip
-        self._dip_ref = np.full(n, dip)
-        self._nref = np.tile([[math.cos(dip)], [0.0], [-math.sin(dip)]], (1, n))
-        self._dt = -1.0
+        qs = [None] * self.n if q is None else np.broadcast_to(quat_normalize(q), (self.n, 4)).tolist()
+        self._s = np.array([tqt_step.new_state(qi, self.dip) for qi in qs])
+        self._flags = np.full(self.n, 0 if q is not None else _UNINITIALISED, dtype=np.int64)
 
     @property
     def q(self) -> np.ndarray:
         """Current orientations, shape (n, 4), sensor -> NWU (a copy)."""
-        return self._q.T.copy()
+        return self._s[:, :4].copy()
 
     @property
     def flags(self) -> np.ndarray:
@@ -1306,23 +1075,18 @@ class TQTBank(_TQTParams):
     @property
     def initialised(self) -> np.ndarray:
         """Per-sensor bool, shape (n,)."""
-        return self._initialised.copy()
+        return self._s[:, tqt_step.S_INIT] != 0.0
 
     @property
     def bias(self) -> np.ndarray:
         """Gyro biases learned at rest, shape (n, 3), rad/s (robust mode)."""
-        return self._bias.T.copy()
+        return self._s[:, tqt_step.S_BIAS : tqt_step.S_BIAS + 3].copy()
 
     @property
     def magnetic_dip(self) -> np.ndarray:
         """Dip references in radians, shape (n,) (NaN until learned)."""
-        return np.where(self._mag_known | (self.dip is not None), self._dip_ref, np.nan)
-
-    #: The per-sensor state, each array's last axis the sensor: what an absent sensor keeps.
-    _STATE = (
-        "_q", "_initialised", "_flags", "_bias", "_rest_t", "_lp_gyr", "_lp_acc", "_acc_e", "_acc_known",
-        "_a2_max", "_a_over", "_mag_norm", "_mag_known", "_dip_ref", "_nref",
-    )  # fmt: skip
+        known = (self._s[:, tqt_step.S_MAG_KNOWN] != 0.0) | (self.dip is not None)
+        return np.where(known, self._s[:, tqt_step.S_DIP], np.nan)
 
     def update(
         self, gyro: ArrayLike, acc: ArrayLike, mag: ArrayLike, dt: float, present: ArrayLike | None = None
@@ -1349,20 +1113,6 @@ class TQTBank(_TQTParams):
         numpy.ndarray, shape (n, 4)
             Orientations ``(w, x, y, z)``, sensor -> NWU; never NaN.
         """
-        if present is None:
-            return self._step(gyro, acc, mag, dt)
-        absent = ~np.asarray(present, dtype=bool)
-        if absent.shape != (self.n,):
-            raise ValueError(f"present must have shape ({self.n},), got {absent.shape}")
-        if not absent.any():
-            return self._step(gyro, acc, mag, dt)
-        kept = [getattr(self, name)[..., absent].copy() for name in self._STATE]
-        self._step(gyro, acc, mag, dt)
-        for name, value in zip(self._STATE, kept, strict=True):
-            getattr(self, name)[..., absent] = value
-        return self._q.T.copy()
-
-    def _step(self, gyro: ArrayLike, acc: ArrayLike, mag: ArrayLike, dt: float) -> np.ndarray:
         shape = (self.n, 3)
         g = np.asarray(gyro, dtype=float)
         a = np.asarray(acc, dtype=float)
@@ -1371,334 +1121,22 @@ class TQTBank(_TQTParams):
             raise ValueError(
                 f"gyro, acc and mag must have shape {shape}, got {g.shape}, {a.shape}, {m.shape}"
             )
-        dt = float(dt)
-        if not 0.0 < dt < _INF:
-            self._flags = np.where(self._initialised, _DT_INVALID, _DT_INVALID | _UNINITIALISED)
-            return self._q.T.copy()
-        if self._kernel is not None:
-            return self._update_compiled(g, a, m, dt)
-        g, a, m = g.T, a.T, m.T
-        with np.errstate(all="ignore"):
-            g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2]
-            a2 = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
-            m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
-            g_ok = g2 < MAX_RATE_SQUARED
-            under = a2 < self._a2_max
-            self._a_over = np.where(~under & (a2 < _INF), self._a_over + 1, 0)  # as TQTFilter._over_limit
-            relearn = self._a_over >= ACC_RELEARN
-            if relearn.any():
-                self._a2_max = np.where(relearn, _ACC_LIMIT_SQUARED * a2, self._a2_max)
-                self._a_over[relearn] = 0
-            a_ok = (a2 > 0.0) & (under | relearn)
-            m_ok = (m2 > 0.0) & (m2 < _INF)
-            flags = np.where(g_ok, 0, _GYRO_INVALID) | np.where(a_ok, 0, _ACC_INVALID)
-            flags |= np.where(m_ok, 0, _MAG_INVALID)
-            was = self._initialised.copy()
-            if not (self._acc_known.all() and self._mag_known.all()):
-                self._learn(g_ok, a_ok, m_ok, a2, m2, g, a, m)
-            active = was & self._initialised
-            flags |= np.where(self._initialised, 0, _UNINITIALISED)
-            m_use = m_ok & self._mag_known
-            if dt != self._dt:
-                self._coefficients(dt)
-            if self.mode == "paper":
-                q = self._update_paper(g_ok & active, a_ok, m_use, a2, m2, g, a, m, dt)
-                more = 0
-            else:
-                q, more = self._update_robust(g_ok, a_ok, m_use, g, a, m, dt, active)
-            n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
-            good = active & (n2 > 0.0) & (n2 < _INF)
-            self._q = np.where(good, q / np.sqrt(np.where(good, n2, 1.0)), self._q)
-            self._flags = flags | np.where(active, more, 0)
-        return self._q.T.copy()
-
-    def _update_compiled(self, g: np.ndarray, a: np.ndarray, m: np.ndarray, dt: float) -> np.ndarray:
-        if dt != self._dt:
-            self._coefficients(dt)
-        self._kernel(  # type: ignore[misc]
-            np.ascontiguousarray(g),
-            np.ascontiguousarray(a),
-            np.ascontiguousarray(m),
-            dt,
-            self._q,
-            self._initialised,
-            self._flags,
-            self._bias,
-            self._rest_t,
-            self._lp_gyr,
-            self._lp_acc,
-            self._acc_e,
-            self._acc_known,
-            self._a2_max,
-            self._a_over,
-            self._mag_norm,
-            self._mag_known,
-            self._dip_ref,
-            self._nref,
-            self.dip is not None,
-            self.use_gyro,
-            self.rest_gyro,
-            self.rest_acc,
-            self.rest_time,
-            self.bias_clip,
-            self.mag_norm_tol,
-            self.mag_dip_tol,
-            self._c_acc,
-            self._c_rest,
-            self._c_bias,
-            self._c_ref,
-            self._alpha,
-            self._alpha_mag,
-        )
-        return self._q.T.copy()
-
-    def _learn(
-        self,
-        g_ok: np.ndarray,
-        a_ok: np.ndarray,
-        m_ok: np.ndarray,
-        a2: np.ndarray,
-        m2: np.ndarray,
-        g: np.ndarray,
-        a: np.ndarray,
-        m: np.ndarray,
-    ) -> None:
-        for i in np.flatnonzero(~self._initialised & a_ok & m_ok):
-            q0 = accmag_quat(a[:, i], m[:, i])
-            if q0 is not None:
-                self._q[:, i] = q0
-                self._initialised[i] = True
-        new_acc = self._initialised & ~self._acc_known & a_ok
-        if new_acc.any():
-            w, x, y, z = self._q[:, new_acc]
-            self._acc_e[:, new_acc] = _rotate(w, x, y, z, *a[:, new_acc])
-            self._lp_acc[:, new_acc] = a[:, new_acc]
-            self._lp_gyr[:, new_acc] = np.where(g_ok[new_acc], g[:, new_acc], 0.0)
-            self._a2_max[new_acc] = _ACC_LIMIT_SQUARED * a2[new_acc]
-            self._acc_known |= new_acc
-        has_dip = self.dip is not None
-        new_mag = self._initialised & ~self._mag_known & m_ok & (a_ok | has_dip)
-        if new_mag.any():
-            norm = np.sqrt(m2[new_mag])
-            self._mag_norm[new_mag] = norm
-            if not has_dip:
-                an, mn = a[:, new_mag], m[:, new_mag]
-                sin_dip = -(an[0] * mn[0] + an[1] * mn[1] + an[2] * mn[2]) / (np.sqrt(a2[new_mag]) * norm)
-                dip = np.arcsin(np.clip(sin_dip, -1.0, 1.0))
-                self._dip_ref[new_mag] = dip
-                self._nref[:, new_mag] = np.array([np.cos(dip), np.zeros_like(dip), -np.sin(dip)])
-            self._mag_known |= new_mag
-
-    def _update_paper(
-        self,
-        g_ok: np.ndarray,
-        a_ok: np.ndarray,
-        m_ok: np.ndarray,
-        a2: np.ndarray,
-        m2: np.ndarray,
-        g: np.ndarray,
-        a: np.ndarray,
-        m: np.ndarray,
-        dt: float,
-    ) -> np.ndarray:
-        w, x, y, z = self._q
-        ia = 1.0 / np.sqrt(np.where(a_ok, a2, 1.0))
-        im = 1.0 / np.sqrt(np.where(m_ok, m2, 1.0))
-        h, b = a * ia, m * im
-        vx, vy, vz = _gauss_newton_arrays(
-            w, x, y, z, *h, *b, a_ok, m_ok, self._nref, self.rho, self.iterations
-        )
-        alpha = self._alpha
-        if self.use_gyro:
-            half = 0.5 * dt
-            prop = g_ok
-            hx = np.where(prop, half * g[0] + alpha * vx, alpha * vx)
-            hy = np.where(prop, half * g[1] + alpha * vy, alpha * vy)
-            hz = np.where(prop, half * g[2] + alpha * vz, alpha * vz)
+        if present is None:
+            here = np.ones(self.n, dtype=bool)
         else:
-            hx, hy, hz = alpha * vx, alpha * vy, alpha * vz
-        return np.array(_mul_exp_arrays(w, x, y, z, hx, hy, hz))
-
-    def _update_robust(
-        self,
-        g_ok: np.ndarray,
-        a_ok: np.ndarray,
-        m_ok: np.ndarray,
-        g: np.ndarray,
-        a: np.ndarray,
-        m: np.ndarray,
-        dt: float,
-        active: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        flags = np.zeros(self.n, dtype=int)
-        w, x, y, z = self._q
-        bias = self._bias
-        # (0) propagation
-        if self.use_gyro:
-            prop = active & g_ok
-            half = 0.5 * dt
-            pw, px, py, pz = _mul_exp_arrays(w, x, y, z, *(half * (g - bias)))
-            w, x, y, z = (
-                np.where(prop, pw, w),
-                np.where(prop, px, x),
-                np.where(prop, py, y),
-                np.where(prop, pz, z),
-            )
-        # (2) rest detection and bias
-        both = active & g_ok & a_ok
-        c = self._c_rest
-        lpg = np.where(both, self._lp_gyr + c * (g - self._lp_gyr), self._lp_gyr)
-        lpa = np.where(both, self._lp_acc + c * (a - self._lp_acc), self._lp_acc)
-        self._lp_gyr, self._lp_acc = lpg, lpa
-        dg, da = g - lpg, a - lpa
-        thr, clip = self.rest_acc, self.bias_clip
-        still = (
-            both
-            & (dg[0] * dg[0] + dg[1] * dg[1] + dg[2] * dg[2] < self.rest_gyro * self.rest_gyro)
-            & (
-                da[0] * da[0] + da[1] * da[1] + da[2] * da[2]
-                < thr * thr * (lpa[0] ** 2 + lpa[1] ** 2 + lpa[2] ** 2)
-            )
-            & (np.abs(lpg) < clip).all(axis=0)
-        )
-        rest_t = np.where(still, self._rest_t + dt, 0.0)
-        self._rest_t = np.where(active, rest_t, self._rest_t)
-        rest = still & (rest_t >= self.rest_time)
-        flags |= np.where(rest, _REST, 0)
-        self._bias = np.where(rest, bias + self._c_bias * (lpg - bias), bias)
-        # (3) gravity from the earth-frame acceleration low-pass
-        tilt = active & a_ok
-        if tilt.any():
-            ex, ey, ez = self._acc_e
-            c = self._c_acc
-            aex, aey, aez = _rotate(w, x, y, z, *a)
-            ex = ex + c * (aex - ex)
-            ey = ey + c * (aey - ey)
-            ez = ez + c * (aez - ez)
-            eh2 = ex * ex + ey * ey
-            corr = tilt & (eh2 > 0.0)
-            eh = np.sqrt(np.where(corr, eh2, 1.0))
-            f = 0.5 * self._alpha * np.arctan2(eh, ez) / eh
-            sx, sy = f * ey, -f * ex
-            s2 = sx * sx + sy * sy
-            small = s2 < _EXP_TAYLOR
-            s = np.sqrt(s2)
-            cw = np.where(small, 1.0 - 0.5 * s2, np.cos(s))
-            sinc = np.where(small, 1.0 - s2 / 6.0, np.sin(s) / np.where(small, 1.0, s))
-            sx = sx * sinc
-            sy = sy * sinc
-            nw = cw * w - sx * x - sy * y
-            nx = cw * x + sx * w + sy * z
-            ny = cw * y + sy * w - sx * z
-            nz = cw * z + sx * y - sy * x
-            w, x, y, z = (
-                np.where(corr, nw, w),
-                np.where(corr, nx, x),
-                np.where(corr, ny, y),
-                np.where(corr, nz, z),
-            )
-            rx, ry, rz = _rotate(cw, sx, sy, 0.0, ex, ey, ez)
-            ex, ey, ez = np.where(corr, rx, ex), np.where(corr, ry, ey), np.where(corr, rz, ez)
-            self._acc_e = np.where(tilt, np.array([ex, ey, ez]), self._acc_e)
-        # (1) + (4) gated heading-only magnetic correction
-        mag = active & m_ok
-        if mag.any():
-            bex, bey, bez = _rotate(w, x, y, z, *m)
-            bh = np.hypot(bex, bey)
-            norm = np.sqrt(bh * bh + bez * bez)
-            dip = np.arctan2(-bez, bh)
-            ref = self._mag_norm
-            off = (np.abs(norm - ref) > self.mag_norm_tol * ref) | (
-                np.abs(dip - self._dip_ref) > self.mag_dip_tol
-            )
-            gated = mag & off
-            flags |= np.where(gated, _MAG_DISTURBED, 0)
-            head = mag & ~off & (bh > 0.0)
-            half = -0.5 * self._alpha_mag * np.arctan2(bey, bex)
-            cz, sz = np.cos(half), np.sin(half)
-            nw, nx, ny, nz = cz * w - sz * z, cz * x - sz * y, cz * y + sz * x, cz * z + sz * w
-            w, x, y, z = (
-                np.where(head, nw, w),
-                np.where(head, nx, x),
-                np.where(head, ny, y),
-                np.where(head, nz, z),
-            )
-            turn = head & self._acc_known
-            c2, s2 = cz * cz - sz * sz, 2.0 * sz * cz
-            ex, ey, ez = self._acc_e
-            self._acc_e = np.where(turn, np.array([c2 * ex - s2 * ey, s2 * ex + c2 * ey, ez]), self._acc_e)
-            learn = head & rest
-            cr = self._c_ref
-            self._mag_norm = np.where(learn, ref + cr * (norm - ref), ref)
-            self._dip_ref = np.where(learn, self._dip_ref + cr * (dip - self._dip_ref), self._dip_ref)
-        return np.array([w, x, y, z]), flags
-
-
-def _mul_exp_arrays(
-    w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray, hx: np.ndarray, hy: np.ndarray, hz: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Element-wise :func:`_mul_exp` (the same formulas, the Taylor branch by mask)."""
-    n2 = hx * hx + hy * hy + hz * hz
-    small = n2 < _EXP_TAYLOR
-    n = np.sqrt(n2)
-    c = np.where(small, 1.0 - 0.5 * n2, np.cos(n))
-    s = np.where(small, 1.0 - n2 / 6.0, np.sin(n) / np.where(small, 1.0, n))
-    hx, hy, hz = hx * s, hy * s, hz * s
-    return (
-        w * c - x * hx - y * hy - z * hz,
-        w * hx + x * c + y * hz - z * hy,
-        w * hy - x * hz + y * c + z * hx,
-        w * hz + x * hy - y * hx + z * c,
-    )
-
-
-def _gauss_newton_arrays(
-    w: np.ndarray,
-    x: np.ndarray,
-    y: np.ndarray,
-    z: np.ndarray,
-    hx: np.ndarray,
-    hy: np.ndarray,
-    hz: np.ndarray,
-    bx: np.ndarray,
-    by: np.ndarray,
-    bz: np.ndarray,
-    a_ok: np.ndarray,
-    m_ok: np.ndarray,
-    n: np.ndarray,
-    rho: float,
-    iterations: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Element-wise :func:`_gauss_newton_floats` (the branches by mask; zero where neither vector is valid)."""
-    nx, _, nz = n
-    r2 = rho * rho
-    both = a_ok & m_ok
-    rw, rx, ry, rz = w, x, y, z
-    vx = vy = vz = np.zeros_like(w)
-    for i in range(iterations):
-        if i:
-            rw, rx, ry, rz = _mul_exp_arrays(rw, rx, ry, rz, vx, vy, vz)
-        (ax_, ay_, az_), (mx_, my_, mz_), det, solve = _normal_equations(
-            rw, rx, ry, rz, hx, hy, hz, bx, by, bz, nx, nz, r2
-        )
-        full = both & (det > 1e-9 * r2)
-        fx, fy, fz = solve(np.where(full, det, 1.0))
-        acc_only = a_ok & ~full
-        vx = np.where(full, fx, np.where(acc_only, 0.5 * ax_, 0.5 * mx_))
-        vy = np.where(full, fy, np.where(acc_only, 0.5 * ay_, 0.5 * my_))
-        vz = np.where(full, fz, np.where(acc_only, 0.5 * az_, 0.5 * mz_))
-        none = ~(a_ok | m_ok)
-        vx, vy, vz = np.where(none, 0.0, vx), np.where(none, 0.0, vy), np.where(none, 0.0, vz)
-        if iterations == 1:
-            return vx, vy, vz
-    rw, rx, ry, rz = _mul_exp_arrays(rw, rx, ry, rz, vx, vy, vz)
-    tw = w * rw + x * rx + y * ry + z * rz
-    tx = w * rx - x * rw - y * rz + z * ry
-    ty = w * ry + x * rz - y * rw - z * rx
-    tz = w * rz - x * ry + y * rx - z * rw
-    sign = np.where(tw < 0.0, -1.0, 1.0)
-    tw, tx, ty, tz = sign * tw, sign * tx, sign * ty, sign * tz
-    s = np.sqrt(tx * tx + ty * ty + tz * tz)
-    tiny = s < 1e-300
-    f = np.where(tiny, 0.0, np.arctan2(s, tw) / np.where(tiny, 1.0, s))
-    return f * tx, f * ty, f * tz
+            here = np.asarray(present, dtype=bool)
+            if here.shape != (self.n,):
+                raise ValueError(f"present must have shape ({self.n},), got {here.shape}")
+        dt = float(dt)
+        if self._kernel is not None:
+            self._kernel(np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m), dt, here,
+                         self._s, self._p, self._flags)  # fmt: skip
+            return self._s[:, :4].copy()
+        step = tqt_step.robust_step if self.mode == "robust" else _paper_step
+        p = self._p
+        for i, (gi, ai, mi) in enumerate(zip(g.tolist(), a.tolist(), m.tolist(), strict=True)):
+            if here[i]:
+                s = self._s[i].tolist()
+                self._flags[i] = step(s, p, *gi, *ai, *mi, dt)
+                self._s[i] = s
+        return self._s[:, :4].copy()

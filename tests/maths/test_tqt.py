@@ -564,12 +564,13 @@ def test_reset():
 
 @pytest.mark.parametrize("mode", ["robust", "paper"])
 def test_one_huge_acceleration_is_refused_like_nan_and_leaves_no_trace(mode):
-    """A damaged recording or a float sensor's glitch: one sample of 1e3 m/s² (or 1e30) tilted the robust
-    filter's earth-frame low-pass for minutes; beyond ACC_LIMIT times the first reading it is no gravity."""
+    """A damaged recording or a float sensor's glitch: one sample of 1e5 m/s² (or 1e30) would tilt the robust
+    filter's earth-frame average for minutes; beyond ACC_LIMIT times the first reading it is no gravity.
+    A hundred g is what a hard strike can read: taken."""
     dt, _q, gyro, acc, mag = synthetic(seed=3, seconds=6.0, rest=2.0, noise=True)
     k = 300
     runs = {}
-    for name, value in (("spike", 1e3), ("huge", 1e30), ("nan", math.nan), ("7 g", 7.0 * G)):
+    for name, value in (("spike", 1e5), ("huge", 1e30), ("nan", math.nan), ("100 g", 100.0 * G)):
         f = TQTFilter(mode=mode)
         out = []
         for i in range(len(gyro)):
@@ -581,8 +582,8 @@ def test_one_huge_acceleration_is_refused_like_nan_and_leaves_no_trace(mode):
     np.testing.assert_array_equal(runs["spike"], runs["nan"])  # not a trace of it
     np.testing.assert_array_equal(runs["huge"], runs["nan"])
     assert TQTFlags.ACC_INVALID in runs["spike flags"] and TQTFlags.ACC_INVALID in runs["huge flags"]
-    assert TQTFlags.ACC_INVALID not in runs["7 g flags"]  # a hard gesture: taken, as before
-    assert ACC_LIMIT == 8.0
+    assert TQTFlags.ACC_INVALID not in runs["100 g flags"]  # a hard strike: taken
+    assert ACC_LIMIT == 1000.0
 
 
 @pytest.mark.parametrize("mode", ["robust", "paper"])
@@ -590,14 +591,14 @@ def test_a_first_reading_far_too_small_refuses_gravity_only_for_a_while(mode):
     # the limit is learned from the first reading: a sensor settling at power-on must not stop the filter
     # from ever taking gravity again
     f = TQTFilter(mode=mode)
-    f.update(ZERO3, (0.3, 0.0, 0.5), FIELD, 0.01)
+    f.update(ZERO3, (0.003, 0.0, 0.005), FIELD, 0.01)  # 1000 x this is less than 1 g
     refused = 0
     for _ in range(200):
         f.update(ZERO3, (0.0, 0.0, G), FIELD, 0.01)
         refused += TQTFlags.ACC_INVALID in f.flags
     assert refused == ACC_RELEARN - 1  # the 50th in a row sets the limit anew, and is taken
     assert TQTFlags.ACC_INVALID not in f.flags
-    f.update(ZERO3, (0.0, 0.0, 1e3), FIELD, 0.01)  # and a glitch is refused again
+    f.update(ZERO3, (0.0, 0.0, 1e5), FIELD, 0.01)  # and a glitch is refused again
     assert TQTFlags.ACC_INVALID in f.flags
 
 
@@ -622,11 +623,11 @@ def test_invalid_parameters():
 @pytest.mark.parametrize(
     "params",
     [
-        {"mode": "robust", "backend": "numpy"},
+        {"mode": "robust", "backend": "python"},
         {"mode": "robust", "backend": "numba"},
         {"mode": "paper"},
         {"mode": "paper", "iterations": 3, "rho": 1.5},
-        {"mode": "robust", "dip": DIP, "use_gyro": False, "backend": "numpy"},
+        {"mode": "robust", "dip": DIP, "use_gyro": False, "backend": "python"},
         {"mode": "robust", "dip": DIP, "use_gyro": False, "backend": "numba"},
     ],
 )
@@ -656,7 +657,7 @@ def test_bank_equals_independent_filters(params, require_tool):
     acc[0, 3] *= 0.01  # a first reading far too small: gravity refused, then the limit learned again
     acc[:30, 2] = np.nan  # sensor 2 starts late
     bank = TQTBank(n, backend=backend, **params)
-    assert bank.backend == ("numpy" if params["mode"] == "paper" else backend)
+    assert bank.backend == ("python" if params["mode"] == "paper" else backend)
     filters = [TQTFilter(**params) for _ in range(n)]
     worst = 0.0
     for i in range(len(gyro)):
@@ -664,12 +665,12 @@ def test_bank_equals_independent_filters(params, require_tool):
         qs = np.array([f.update(gyro[i, j], acc[i, j], mag[i, j], dt) for j, f in enumerate(filters)])
         worst = max(worst, float(np.abs(qb - qs).max()))
         assert bank.flags.tolist() == [int(f.flags) for f in filters]
-    assert worst < 1e-9
-    np.testing.assert_allclose(bank.bias, [f.bias for f in filters], atol=1e-12)
+    assert worst == 0.0  # the same step, compiled or not: the same bits
+    np.testing.assert_array_equal(bank.bias, [f.bias for f in filters])
     assert not np.isnan(bank.q).any()
 
 
-@pytest.mark.parametrize("backend", ["numpy", "auto"])
+@pytest.mark.parametrize("backend", ["python", "auto"])
 def test_bank_reset_and_bad_dt(backend):
     bank = TQTBank(3, backend=backend)
     q0 = quat_from_axis_angle([0.0, 0.0, 1.0], 0.3)
@@ -689,7 +690,7 @@ def test_bank_backend_is_checked():
         TQTBank(2, backend="fortran")
     with pytest.raises(ValueError, match="needs numba"):
         TQTBank(2, mode="paper", backend="numba")
-    assert TQTBank(2, backend="auto").backend == ("numba" if tqt_compiled.available() else "numpy")
+    assert TQTBank(2, backend="auto").backend == ("numba" if tqt_compiled.available() else "python")
 
 
 def test_bank_backends_agree_from_a_known_start(require_tool):
@@ -697,7 +698,7 @@ def test_bank_backends_agree_from_a_known_start(require_tool):
 
     require_tool(tqt_compiled.available(), "numba is not installed (the 'fast' extra)")
     q0 = quat_from_axis_angle([0.3, -0.2, 0.9], 0.7)
-    banks = [TQTBank(4, backend=b) for b in ("numpy", "numba")]
+    banks = [TQTBank(4, backend=b) for b in ("python", "numba")]
     for bank in banks:
         bank.reset(q0)
     rng = np.random.default_rng(3)
@@ -705,12 +706,12 @@ def test_bank_backends_agree_from_a_known_start(require_tool):
         g = rng.normal(0.0, 0.3, (4, 3))
         a = np.tile([0.0, 0.0, G], (4, 1)) + rng.normal(0.0, 0.2, (4, 3))
         m = np.tile(FIELD, (4, 1)) + rng.normal(0.0, 0.02, (4, 3))
-        q_numpy, q_numba = (bank.update(g, a, m, 0.01) for bank in banks)
-        np.testing.assert_allclose(q_numba, q_numpy, atol=1e-12)
+        q_python, q_numba = (bank.update(g, a, m, 0.01) for bank in banks)
+        np.testing.assert_array_equal(q_numba, q_python)
         assert banks[0].flags.tolist() == banks[1].flags.tolist()
 
 
-@pytest.mark.parametrize("backend", ["numpy", "auto"])
+@pytest.mark.parametrize("backend", ["python", "auto"])
 def test_a_sensor_absent_from_an_update_keeps_all_its_state(backend):
     """Sensor 2 is in every other update (its packets split from the others'): it follows a filter fed
     only its own samples, rest and bias included; marked NaN instead, every absence would end its rest."""
@@ -732,16 +733,6 @@ def test_a_sensor_absent_from_an_update_keeps_all_its_state(backend):
     np.testing.assert_allclose(bank.bias[1], alone.bias, atol=1e-12)
     with pytest.raises(ValueError, match=r"present must have shape \(2,\)"):
         bank.update(*both, dt, present=[True])
-
-
-def test_what_an_absent_sensor_keeps_is_all_the_bank_state():
-    """``TQTBank._STATE`` names every per-sensor array: one added to the filter and not to it would change
-    under a sensor absent from an update."""
-    n = 3
-    bank = TQTBank(n, backend="numpy")
-    bank.update(np.zeros((n, 3)), np.tile([0.0, 0.0, G], (n, 1)), np.tile(FIELD, (n, 1)), 0.01)
-    per_sensor = {k for k, v in vars(bank).items() if isinstance(v, np.ndarray) and v.shape[-1:] == (n,)}
-    assert per_sensor == set(TQTBank._STATE)
 
 
 def test_retune_refuses_what_the_constructor_refuses():

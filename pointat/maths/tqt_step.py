@@ -1,0 +1,509 @@
+r"""One sample of the TQT filter for one sensor, written once for every way it runs.
+
+:class:`~pointat.maths.tqt.TQTFilter` (one sensor, plain Python floats) and
+:class:`~pointat.maths.tqt.TQTBank` (many sensors: a Python loop, or this same source compiled by numba in
+:mod:`pointat.maths.tqt_compiled`) all call :func:`robust_step` or :func:`paper_step` on a flat state
+vector ``s`` (a list, or one row of an array: :data:`STATE_SIZE` floats laid out by the ``S_*``
+indices) and a parameter vector ``p`` (:data:`PARAM_SIZE` floats, ``P_*``; :func:`params` makes it).
+There is no second copy of the algorithm to keep equal: the compiled bank is this code.
+
+The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equations' sources are in
+:mod:`pointat.maths.tqt`.  What robust mode does with accelerations no gravity estimate should swallow:
+
+* **Nothing a hand can produce is refused.**  A reading is refused only when it is not a number, zero,
+  beyond the sensor's own full scale by half again (``acc_range``: impossible, so corrupt), or, with no
+  known full scale, more than :data:`ACC_LIMIT` (1000) times the first reading.
+* **Saturation is known, not guessed**, when the source says its full scale (``acc_range``,
+  ``gyro_range``): an axis at its rail reads less than the truth.  Leaving out only the clipped samples
+  would leave out one side of a zero-mean stroke, so the acceleration average is fed in *chunks* of
+  :data:`CHUNK` seconds, and a chunk goes in only when neither it nor its neighbours saw saturation: the
+  whole stroke is left out, its swing with its impact.  What is averaged stays an average over whole
+  stretches of motion, so it stays unbiased; the average is then at most two chunks late (0.2 s, beside
+  its 2 s time constant).
+* **A saturated gyro** turns the estimate by less than the hand turned, so after it the filter leans on
+  gravity and the field: the acceleration average starts again from the first clean chunk, and for
+  :data:`RECOVER_TIME` seconds both corrections run at :data:`K_RECOVER` (1/s) and the magnetometer is
+  gated by its norm alone (its dip, measured through a tilt that may be wrong, cannot be trusted).
+
+The state and parameter layouts are private to :mod:`pointat.maths.tqt`; nothing else reads them.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pointat.maths.scalar import MAX_RATE_SQUARED
+
+__all__ = [
+    "ACC_LIMIT",
+    "ACC_RELEARN",
+    "CHUNK",
+    "K_RECOVER",
+    "RECOVER_TIME",
+    "paper_begin",
+    "params",
+    "robust_step",
+    "new_state",
+]
+
+_INF = math.inf
+
+#: Without a known full scale, a specific force more than this many times the first one read (at rest:
+#: gravity) is taken for a corrupt sample (a damaged recording, a float sensor's glitch), like NaN.  No hand
+#: makes a thousand g, and hardly any accelerometer measures it; the unit stays free.
+ACC_LIMIT = 1000.0
+_ACC_LIMIT_SQUARED = ACC_LIMIT * ACC_LIMIT
+#: Samples in a row beyond :data:`ACC_LIMIT` after which the limit is learned again from the reading: a
+#: first reading far too small (a sensor settling at power-on) must not refuse gravity for good.
+ACC_RELEARN = 50
+#: With a known full scale, a reading beyond it by this factor cannot come from the sensor: corrupt.
+_RANGE_CORRUPT = 1.5
+#: Seconds of acceleration summed into one chunk of the earth-frame average (robust mode).
+CHUNK = 0.1
+#: Seconds after the last saturated gyro sample during which the corrections run fast.
+RECOVER_TIME = 1.0
+#: The gain (1/s) of both corrections while recovering from a saturated gyro.
+K_RECOVER = 5.0
+#: Seconds a saturation flag stays up after the last saturated sample (strokes at 2 Hz and more read as
+#: one spell, not as a flickering flag).
+_SATURATION_HOLD = 0.5
+#: Shaking: RMS deviation of the specific force's norm from gravity, over :data:`_REST_TAU`, above which
+#: the flag goes up and below which it goes down again (fractions of gravity).
+_SHAKE_ON = 0.5
+_SHAKE_OFF = 0.3
+# learning rate (time constant, s) of the magnetic norm / dip reference at rest
+_MAG_REF_TAU = 5.0
+# time constant (s) of the gyro / accelerometer low-pass the rest detector compares against (as VQF)
+_REST_TAU = 0.5
+# below this squared half-angle the exponential map uses its Taylor series (error < 1e-18)
+_EXP_TAYLOR = 1e-8
+_PARALLEL_EPS = 1e-6  # as pointat.maths.scalar.accmag_matrix
+
+# flag bits (pointat.maths.tqt.TQTFlags)
+F_GYRO_INVALID = 1
+F_ACC_INVALID = 2
+F_MAG_INVALID = 4
+F_DT_INVALID = 8
+F_UNINITIALISED = 16
+F_MAG_DISTURBED = 32
+F_REST = 64
+F_ACC_SATURATED = 128
+F_GYRO_SATURATED = 256
+F_SHAKING = 512
+
+# -- the state vector ------------------------------------------------------------------------------------
+S_QW, S_QX, S_QY, S_QZ = 0, 1, 2, 3
+S_INIT = 4  # 1.0: the orientation is set
+S_BIAS = 5  # 3: gyro bias (rad/s)
+S_REST_T = 8  # seconds at rest so far
+S_LPG = 9  # 3: gyro low-pass of the rest detector
+S_LPA = 12  # 3: accelerometer low-pass of the rest detector
+S_ACC_KNOWN = 15  # 1.0: the accelerometer has been read once (A2_MAX, LPA, GNORM set)
+S_E = 16  # 3: earth-frame acceleration average
+S_E_AGE = 19  # seconds of acceleration in the average (0: none yet, no gravity correction)
+S_CUR = 20  # 3: the chunk being summed (earth-frame acceleration x seconds)
+S_CUR_T = 23  # its seconds
+S_CUR_BAD = 24  # 1.0: it saw saturation
+S_PREV = 25  # 3: the chunk before, waiting for its successor's verdict
+S_PREV_T = 28
+S_PREV_BAD = 29
+S_PREV2_BAD = 30  # the chunk before that saw saturation
+S_A2_MAX = 31  # ACC_LIMIT times the first reading, squared
+S_A_OVER = 32  # readings in a row beyond it
+S_MAG_KNOWN = 33  # 1.0: the magnetic reference is set
+S_MAG_NORM = 34
+S_DIP = 35  # dip reference (rad)
+S_NX = 36  # magnetic reference (cos dip, 0, -sin dip)
+S_NZ = 37
+S_ACC_SAT_T = 38  # seconds since the accelerometer last saturated
+S_GYRO_SAT_T = 39  # seconds since the gyro last saturated
+S_SHAKE = 40  # low-pass of the squared relative deviation of |a| from gravity
+S_SHAKING = 41  # 1.0: shaking (with hysteresis)
+S_GNORM = 42  # |gravity| in the accelerometer's unit (first reading, refined at rest)
+STATE_SIZE = 43
+
+# -- the parameter vector --------------------------------------------------------------------------------
+P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
+P_MAG_NORM_TOL, P_MAG_DIP_TOL = 4, 5
+P_REST_TIME, P_REST_GYRO, P_REST_ACC, P_BIAS_CLIP = 6, 7, 8, 9
+P_USE_GYRO, P_HAS_DIP = 10, 11
+P_ACC_RANGE, P_GYRO_RANGE = 12, 13  # full scale per axis (0: not known)
+# per-dt coefficients, recomputed when dt changes
+P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_ALPHA_REC, P_C_SAT = (
+    14, 15, 16, 17, 18, 19, 20, 21, 22,
+)  # fmt: skip
+PARAM_SIZE = 23
+
+_LONG_AGO = 1e9  # "seconds since" for a saturation never seen
+
+
+def params(
+    k: float,
+    k_heading: float,
+    acc_tau: float,
+    bias_tau: float,
+    mag_norm_tol: float,
+    mag_dip_tol: float,
+    rest_time: float,
+    rest_gyro: float,
+    rest_acc: float,
+    bias_clip: float,
+    use_gyro: bool,
+    has_dip: bool,
+    acc_range: float,
+    gyro_range: float,
+) -> list[float]:
+    """The parameter vector (validated by the caller); its per-``dt`` coefficients are filled on the first
+    step."""
+    p = [0.0] * PARAM_SIZE
+    p[P_K], p[P_K_HEADING], p[P_ACC_TAU], p[P_BIAS_TAU] = k, k_heading, acc_tau, bias_tau
+    p[P_MAG_NORM_TOL], p[P_MAG_DIP_TOL] = mag_norm_tol, mag_dip_tol
+    p[P_REST_TIME], p[P_REST_GYRO], p[P_REST_ACC], p[P_BIAS_CLIP] = rest_time, rest_gyro, rest_acc, bias_clip
+    p[P_USE_GYRO], p[P_HAS_DIP] = float(use_gyro), float(has_dip)
+    p[P_ACC_RANGE], p[P_GYRO_RANGE] = acc_range, gyro_range
+    p[P_DT] = -1.0
+    return p
+
+
+def new_state(q: tuple[float, float, float, float] | None, dip: float | None) -> list[float]:
+    """A fresh state: at ``q`` (a unit quaternion; initialised) or waiting for the first acc / mag pair."""
+    s = [0.0] * STATE_SIZE
+    s[S_QW] = 1.0
+    if q is not None:
+        s[S_QW], s[S_QX], s[S_QY], s[S_QZ] = q
+        s[S_INIT] = 1.0
+    s[S_A2_MAX] = _INF
+    if dip is not None:
+        s[S_DIP], s[S_NX], s[S_NZ] = dip, math.cos(dip), -math.sin(dip)
+    s[S_ACC_SAT_T] = s[S_GYRO_SAT_T] = _LONG_AGO
+    return s
+
+
+def _coefficients(p, dt):  # type: ignore[no-untyped-def]
+    p[P_DT] = dt
+    p[P_C_ACC] = 1.0 - math.exp(-dt / p[P_ACC_TAU])
+    p[P_C_REST] = 1.0 - math.exp(-dt / _REST_TAU)
+    p[P_C_BIAS] = 1.0 - math.exp(-dt / p[P_BIAS_TAU])
+    p[P_C_REF] = 1.0 - math.exp(-dt / _MAG_REF_TAU)
+    no_gyro = p[P_USE_GYRO] == 0.0
+    p[P_ALPHA] = min(p[P_K] * dt, 1.0)
+    # without a gyro nothing carries the heading between corrections: it follows the field as fast as tilt
+    p[P_ALPHA_MAG] = p[P_ALPHA] if no_gyro else min(p[P_K_HEADING] * dt, 1.0)
+    p[P_ALPHA_REC] = min(K_RECOVER * dt, 1.0)
+    p[P_C_SAT] = 1.0 - math.exp(-dt / _REST_TAU)
+
+
+def _rotate(w, x, y, z, vx, vy, vz):  # type: ignore[no-untyped-def]
+    """:math:`q \\otimes v \\otimes q^*` for floats: ``v + w t + u x t`` with ``t = 2 u x v``."""
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
+
+
+def _mul_exp(w, x, y, z, hx, hy, hz):  # type: ignore[no-untyped-def]
+    """:math:`q \\otimes \\exp(0, h)` for floats (``h`` = half the rotation vector, body frame)."""
+    n2 = hx * hx + hy * hy + hz * hz
+    if n2 < _EXP_TAYLOR:
+        c, s = 1.0 - 0.5 * n2, 1.0 - n2 / 6.0
+    else:
+        n = math.sqrt(n2)
+        c, s = math.cos(n), math.sin(n) / n
+    hx *= s
+    hy *= s
+    hz *= s
+    return (
+        w * c - x * hx - y * hy - z * hz,
+        w * hx + x * c + y * hz - z * hy,
+        w * hy - x * hz + y * c + z * hx,
+        w * hz + x * hy - y * hx + z * c,
+    )
+
+
+def _triad(ax, ay, az, mx, my, mz):  # type: ignore[no-untyped-def]
+    """:func:`pointat.maths.fusion.accmag_quat` on floats: ``(ok, w, x, y, z)``."""
+    na = math.sqrt(ax * ax + ay * ay + az * az)
+    nm = math.sqrt(mx * mx + my * my + mz * mz)
+    if not (na > 0.0 and nm > 0.0 and math.isfinite(na) and math.isfinite(nm)):
+        return False, 1.0, 0.0, 0.0, 0.0
+    ux, uy, uz = ax / na, ay / na, az / na
+    mx, my, mz = mx / nm, my / nm, mz / nm
+    wx, wy, wz = uy * mz - uz * my, uz * mx - ux * mz, ux * my - uy * mx
+    nw = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if nw < _PARALLEL_EPS:
+        return False, 1.0, 0.0, 0.0, 0.0
+    wx, wy, wz = wx / nw, wy / nw, wz / nw
+    nx, ny, nz = wy * uz - wz * uy, wz * ux - wx * uz, wx * uy - wy * ux
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = nx, ny, nz, wx, wy, wz, ux, uy, uz
+    tr = m00 + m11 + m22
+    if tr >= m00 and tr >= m11 and tr >= m22:
+        r = 2.0 * math.sqrt(max(1.0 + tr, 0.0))
+        q0, q1, q2, q3 = 0.25 * r, (m21 - m12) / r, (m02 - m20) / r, (m10 - m01) / r
+    elif m00 >= m11 and m00 >= m22:
+        r = 2.0 * math.sqrt(max(1.0 + m00 - m11 - m22, 0.0))
+        q0, q1, q2, q3 = (m21 - m12) / r, 0.25 * r, (m01 + m10) / r, (m02 + m20) / r
+    elif m11 >= m22:
+        r = 2.0 * math.sqrt(max(1.0 + m11 - m00 - m22, 0.0))
+        q0, q1, q2, q3 = (m02 - m20) / r, (m01 + m10) / r, 0.25 * r, (m12 + m21) / r
+    else:
+        r = 2.0 * math.sqrt(max(1.0 + m22 - m00 - m11, 0.0))
+        q0, q1, q2, q3 = (m10 - m01) / r, (m02 + m20) / r, (m12 + m21) / r, 0.25 * r
+    n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    q0, q1, q2, q3 = q0 / n, q1 / n, q2 / n, q3 / n
+    if q0 < 0.0:
+        q0, q1, q2, q3 = -q0, -q1, -q2, -q3
+    return True, q0, q1, q2, q3
+
+
+def _store(s, w, x, y, z):  # type: ignore[no-untyped-def]
+    n2 = w * w + x * x + y * y + z * z
+    if 0.0 < n2 < _INF:
+        n = 1.0 / math.sqrt(n2)
+        s[S_QW], s[S_QX], s[S_QY], s[S_QZ] = w * n, x * n, y * n, z * n
+
+
+def _accept_acc(s, p, ax, ay, az, a2):  # type: ignore[no-untyped-def]
+    """Whether a reading can be a specific force at all (see the module head); keeps the relearn count."""
+    if not 0.0 < a2 < _INF:
+        s[S_A_OVER] = 0.0
+        return False
+    r = p[P_ACC_RANGE]
+    if r > 0.0:
+        lim = _RANGE_CORRUPT * r
+        return -lim <= ax <= lim and -lim <= ay <= lim and -lim <= az <= lim
+    if a2 < s[S_A2_MAX]:
+        s[S_A_OVER] = 0.0
+        return True
+    s[S_A_OVER] += 1.0
+    if s[S_A_OVER] < ACC_RELEARN:
+        return False
+    s[S_A2_MAX], s[S_A_OVER] = _ACC_LIMIT_SQUARED * a2, 0.0
+    return True
+
+
+def _begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
+    """Validate the sample and learn what is still unknown (TRIAD start, first readings, magnetic
+    reference).  Returns ``(flags, go)``: ``go`` false when this sample is done with (``flags`` stored)."""
+    if not 0.0 < dt < _INF:  # also catches NaN
+        return F_DT_INVALID, False
+    if dt != p[P_DT]:
+        _coefficients(p, dt)
+    g_ok = gx * gx + gy * gy + gz * gz < MAX_RATE_SQUARED  # NaN compares False
+    a2 = ax * ax + ay * ay + az * az
+    a_ok = _accept_acc(s, p, ax, ay, az, a2)
+    m2 = mx * mx + my * my + mz * mz
+    m_ok = 0.0 < m2 < _INF
+    flags = (0 if g_ok else F_GYRO_INVALID) | (0 if a_ok else F_ACC_INVALID) | (0 if m_ok else F_MAG_INVALID)
+    if s[S_ACC_KNOWN] != 0.0 and s[S_MAG_KNOWN] != 0.0:
+        return flags, True
+    was = s[S_INIT] != 0.0
+    if not was and a_ok and m_ok:
+        ok, w, x, y, z = _triad(ax, ay, az, mx, my, mz)
+        if ok:
+            s[S_QW], s[S_QX], s[S_QY], s[S_QZ], s[S_INIT] = w, x, y, z, 1.0
+    if s[S_INIT] == 0.0:
+        return flags | F_UNINITIALISED, False
+    if s[S_ACC_KNOWN] == 0.0 and a_ok:
+        s[S_ACC_KNOWN] = 1.0
+        if p[P_ACC_RANGE] <= 0.0:
+            s[S_A2_MAX] = _ACC_LIMIT_SQUARED * a2
+        s[S_GNORM] = math.sqrt(a2)
+        s[S_LPA], s[S_LPA + 1], s[S_LPA + 2] = ax, ay, az
+        if g_ok:
+            s[S_LPG], s[S_LPG + 1], s[S_LPG + 2] = gx, gy, gz
+    if s[S_MAG_KNOWN] == 0.0 and m_ok and (a_ok or p[P_HAS_DIP] != 0.0):
+        # dip from the angle between the measured vectors (independent of the estimate)
+        s[S_MAG_KNOWN] = 1.0
+        s[S_MAG_NORM] = math.sqrt(m2)
+        if p[P_HAS_DIP] == 0.0:
+            sin_dip = -(ax * mx + ay * my + az * mz) / (math.sqrt(a2) * s[S_MAG_NORM])
+            d = math.asin(max(-1.0, min(1.0, sin_dip)))
+            s[S_DIP], s[S_NX], s[S_NZ] = d, math.cos(d), -math.sin(d)
+    if not was:  # this sample set the orientation: nothing more to do
+        return flags, False
+    return flags, True
+
+
+def paper_begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
+    """:func:`_begin` for paper mode, whose correction :mod:`pointat.maths.tqt` does on floats."""
+    return _begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
+
+
+def _turn_average(s, cw, sx, sy, sz):  # type: ignore[no-untyped-def]
+    """Turn the acceleration average and its pending chunks with a correction of the estimate."""
+    for i in (S_E, S_CUR, S_PREV):
+        s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
+
+
+def _add_to_average(s, p, ex, ey, ez, dt, bad):  # type: ignore[no-untyped-def]
+    """Sum one earth-frame acceleration into the current chunk; when the chunk is full, the chunk before it
+    joins the average if neither it nor its neighbours were ``bad`` (saw saturation)."""
+    s[S_CUR] += ex * dt
+    s[S_CUR + 1] += ey * dt
+    s[S_CUR + 2] += ez * dt
+    s[S_CUR_T] += dt
+    if bad:
+        s[S_CUR_BAD] = 1.0
+    if s[S_CUR_T] < CHUNK * (1.0 - 1e-9):
+        return
+    t = s[S_PREV_T]
+    if t > 0.0 and s[S_PREV_BAD] == 0.0 and s[S_PREV2_BAD] == 0.0 and s[S_CUR_BAD] == 0.0:
+        age = s[S_E_AGE]
+        c = 1.0 - math.exp(-t / p[P_ACC_TAU])
+        if age < p[P_ACC_TAU]:  # (re)starting: the plain mean of what there is, until a time constant is in
+            c = max(c, t / (age + t))
+        inv = 1.0 / t
+        s[S_E] += c * (s[S_PREV] * inv - s[S_E])
+        s[S_E + 1] += c * (s[S_PREV + 1] * inv - s[S_E + 1])
+        s[S_E + 2] += c * (s[S_PREV + 2] * inv - s[S_E + 2])
+        s[S_E_AGE] = age + t
+    s[S_PREV2_BAD] = s[S_PREV_BAD]
+    s[S_PREV], s[S_PREV + 1], s[S_PREV + 2] = s[S_CUR], s[S_CUR + 1], s[S_CUR + 2]
+    s[S_PREV_T], s[S_PREV_BAD] = s[S_CUR_T], s[S_CUR_BAD]
+    s[S_CUR] = s[S_CUR + 1] = s[S_CUR + 2] = s[S_CUR_T] = s[S_CUR_BAD] = 0.0
+
+
+def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
+    """One sample of robust mode (:class:`~pointat.maths.tqt.TQTFilter`): changes ``s`` (and ``p``'s
+    per-``dt`` coefficients), returns the flag bits."""
+    flags, go = _begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
+    if not go:
+        return flags
+    g_ok = (flags & F_GYRO_INVALID) == 0
+    a_ok = (flags & F_ACC_INVALID) == 0
+    m_use = (flags & F_MAG_INVALID) == 0 and s[S_MAG_KNOWN] != 0.0
+    use_gyro = p[P_USE_GYRO] != 0.0
+    # saturation: an axis at the full scale the source gave
+    r = p[P_GYRO_RANGE]
+    g_sat = g_ok and r > 0.0 and (abs(gx) >= r or abs(gy) >= r or abs(gz) >= r)
+    r = p[P_ACC_RANGE]
+    a_sat = a_ok and r > 0.0 and (abs(ax) >= r or abs(ay) >= r or abs(az) >= r)
+    if g_sat:
+        s[S_GYRO_SAT_T] = 0.0
+        s[S_E_AGE] = 0.0  # turned by less than the hand: the average starts again after it
+    elif s[S_GYRO_SAT_T] < _LONG_AGO:
+        s[S_GYRO_SAT_T] += dt
+    if a_sat:
+        s[S_ACC_SAT_T] = 0.0
+    elif s[S_ACC_SAT_T] < _LONG_AGO:
+        s[S_ACC_SAT_T] += dt
+    if s[S_ACC_SAT_T] < _SATURATION_HOLD:
+        flags |= F_ACC_SATURATED
+    if s[S_GYRO_SAT_T] < _SATURATION_HOLD:
+        flags |= F_GYRO_SATURATED
+    recovering = use_gyro and s[S_GYRO_SAT_T] < RECOVER_TIME
+    # the dip seen through the estimate's tilt is no test of the field while that tilt may be off:
+    # recovering, or with no gyro to carry the tilt between corrections (it lags the motion)
+    dip_gate = use_gyro and not recovering
+    w, x, y, z = s[S_QW], s[S_QX], s[S_QY], s[S_QZ]
+    bx, by, bz = s[S_BIAS], s[S_BIAS + 1], s[S_BIAS + 2]
+    # (0) propagation with the bias-corrected rate, exact over the sample
+    if g_ok and use_gyro:
+        h = 0.5 * dt
+        w, x, y, z = _mul_exp(w, x, y, z, h * (gx - bx), h * (gy - by), h * (gz - bz))
+    # (2) rest detection and gyro bias; shaking
+    rest = False
+    if a_ok:
+        a = math.sqrt(ax * ax + ay * ay + az * az)
+        dev = (a - s[S_GNORM]) / s[S_GNORM]
+        s[S_SHAKE] += p[P_C_SAT] * (dev * dev - s[S_SHAKE])
+        if s[S_SHAKING] == 0.0 and s[S_SHAKE] > _SHAKE_ON * _SHAKE_ON:
+            s[S_SHAKING] = 1.0
+        elif s[S_SHAKING] != 0.0 and s[S_SHAKE] < _SHAKE_OFF * _SHAKE_OFF:
+            s[S_SHAKING] = 0.0
+    if s[S_SHAKING] != 0.0:
+        flags |= F_SHAKING
+    if g_ok and a_ok and not (g_sat or a_sat):
+        c = p[P_C_REST]
+        lgx = s[S_LPG] + c * (gx - s[S_LPG])
+        lgy = s[S_LPG + 1] + c * (gy - s[S_LPG + 1])
+        lgz = s[S_LPG + 2] + c * (gz - s[S_LPG + 2])
+        lax = s[S_LPA] + c * (ax - s[S_LPA])
+        lay = s[S_LPA + 1] + c * (ay - s[S_LPA + 1])
+        laz = s[S_LPA + 2] + c * (az - s[S_LPA + 2])
+        s[S_LPG], s[S_LPG + 1], s[S_LPG + 2] = lgx, lgy, lgz
+        s[S_LPA], s[S_LPA + 1], s[S_LPA + 2] = lax, lay, laz
+        dgx, dgy, dgz = gx - lgx, gy - lgy, gz - lgz
+        dax, day, daz = ax - lax, ay - lay, az - laz
+        clip = p[P_BIAS_CLIP]
+        thr = p[P_REST_ACC]
+        la2 = lax * lax + lay * lay + laz * laz
+        if (
+            dgx * dgx + dgy * dgy + dgz * dgz < p[P_REST_GYRO] * p[P_REST_GYRO]
+            and dax * dax + day * day + daz * daz < thr * thr * la2
+            and -clip < lgx < clip
+            and -clip < lgy < clip
+            and -clip < lgz < clip
+        ):
+            s[S_REST_T] += dt
+            if s[S_REST_T] >= p[P_REST_TIME]:
+                rest = True
+                flags |= F_REST
+                c = p[P_C_BIAS]
+                s[S_BIAS], s[S_BIAS + 1], s[S_BIAS + 2] = (
+                    bx + c * (lgx - bx),
+                    by + c * (lgy - by),
+                    bz + c * (lgz - bz),
+                )
+                s[S_GNORM] += p[P_C_REF] * (math.sqrt(la2) - s[S_GNORM])
+        else:
+            s[S_REST_T] = 0.0
+    else:
+        s[S_REST_T] = 0.0
+    # (3) gravity: the earth-frame acceleration average, Gauss-Newton alignment with the vertical
+    correct = False
+    if use_gyro:
+        if a_ok:
+            aex, aey, aez = _rotate(w, x, y, z, ax, ay, az)
+            _add_to_average(s, p, aex, aey, aez, dt, g_sat or a_sat)
+        elif g_sat:
+            s[S_CUR_BAD] = 1.0
+        correct = s[S_E_AGE] > 0.0
+    elif a_ok and not a_sat:  # accelerometer / magnetometer only: no frame to average in, the reading itself
+        s[S_E], s[S_E + 1], s[S_E + 2] = _rotate(w, x, y, z, ax, ay, az)
+        correct = True
+    if correct:
+        ex, ey, ez = s[S_E], s[S_E + 1], s[S_E + 2]
+        eh2 = ex * ex + ey * ey
+        if eh2 > 0.0:
+            alpha = max(p[P_ALPHA], p[P_ALPHA_REC]) if recovering else p[P_ALPHA]
+            eh = math.sqrt(eh2)
+            f = 0.5 * alpha * math.atan2(eh, ez) / eh  # half the correction angle, per |e_h|
+            sx, sy = f * ey, -f * ex  # half rotation vector about (e x up)
+            s2 = sx * sx + sy * sy
+            if s2 < _EXP_TAYLOR:
+                cw, sinc = 1.0 - 0.5 * s2, 1.0 - s2 / 6.0
+            else:
+                sn = math.sqrt(s2)
+                cw, sinc = math.cos(sn), math.sin(sn) / sn
+            sx *= sinc
+            sy *= sinc
+            # q <- C q, and the average with it, C = (cw, sx, sy, 0) in the earth frame
+            w, x, y, z = (
+                cw * w - sx * x - sy * y,
+                cw * x + sx * w + sy * z,
+                cw * y + sy * w - sx * z,
+                cw * z + sx * y - sy * x,
+            )
+            _turn_average(s, cw, sx, sy, 0.0)
+    # (1) + (4) magnetometer: gated heading-only correction
+    if m_use:
+        bex, bey, bez = _rotate(w, x, y, z, mx, my, mz)
+        bh = math.hypot(bex, bey)
+        norm = math.sqrt(bh * bh + bez * bez)
+        dip = math.atan2(-bez, bh)
+        ref = s[S_MAG_NORM]
+        if abs(norm - ref) > p[P_MAG_NORM_TOL] * ref or (dip_gate and abs(dip - s[S_DIP]) > p[P_MAG_DIP_TOL]):
+            flags |= F_MAG_DISTURBED
+        elif bh > 0.0:
+            alpha = max(p[P_ALPHA_MAG], p[P_ALPHA_REC]) if recovering else p[P_ALPHA_MAG]
+            half = -0.5 * alpha * math.atan2(bey, bex)
+            cz, sz = math.cos(half), math.sin(half)
+            w, x, y, z = cz * w - sz * z, cz * x - sz * y, cz * y + sz * x, cz * z + sz * w
+            _turn_average(s, cz, 0.0, 0.0, sz)
+            if rest:
+                c = p[P_C_REF]
+                s[S_MAG_NORM] = ref + c * (norm - ref)
+                s[S_DIP] += c * (dip - s[S_DIP])
+    _store(s, w, x, y, z)
+    return flags
