@@ -214,10 +214,14 @@ def _imufusion(tuned: bool) -> Estimator:
 
 
 def _vqf(tau_mag: float) -> Estimator:
+    return _vqf_params(tauAcc=3.0, tauMag=tau_mag)
+
+
+def _vqf_params(**params: float) -> Estimator:
     def run(d: dict[str, np.ndarray]) -> np.ndarray:
         import vqf
 
-        f = vqf.VQF(1.0 / BROAD_RATE, tauAcc=3.0, tauMag=tau_mag)
+        f = vqf.VQF(1.0 / BROAD_RATE, **params)
         g, a, m = (np.ascontiguousarray(d[k]) for k in ("gyr", "acc", "mag"))
         return f.updateBatch(g, a, m)["quat9D"]
 

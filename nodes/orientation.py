@@ -358,7 +358,7 @@ class TQT(SampleClock, Flagged, Node):
     strokes do not tip the sound.  When an axis clips at its full scale the reading is wrong, so that
     whole stretch of motion is left out of the average (never only the clipped peaks, which would tip
     it) and the gyro carries the orientation through it.  When the gyro itself clips (a turn faster
-    than it measures), the orientation is re-found from gravity and the field within about a second
+    than it measures), the orientation is re-found from gravity and the field within about two seconds
     afterwards.  To know a clipped axis the filter needs the sensor's full scale: wire ``scaling``'s
     ``range`` outlet to the ``range`` inlet (the glove's ADC), or set ``acc_range`` and ``gyro_range``.
     ``flags`` says ``acc_saturated``, ``gyro_saturated`` and ``shaking`` while they last (and

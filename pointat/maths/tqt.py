@@ -464,7 +464,8 @@ class TQTFlags(IntFlag):
     ACC_SATURATED = 128
     #: robust mode: a gyro axis reached its full scale (``gyro_range``) within the last 0.5 s
     GYRO_SATURATED = 256
-    #: robust mode: the specific force's norm swings by more than half a g (RMS over 0.5 s; down below 0.3)
+    #: robust mode: the specific force's norm is off gravity by more than half a g on average over 0.25 s
+    #: (down again below 0.3 g)
     SHAKING = 512
 
 
@@ -697,7 +698,7 @@ class TQTFilter(_TQTParams):
        axis).  A chunk of acceleration goes into :math:`e` only if neither it nor its neighbours saw an
        axis at full scale: a stroke is left out whole, swing and impact, never one side of it, so the
        average stays unbiased.  A saturated gyro turned the estimate by less than the hand turned: the
-       average starts again after it, and for a second both corrections run at 5 1/s, the magnetometer
+       average starts again after it, and for two seconds both corrections run at 5 1/s, the magnetometer
        gated by its norm alone.
 
     Nothing a hand can produce is refused: a reading counts as corrupt only beyond half again the full

@@ -16,7 +16,6 @@ from collections.abc import Callable
 from typing import Any
 
 from pointat.maths import tqt_step
-from pointat.maths.tqt_step import robust_step  # compiled in _compile's namespace, not this one
 
 __all__ = ["available", "compiled", "robust_bank"]
 
@@ -31,19 +30,10 @@ def available() -> bool:
     return njit is not None
 
 
-def _bank(g, a, m, dt, here, state, p, flags):  # type: ignore[no-untyped-def]
-    """One sample for every sensor present: ``g``, ``a``, ``m`` of shape (n, 3); ``state`` (n, S) and
-    ``flags`` (n,) are changed in place."""
-    for i in range(g.shape[0]):
-        if here[i]:
-            flags[i] = robust_step(state[i], p, g[i, 0], g[i, 1], g[i, 2], a[i, 0], a[i, 1], a[i, 2],
-                                   m[i, 0], m[i, 1], m[i, 2], dt)  # fmt: skip
-
-
 def _compile() -> Callable[..., Any] | None:
     """numba functions call only numba functions: every function of :mod:`pointat.maths.tqt_step` is
     compiled into a namespace of its own (the module keeps its Python functions for
-    :class:`~pointat.maths.tqt.TQTFilter`), then the loop that calls the step."""
+    :class:`~pointat.maths.tqt.TQTFilter`); :func:`~pointat.maths.tqt_step.robust_bank` is the loop."""
     if njit is None:
         return None
     jit = njit(cache=True, nogil=True)
@@ -51,8 +41,7 @@ def _compile() -> Callable[..., Any] | None:
     for name, value in vars(tqt_step).items():
         if isinstance(value, types.FunctionType) and value.__module__ == tqt_step.__name__:
             space[name] = jit(types.FunctionType(value.__code__, space, name, value.__defaults__))
-    loop = dict(globals(), robust_step=space["robust_step"])
-    return jit(types.FunctionType(_bank.__code__, loop, "_bank"))
+    return space["robust_bank"]  # type: ignore[no-any-return]
 
 
 _compiled: Callable[..., Any] | None = None
@@ -65,7 +54,7 @@ def compiled() -> bool:
 
 
 def robust_bank(*args: Any) -> None:
-    """:func:`_bank`, compiled on the first call (numba must be installed: see :func:`available`)."""
+    """:func:`pointat.maths.tqt_step.robust_bank`, compiled on the first call (numba must be installed: see :func:`available`)."""
     global _compiled
     if _compiled is None:
         _compiled = _compile()

@@ -61,16 +61,17 @@ _RANGE_CORRUPT = 1.5
 #: Seconds of acceleration summed into one chunk of the earth-frame average (robust mode).
 CHUNK = 0.1
 #: Seconds after the last saturated gyro sample during which the corrections run fast.
-RECOVER_TIME = 1.0
+RECOVER_TIME = 2.0
 #: The gain (1/s) of both corrections while recovering from a saturated gyro.
 K_RECOVER = 5.0
 #: Seconds a saturation flag stays up after the last saturated sample (strokes at 2 Hz and more read as
 #: one spell, not as a flickering flag).
 _SATURATION_HOLD = 0.5
-#: Shaking: RMS deviation of the specific force's norm from gravity, over :data:`_REST_TAU`, above which
-#: the flag goes up and below which it goes down again (fractions of gravity).
+#: Shaking: the mean deviation of the specific force's norm from gravity, over :data:`_SHAKE_TAU`
+#: seconds, above which the flag goes up and below which it goes down again (fractions of gravity).
 _SHAKE_ON = 0.5
 _SHAKE_OFF = 0.3
+_SHAKE_TAU = 0.25
 # learning rate (time constant, s) of the magnetic norm / dip reference at rest
 _MAG_REF_TAU = 5.0
 # time constant (s) of the gyro / accelerometer low-pass the rest detector compares against (as VQF)
@@ -117,7 +118,7 @@ S_NX = 36  # magnetic reference (cos dip, 0, -sin dip)
 S_NZ = 37
 S_ACC_SAT_T = 38  # seconds since the accelerometer last saturated
 S_GYRO_SAT_T = 39  # seconds since the gyro last saturated
-S_SHAKE = 40  # low-pass of the squared relative deviation of |a| from gravity
+S_SHAKE = 40  # low-pass of the relative deviation of |a| from gravity
 S_SHAKING = 41  # 1.0: shaking (with hysteresis)
 S_GNORM = 42  # |gravity| in the accelerometer's unit (first reading, refined at rest)
 STATE_SIZE = 43
@@ -190,7 +191,7 @@ def _coefficients(p, dt):  # type: ignore[no-untyped-def]
     # without a gyro nothing carries the heading between corrections: it follows the field as fast as tilt
     p[P_ALPHA_MAG] = p[P_ALPHA] if no_gyro else min(p[P_K_HEADING] * dt, 1.0)
     p[P_ALPHA_REC] = min(K_RECOVER * dt, 1.0)
-    p[P_C_SAT] = 1.0 - math.exp(-dt / _REST_TAU)
+    p[P_C_SAT] = 1.0 - math.exp(-dt / _SHAKE_TAU)
 
 
 def _rotate(w, x, y, z, vx, vy, vz):  # type: ignore[no-untyped-def]
@@ -405,11 +406,10 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     rest = False
     if a_ok:
         a = math.sqrt(ax * ax + ay * ay + az * az)
-        dev = (a - s[S_GNORM]) / s[S_GNORM]
-        s[S_SHAKE] += p[P_C_SAT] * (dev * dev - s[S_SHAKE])
-        if s[S_SHAKING] == 0.0 and s[S_SHAKE] > _SHAKE_ON * _SHAKE_ON:
+        s[S_SHAKE] += p[P_C_SAT] * (abs(a - s[S_GNORM]) / s[S_GNORM] - s[S_SHAKE])
+        if s[S_SHAKING] == 0.0 and s[S_SHAKE] > _SHAKE_ON:
             s[S_SHAKING] = 1.0
-        elif s[S_SHAKING] != 0.0 and s[S_SHAKE] < _SHAKE_OFF * _SHAKE_OFF:
+        elif s[S_SHAKING] != 0.0 and s[S_SHAKE] < _SHAKE_OFF:
             s[S_SHAKING] = 0.0
     if s[S_SHAKING] != 0.0:
         flags |= F_SHAKING
@@ -507,3 +507,14 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
                 s[S_DIP] += c * (dip - s[S_DIP])
     _store(s, w, x, y, z)
     return flags
+
+
+def robust_bank(g, a, m, dt, here, state, p, flags):  # type: ignore[no-untyped-def]
+    """:func:`robust_step` for every sensor present: ``g``, ``a``, ``m`` of shape (n, 3), ``here`` (n,)
+    bool; ``state`` (n, :data:`STATE_SIZE`) and ``flags`` (n,) change in place.  Compiled by
+    :mod:`pointat.maths.tqt_compiled` (it lives here so that numba's cache, keyed by this file, is
+    renewed with any change to the step it inlines)."""
+    for i in range(g.shape[0]):
+        if here[i]:
+            flags[i] = robust_step(state[i], p, g[i, 0], g[i, 1], g[i, 2], a[i, 0], a[i, 1], a[i, 2],
+                                   m[i, 0], m[i, 1], m[i, 2], dt)  # fmt: skip
