@@ -14,7 +14,7 @@ from typing import Any
 
 from serial import SerialException
 
-from pointat.devices.glove_sim import GloveSimulator, PtyGlove, SensorModel
+from pointat.devices.glove_sim import Burst, GloveSimulator, PtyGlove, SensorModel
 from pointat.devices.mote_frame import (
     CorruptFrame,
     CounterJump,
@@ -422,6 +422,20 @@ class Simulate(Node):
     ``device`` outlet (wire it to a ``mote``), so the whole serial path runs; when ``duration`` ends
     it, the outlet sends ``close`` before the pseudo-terminal goes, so the mote is done too and the
     patch can end.  ``truth`` is the true orientation quaternion (sensor -> NWU).
+
+    ``burst=strokes`` or ``burst=shake`` adds bursts of hand translation, as a performer drums, strikes
+    or shakes: one starts every ``burst_every`` seconds (the first at ``burst_every``) and lasts the
+    whole strokes or shake cycles that fit in ``burst_length`` seconds, at ``burst_rate`` strokes or
+    cycles per second and a peak linear acceleration of ``burst_g`` times standard gravity.  A stroke
+    is a broad lift and swing back, then a sharp impact (15 ms; a fifth of the stroke above 13 Hz)
+    that stops the hand where it started; a shake is a sinusoidal back and forth, faded in and out
+    over a cycle.  Either way the hand comes back to where it was and the orientation is as without
+    bursts: the accelerometer reads gravity plus the burst (specific force), the gyro and magnetometer
+    are unchanged.  ``burst_axis``: ``vertical`` (up and down), ``pointing`` (along the pointing axis,
+    as it points then) or ``both`` (the diagonal between them).  The counts still go through the
+    12-bit ADC, which clips at about ±4 g per axis (±39.3 m/s², the glove's full scale), so the
+    default 10 g strokes saturate there, as the real glove would.  Outside the bursts the samples are
+    the same as with ``burst=none``.  See ``pointat.devices.glove_sim.Burst``.
     """
 
     outlets = (
@@ -444,6 +458,31 @@ class Simulate(Node):
         Param("noise", "bool", True, "false: ideal sensors (no bias, no noise)"),
         Param("duration", "float", 0.0, "stop after this long; 0: run until the patch stops", unit="s"),
         Param("link", "path", "", "also make this path a symlink to the pty (output=pty)", writes=True),
+        Param(
+            "burst",
+            "symbol",
+            "none",
+            "hand translation bursts: none, strokes (drumming, striking) or shake",
+            choices=("none", "strokes", "shake"),
+        ),
+        Param("burst_g", "float", 10.0, "peak linear acceleration of a burst", unit="g", above=0.0),
+        Param("burst_rate", "float", 5.0, "strokes, or shake cycles, per second", unit="Hz", above=0.0),
+        Param("burst_length", "float", 6.0, "length of each burst", unit="s", above=0.0),
+        Param(
+            "burst_every",
+            "float",
+            30.0,
+            "a burst starts every this long, the first one then",
+            unit="s",
+            above=0.0,
+        ),
+        Param(
+            "burst_axis",
+            "symbol",
+            "vertical",
+            "vertical, pointing (along the pointing axis) or both (the diagonal between them)",
+            choices=("vertical", "pointing", "both"),
+        ),
     )
     example = """
 node glove simulate rate=100
@@ -452,9 +491,49 @@ node cal   scaling
 glove -> nulls -> cal
 """
 
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        if values["burst"] == "none":
+            return
+        length, every, rate = values["burst_length"], values["burst_every"], values["burst_rate"]
+        if length > every:
+            raise ValueError(
+                f"burst_length {length:g} s is longer than burst_every {every:g} s: the bursts would overlap"
+            )
+        least = 1 if values["burst"] == "strokes" else 2
+        if length * rate + 1e-9 < least:
+            what = "a whole stroke" if least == 1 else "two whole shake cycles"
+            raise ValueError(
+                f"burst_length {length:g} s at burst_rate {rate:g} Hz holds less than {what}: "
+                f"make burst_length at least {least / rate:g} s"
+            )
+        cls._bursts(values)  # anything else the burst itself refuses
+
+    @staticmethod
+    def _bursts(values: Mapping[str, Any]) -> tuple[Burst, ...]:
+        if values["burst"] == "none":
+            return ()
+        return (
+            Burst(
+                start=values["burst_every"],
+                duration=values["burst_length"],
+                peak_g=values["burst_g"],
+                rate=values["burst_rate"],
+                axis=values["burst_axis"],
+                kind=values["burst"],
+                every=values["burst_every"],
+            ),
+        )
+
     def setup(self) -> None:
         sensor = SensorModel(seed=self.p.seed) if self.p.noise else SensorModel.ideal()
-        self.sim = GloveSimulator(rate_hz=self.p.rate, mote_id=self.p.mote, seed=self.p.seed, sensor=sensor)
+        self.sim = GloveSimulator(
+            rate_hz=self.p.rate,
+            mote_id=self.p.mote,
+            seed=self.p.seed,
+            sensor=sensor,
+            bursts=self._bursts(vars(self.p)),
+        )
         self._timer: Timer | None = None
         self._pty: PtyGlove | None = None
         self._k = 0

@@ -24,6 +24,8 @@ Virtual glove (:mod:`pointat.devices.glove_sim`)::
 
     sim = GloveSimulator(default_script(), rate_hz=100, seed=0)
     t, frame, q_true = sim.sample(k)
+    drum = GloveSimulator(bursts=[Burst(start=5, duration=2, peak_g=10, rate=5, kind="strokes")])
+    drum.truth(k).linear_acceleration        # m/s², NWU; drum.truth(k).specific_force includes it
     with PtyGlove(sim) as glove:             # a pseudo-terminal that streams the frames in real time
         SerialMoteReader(glove.device_path, on_frame=...)
 
@@ -36,6 +38,7 @@ Examples
 
 from pointat.devices.glove_sim import (
     GRAVITY,
+    Burst,
     GloveSimulator,
     MotionScript,
     PtyGlove,
@@ -43,6 +46,8 @@ from pointat.devices.glove_sim import (
     Segment,
     SensorModel,
     Truth,
+    adc_full_scale,
+    burst_acceleration,
     default_script,
     hold,
 )
@@ -89,6 +94,7 @@ __all__ = [
     "GRAVITY",
     "MAX_LINE",
     "SYNC",
+    "Burst",
     "CorruptFrame",
     "CounterJump",
     "DeviceLost",
@@ -113,6 +119,8 @@ __all__ = [
     "SensorModel",
     "SerialMoteReader",
     "Truth",
+    "adc_full_scale",
+    "burst_acceleration",
     "crc16_ccitt_false",
     "default_script",
     "encode_frame",

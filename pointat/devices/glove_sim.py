@@ -5,10 +5,14 @@ Three layers, each usable alone:
 * :class:`MotionScript` -- ground truth.  A looping list of :class:`Segment` moves of the hand (azimuth,
   elevation and roll of the pointing axis, eased so that the angular rate is continuous), giving the
   orientation :math:`q(t)` (sensor -> NWU) and the angular rate :math:`\omega(t)` in the sensor frame.
+* :class:`Burst` -- ground truth of the hand's translation: percussive strokes and shakes, bursts of
+  linear acceleration (:func:`burst_acceleration`, earth frame) whose velocity and displacement come
+  back to zero, so the hand returns to where it was.
 * :class:`SensorModel` -- what the mote's sensors read in that pose, as 12-bit ADC counts: gyro (with a
-  constant bias and white noise), accelerometer (specific force of gravity) and magnetometer (the
-  Earth's field with its dip), through a :class:`~pointat.devices.mote_frame.MoteSpec`.
-* :class:`GloveSimulator` -- samples both at a fixed rate into
+  constant bias and white noise), accelerometer (specific force: gravity and the hand's linear
+  acceleration) and magnetometer (the Earth's field with its dip), through a
+  :class:`~pointat.devices.mote_frame.MoteSpec`; optionally saturating at a full scale of its own.
+* :class:`GloveSimulator` -- samples them at a fixed rate into
   :class:`~pointat.devices.mote_frame.Frame` values with a running ``n_pack``, deterministically for a
   seed; :class:`PtyGlove` writes them in real time into a pseudo-terminal, so the real serial path
   (:class:`~pointat.devices.serial_reader.SerialMoteReader`) can be exercised without hardware.
@@ -18,7 +22,8 @@ Pose angles (degrees) follow pointat's conventions (:mod:`pointat.maths`): azimu
 positive turns the back of the hand (sensor z) towards the right (for a right hand: thumb up).  The
 orientation is :math:`q = q_z(\mathrm{az}) \otimes q_y(-\mathrm{el}) \otimes q_x(\mathrm{roll})`
 (:func:`~pointat.maths.quaternion.euler_to_quat` with yaw = az, pitch = -el).  The hand rotates about
-the sensor; its translation is not modelled (the accelerometer sees gravity only).
+the sensor; it translates only in bursts (:class:`Burst`; without them the accelerometer sees gravity
+only), and translation leaves the orientation as it is.  The earth frame is NWU (x north, y west, z up).
 
 The ADC resolutions are :data:`~pointat.devices.mote_frame.DEFAULT_RESOLUTION` (Torre Table 1 units:
 °/s, m/s², gauss per count), re-exported here with :class:`MoteSpec` and :data:`DEFAULT_SPEC`.
@@ -33,6 +38,11 @@ Examples
 9.8
 >>> GloveSimulator(seed=1).sample(250).frame == sim.sample(250).frame    # deterministic, random access
 True
+>>> drum = GloveSimulator(seed=1, bursts=[Burst(start=1.0, duration=2.0, peak_g=3.0, rate=4.0)])
+>>> [drum.sample(k).frame == sim.sample(k).frame for k in (99, 124)]    # before, in the 1st impact
+[True, False]
+>>> drum.truth(124).linear_acceleration.round(1).tolist()                # up: it stops the strike
+[0.0, 0.0, 22.1]
 """
 
 from __future__ import annotations
@@ -65,6 +75,8 @@ __all__ = [
     "DEFAULT_RESOLUTION",
     "DEFAULT_SPEC",
     "GRAVITY",
+    "IMPACT_S",
+    "Burst",
     "GloveSimulator",
     "MoteSpec",
     "MotionScript",
@@ -73,6 +85,8 @@ __all__ = [
     "Segment",
     "SensorModel",
     "Truth",
+    "adc_full_scale",
+    "burst_acceleration",
     "default_script",
     "hold",
 ]
@@ -322,6 +336,290 @@ def default_script() -> MotionScript:
 
 
 # --------------------------------------------------------------------------------------------------
+# Translation: strokes and shakes
+# --------------------------------------------------------------------------------------------------
+
+IMPACT_S = 0.015
+"""Width of a stroke's impact lobe, seconds (at most a fifth of the stroke period)."""
+
+BurstAxis = Literal["vertical", "pointing", "both"] | tuple[float, float, float]
+"""The direction of a :class:`Burst`: a name, or an earth-frame (NWU) vector."""
+
+_AXES = ("vertical", "pointing", "both")
+_KINDS = ("strokes", "shake")
+
+
+def _finite(name: str, value: float, *, above: float | None = None, minimum: float | None = None) -> float:
+    """``value`` as a float, or a ValueError naming ``name``, the bound and what came."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"Burst {name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"Burst {name} must be finite, got {value!r}")
+    if above is not None and not v > above:
+        raise ValueError(f"Burst {name} must be > {above:g}, got {value!r}")
+    if minimum is not None and not v >= minimum:
+        raise ValueError(f"Burst {name} must be >= {minimum:g}, got {value!r}")
+    return v
+
+
+def _cos2(x: np.ndarray, centre: float, width: float) -> np.ndarray:
+    """A cos² pulse: 1 at ``centre``, 0 with zero slope at ``centre ± width/2`` and 0 beyond."""
+    z = (x - centre) / width
+    return np.where(np.abs(z) < 0.5, np.cos(np.pi * z) ** 2, 0.0)
+
+
+@dataclass(frozen=True)
+class Burst:
+    r"""A burst of hand translation: percussive strokes or a shake, at known linear acceleration.
+
+    The burst adds a linear acceleration :math:`a(t)\,\hat u(t)` (m/s², earth frame NWU) to the hand:
+    a signed profile :math:`a(t)` (:meth:`profile`) along a unit direction :math:`\hat u`
+    (:meth:`direction`).  Within each stroke, and over a whole shake, the earth-frame velocity and
+    displacement come back to exactly zero (analytically, for a fixed :math:`\hat u`): the hand returns
+    to where it was.  The largest :math:`|a|` is exactly ``peak_g`` × :data:`GRAVITY`.
+
+    **Strokes** (drumming, striking).  The burst holds :attr:`count` = ⌊duration · rate⌋ whole strokes
+    of period :math:`T = 1/\mathrm{rate}`, back to back.  Each stroke's acceleration is three cos²
+    lobes :math:`c(\tau; \text{centre}, \text{width})` that do not overlap, with
+    :math:`w = \min(\text{IMPACT\_S}, T/5)` (15 ms) and :math:`s = (T - w)/2`:
+
+    .. math::
+        a(\tau) = A \left[ a_1\, c(\tau; s/2, s) - a_2\, c(\tau; 3s/2, s) + c(\tau; T - w/2, w) \right],
+        \quad a_1 = \frac{w (s + w)}{2 s^2}, \quad a_2 = a_1 + \frac{w}{s}
+
+    a broad lift along :math:`+\hat u` (:math:`0 \le \tau < s`), a broad swing back along
+    :math:`-\hat u` (:math:`s \le \tau < 2s`), and the sharp impact that stops the swing
+    (the last :math:`w` seconds, acceleration along :math:`+\hat u`).  :math:`a_1` and :math:`a_2` make
+    the integral and the first moment of :math:`a` over the stroke zero (velocity and displacement
+    back to zero); since :math:`w \le T/5`, :math:`a_1 \le 3/8` and :math:`a_2 \le 7/8`, so the peak
+    :math:`A` is the impact's.  The displacement is :math:`\ge 0` along :math:`\hat u` throughout (for
+    ``vertical``: lift the hand, strike down, stop at the drum head, where it started).  The
+    acceleration and its derivative are continuous (the position is a C³ bump).
+
+    **Shake.**  :attr:`count` = ⌊duration · rate⌋ whole cycles (at least 2) of
+
+    .. math::
+        a(\tau) = -A\, e(\tau) \cos(2\pi\, \mathrm{rate}\, \tau)
+
+    with the envelope :math:`e` rising as :math:`\sin^2(\pi u / 2)` over the first cycle (:math:`u` =
+    τ · rate, in cycles), 1 in between and falling symmetrically over the last cycle, so that :math:`a`
+    and its derivative are continuous.  For these one-cycle ramps :math:`\int e \cos = 0` over the
+    burst, which gives zero velocity at its end, and :math:`e \cos` is symmetric about the burst's
+    middle, so :math:`\int \tau\, a = 0` too: zero displacement.  :math:`|a| \le A`, reached where
+    :math:`e = 1` and :math:`\cos = \pm 1`.  The hand swings back and forth between (about) its start
+    and :math:`2A/\omega^2` along :math:`+\hat u` (:math:`\omega = 2\pi\,\mathrm{rate}`; up to 10/9 of
+    that in the ramps).
+
+    Parameters
+    ----------
+    start : float
+        Start of the burst, seconds, >= 0.
+    duration : float
+        Seconds, > 0.  The burst ends after its last whole stroke or cycle (:attr:`length`).
+    peak_g : float
+        Peak \|linear acceleration\|, in standard gravities (:data:`GRAVITY`), > 0.
+    rate : float
+        Strokes, or shake cycles, per second (Hz), > 0.
+    axis : {"vertical", "pointing", "both"} or 3 floats
+        ``"vertical"``: up (NWU z).  ``"pointing"``: the sensor x axis (the pointing axis) in the earth
+        frame, from the orientation at that instant.  ``"both"``: the unit vector along their sum (a
+        diagonal, 45° up from the pointing axis when the hand is level; taken as vertical when the hand
+        points straight down).  Or an explicit earth-frame vector (normalised here).
+        With ``"pointing"`` or ``"both"`` the direction turns with the hand; while the hand rotates
+        during a stroke, velocity and displacement come back to zero only approximately.
+    kind : {"strokes", "shake"}
+        See above.
+    every : float
+        Repeat the burst every ``every`` seconds from ``start`` (>= ``duration``); 0: once.
+
+    Raises
+    ------
+    ValueError
+        A parameter out of its range, an unknown kind or axis, a zero axis vector, fewer than one
+        stroke or two shake cycles in ``duration``, or repeats that would overlap.
+
+    Examples
+    --------
+    >>> b = Burst(start=1.0, duration=1.0, peak_g=2.0, rate=4.0)
+    >>> b.count, b.length, round(float(b.profile(1.25 - 0.0075)), 3)   # the 1st impact's middle: 2 g
+    (4, 1.0, 19.613)
+    >>> float(b.profile(0.5)), float(b.profile(2.5))                    # before and after: at rest
+    (0.0, 0.0)
+    >>> Burst(0.0, 1.0, axis=(0.0, 3.0, 4.0)).axis
+    (0.0, 0.6, 0.8)
+    """
+
+    start: float
+    duration: float
+    peak_g: float = 10.0
+    rate: float = 5.0
+    axis: BurstAxis = "vertical"
+    kind: Literal["strokes", "shake"] = "strokes"
+    every: float = 0.0
+
+    def __post_init__(self) -> None:
+        start = _finite("start", self.start, minimum=0.0)
+        duration = _finite("duration", self.duration, above=0.0)
+        peak_g = _finite("peak_g", self.peak_g, above=0.0)
+        rate = _finite("rate", self.rate, above=0.0)
+        every = _finite("every", self.every, minimum=0.0)
+        if self.kind not in _KINDS:
+            raise ValueError(f"Burst kind must be 'strokes' or 'shake', got {self.kind!r}")
+        axis: BurstAxis
+        if isinstance(self.axis, str):
+            if self.axis not in _AXES:
+                raise ValueError(
+                    f"Burst axis must be 'vertical', 'pointing', 'both' or 3 numbers, got {self.axis!r}"
+                )
+            axis = self.axis
+        else:
+            try:
+                u = np.asarray(self.axis, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"Burst axis must be a name or 3 numbers, got {self.axis!r}") from None
+            if u.shape != (3,) or not np.all(np.isfinite(u)):
+                raise ValueError(f"Burst axis must be 3 finite numbers, got {self.axis!r}")
+            norm = float(np.linalg.norm(u))
+            if norm == 0.0:
+                raise ValueError("Burst axis must not be the zero vector")
+            axis = tuple(float(c) for c in u / norm)  # type: ignore[assignment]
+        count = math.floor(duration * rate + 1e-9)
+        least = 1 if self.kind == "strokes" else 2
+        if count < least:
+            what = "1 stroke" if least == 1 else "2 shake cycles"
+            raise ValueError(
+                f"Burst of {duration:g} s at {rate:g} Hz holds {duration * rate:.3g} {self.kind} periods; "
+                f"it needs at least {what} (duration >= {least / rate:g} s)"
+            )
+        if every and every < duration:
+            raise ValueError(f"Burst every must be 0 (once) or >= duration {duration:g} s, got {every:g}")
+        for name, value in (
+            ("start", start),
+            ("duration", duration),
+            ("peak_g", peak_g),
+            ("rate", rate),
+            ("every", every),
+            ("axis", axis),
+        ):
+            object.__setattr__(self, name, value)
+
+    @property
+    def count(self) -> int:
+        """Whole strokes, or shake cycles, in one burst."""
+        return math.floor(self.duration * self.rate + 1e-9)
+
+    @property
+    def length(self) -> float:
+        """Seconds from the start to the end of the last whole stroke or cycle (<= ``duration``)."""
+        return self.count / self.rate
+
+    @property
+    def peak(self) -> float:
+        """Peak \\|linear acceleration\\|, m/s²."""
+        return self.peak_g * GRAVITY
+
+    def active(self, t: float) -> bool:
+        """True when time ``t`` (s) is inside the burst (or one of its repeats): its strokes or cycles."""
+        tau = t - self.start
+        if self.every and tau >= 0.0:
+            tau = math.fmod(tau, self.every)
+        return 0.0 <= tau < self.length
+
+    def _local(self, t: np.ndarray) -> np.ndarray:
+        """Time since the start of the burst occurrence covering ``t``; NaN outside every occurrence."""
+        tau = t - self.start
+        if self.every:
+            tau = np.where(tau >= 0.0, np.fmod(tau, self.every), tau)
+        return np.where((tau >= 0.0) & (tau < self.length), tau, np.nan)
+
+    def profile(self, t: ArrayLike) -> np.ndarray:
+        """Signed linear acceleration along :meth:`direction`, m/s², at time(s) ``t`` (s); 0 outside."""
+        tau = self._local(np.asarray(t, dtype=float))
+        inside = ~np.isnan(tau)
+        tau = np.where(inside, tau, 0.0)
+        if self.kind == "strokes":
+            period = 1.0 / self.rate
+            tau = tau - np.floor(tau * self.rate) * period  # time into the stroke
+            tau = np.clip(tau, 0.0, period)  # rounding at a stroke's edge, where a is 0 anyway
+            w = min(IMPACT_S, period / 5.0)
+            s = (period - w) / 2.0
+            a1 = w * (s + w) / (2.0 * s * s)
+            a2 = a1 + w / s
+            shape = a1 * _cos2(tau, s / 2, s) - a2 * _cos2(tau, 1.5 * s, s) + _cos2(tau, period - w / 2, w)
+        else:
+            u = tau * self.rate  # cycles
+            n = self.count
+            ramp = np.minimum(np.minimum(u, n - u), 1.0)
+            shape = -(np.sin(0.5 * np.pi * np.clip(ramp, 0.0, 1.0)) ** 2) * np.cos(2.0 * np.pi * u)
+        return np.where(inside, self.peak * shape, 0.0)
+
+    def direction(self, q: ArrayLike | None = None) -> np.ndarray:
+        """Earth-frame unit direction, shape (3,) or (N, 3) for orientations ``q`` (w, x, y, z) of shape
+        (4,) or (N, 4), sensor -> NWU; ``q`` is needed for ``"pointing"`` and ``"both"``."""
+        if not isinstance(self.axis, str):
+            return np.array(self.axis)
+        up = np.array([0.0, 0.0, 1.0])
+        if self.axis == "vertical":
+            return up
+        if q is None:
+            raise ValueError(f"a Burst along {self.axis!r} needs the orientation q")
+        w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+        pointing = np.stack([1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)], -1)
+        if self.axis == "pointing":
+            return pointing
+        both = pointing + up
+        norm = np.linalg.norm(both, axis=-1, keepdims=True)
+        return np.where(norm > 1e-9, both / np.where(norm > 1e-9, norm, 1.0), up)
+
+    def acceleration(self, t: ArrayLike, q: ArrayLike | None = None) -> np.ndarray:
+        """Earth-frame (NWU) linear acceleration, m/s², shape (3,) for a scalar ``t`` or (N, 3)."""
+        return self.profile(t)[..., None] * self.direction(q)
+
+
+def burst_acceleration(
+    bursts: Burst | Sequence[Burst], t: ArrayLike, q: ArrayLike | None = None
+) -> np.ndarray:
+    r"""The hand's linear acceleration from ``bursts`` at time(s) ``t``, earth frame (NWU), m/s².
+
+    The sum of each burst's :meth:`Burst.acceleration` (bursts that overlap add up).
+
+    Parameters
+    ----------
+    bursts : Burst or sequence of Burst
+        The bursts.
+    t : float or array_like, shape (N,)
+        Time(s), seconds.
+    q : array_like, shape (4,) or (N, 4), optional
+        True orientation(s) (w, x, y, z), sensor -> NWU, at ``t``: the ``"pointing"`` and ``"both"``
+        axes need it.
+
+    Returns
+    -------
+    numpy.ndarray, shape (3,) or (N, 3)
+        m/s²; zero outside the bursts.
+
+    Examples
+    --------
+    >>> b = Burst(start=0.0, duration=0.2, peak_g=1.0, rate=5.0, axis="pointing")
+    >>> q = [math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)]     # pointing west (+y)
+    >>> burst_acceleration(b, 0.2 - 0.0075, q).round(5).tolist()         # the impact's middle
+    [0.0, 9.80665, 0.0]
+    >>> burst_acceleration([b], [0.3, 0.4], [q, q]).tolist()
+    [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    """
+    if isinstance(bursts, Burst):
+        bursts = (bursts,)
+    t = np.asarray(t, dtype=float)
+    out = np.zeros((*t.shape, 3))
+    for b in bursts:
+        if t.ndim or b.active(float(t)):  # one sample at a time (the simulator): most are at rest
+            out += b.acceleration(t, q)
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
 # Sensors
 # --------------------------------------------------------------------------------------------------
 
@@ -332,12 +630,17 @@ class SensorModel:
     Physical readings in the sensor frame, in Torre's Table 1 units:
 
     * gyro (°/s): :math:`\omega + b + n_g`, with a constant bias :math:`b` per axis and white noise;
-    * accelerometer (m/s², specific force): :math:`R(q)^T (0, 0, g) + n_a` (reads :math:`+g` on the
-      axis pointing up at rest; hand translation is not modelled);
+    * accelerometer (m/s², specific force): :math:`R(q)^T ((0, 0, g) + a) + n_a`, with :math:`a` the
+      hand's linear acceleration in the earth frame (``accel_earth``, from bursts, :class:`Burst`; zero
+      by default): it reads :math:`+g` on the axis pointing up at rest;
     * magnetometer (gauss): :math:`R(q)^T B (\cos\delta, 0, -\sin\delta) + n_m`, the Earth's field of
       strength :math:`B` pointing north and down by the dip :math:`\delta`;
 
-    then counts = round(null + value / resolution), clipped to 0..4095 (:meth:`MoteSpec.to_counts`).
+    then, if ``gyro_range`` or ``acc_range`` is set, each gyro or accelerometer axis clipped to
+    ±range, as a MEMS part saturates at its full scale; then counts = round(null + value /
+    resolution), clipped to 0..4095 (:meth:`MoteSpec.to_counts`).  That 12-bit clip is the glove's own
+    full scale (:func:`adc_full_scale`): with :data:`DEFAULT_SPEC`, about ±4.0 g (±39.3 m/s²) for the
+    accelerometer and ±204.8 °/s for the gyro, so the counts saturate there whatever the ranges.
 
     Parameters
     ----------
@@ -358,6 +661,18 @@ class SensorModel:
         Magnetic inclination, degrees, positive down (67° by default, Ireland).
     seed : int
         Seeds the default bias.
+    acc_range : float, optional
+        Full scale of the accelerometer, m/s² (±, per axis, > 0): readings beyond are clipped.  Default
+        none (only the ADC clips).
+    gyro_range : float, optional
+        Full scale of the gyro, °/s (±, per axis, > 0), likewise.
+
+    Examples
+    --------
+    >>> sensor = SensorModel.ideal(acc_range=2 * GRAVITY)
+    >>> lift = [0.0, 0.0, 2 * GRAVITY]                  # 2 g up, on top of gravity: 3 g, clipped to 2 g
+    >>> sensor.values([1.0, 0, 0, 0], [0.0, 0, 0], accel_earth=lift)[3:6].round(4).tolist()
+    [0.0, 0.0, 19.6133]
     """
 
     def __init__(
@@ -373,8 +688,15 @@ class SensorModel:
         field_gauss: float = 0.48,
         dip_deg: float = 67.0,
         seed: int = 0,
+        acc_range: float | None = None,
+        gyro_range: float | None = None,
     ) -> None:
         self.spec = spec
+        for name, r in (("acc_range", acc_range), ("gyro_range", gyro_range)):
+            if r is not None and not (math.isfinite(r) and r > 0):
+                raise ValueError(f"{name} must be a finite number > 0 or None, got {r!r}")
+        self.acc_range = None if acc_range is None else float(acc_range)
+        self.gyro_range = None if gyro_range is None else float(gyro_range)
         if gyro_bias_dps is None:
             bias = np.random.default_rng([seed, 0xB1A5]).uniform(-gyro_bias_range, gyro_bias_range, 3)
         else:
@@ -405,11 +727,17 @@ class SensorModel:
             **kwargs,
         )
 
-    def true_values(self, q: ArrayLike, omega: ArrayLike) -> np.ndarray:
-        """Noiseless, unbiased readings, shape (9,): gyro °/s, accel m/s², mag gauss (sensor frame)."""
+    def true_values(self, q: ArrayLike, omega: ArrayLike, accel_earth: ArrayLike | None = None) -> np.ndarray:
+        """Noiseless, unbiased, unclipped readings, shape (9,): gyro °/s, accel m/s², mag gauss (sensor
+        frame); ``accel_earth`` is the hand's linear acceleration, m/s², earth frame (NWU)."""
         w, x, y, z = (float(c) for c in np.ravel(q))
         out = [math.degrees(float(r)) for r in np.ravel(omega)]
-        for vx, vy, vz in self._earth:  # each earth vector into the sensor frame: q* (0, v) q
+        earth = self._earth
+        if accel_earth is not None:
+            (gx, gy, gz), field = earth
+            ax, ay, az = (float(c) for c in np.ravel(accel_earth))
+            earth = ((gx + ax, gy + ay, gz + az), field)
+        for vx, vy, vz in earth:  # each earth vector into the sensor frame: q* (0, v) q
             tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
             out += (
                 vx - w * tx + (y * tz - z * ty),
@@ -418,19 +746,59 @@ class SensorModel:
             )
         return np.array(out)
 
-    def values(self, q: ArrayLike, omega: ArrayLike, rng: np.random.Generator | None = None) -> np.ndarray:
-        """Readings with bias and (if ``rng`` is given) noise, shape (9,), physical units."""
-        v = self.true_values(q, omega)
+    def values(
+        self,
+        q: ArrayLike,
+        omega: ArrayLike,
+        rng: np.random.Generator | None = None,
+        *,
+        accel_earth: ArrayLike | None = None,
+    ) -> np.ndarray:
+        """Readings with bias and (if ``rng`` is given) noise, clipped to ``gyro_range`` and
+        ``acc_range`` where set, shape (9,), physical units."""
+        v = self.true_values(q, omega, accel_earth)
         v[:3] += self.gyro_bias_dps
         if rng is not None:
             v += rng.standard_normal(9) * self.noise_sd
+        if self.gyro_range is not None:
+            np.clip(v[:3], -self.gyro_range, self.gyro_range, out=v[:3])
+        if self.acc_range is not None:
+            np.clip(v[3:6], -self.acc_range, self.acc_range, out=v[3:6])
         return v
 
     def counts(
-        self, q: ArrayLike, omega: ArrayLike, rng: np.random.Generator | None = None
+        self,
+        q: ArrayLike,
+        omega: ArrayLike,
+        rng: np.random.Generator | None = None,
+        *,
+        accel_earth: ArrayLike | None = None,
     ) -> tuple[int, ...]:
         """ADC counts 0..4095 of :meth:`values`."""
-        return self.spec.to_counts(self.values(q, omega, rng).tolist())
+        return self.spec.to_counts(self.values(q, omega, rng, accel_earth=accel_earth).tolist())
+
+
+def adc_full_scale(
+    sensor: Literal["gyro", "accel", "mag"], spec: MoteSpec = DEFAULT_SPEC
+) -> tuple[float, float, float]:
+    """The glove's own full scale: the symmetric range (±, physical units) each axis of ``sensor`` spans
+    through the 12-bit ADC, the smaller of ``null * resolution`` and ``(4095 - null) * resolution``.
+
+    Beyond it a reading clips at count 0 or 4095 (one side reaches a count further).  Units as
+    :class:`MoteSpec`: °/s, m/s², gauss.
+
+    Examples
+    --------
+    >>> [round(v, 4) for v in adc_full_scale("accel")], round(adc_full_scale("accel")[0] / GRAVITY, 3)
+    ([39.3024, 39.3024, 39.3024], 4.008)
+    >>> [round(v, 1) for v in adc_full_scale("gyro")]
+    [204.7, 204.7, 204.7]
+    """
+    groups = {"gyro": 0, "accel": 3, "mag": 6}
+    if sensor not in groups:
+        raise ValueError(f"sensor must be 'gyro', 'accel' or 'mag', got {sensor!r}")
+    i = groups[sensor]
+    return tuple(min(abs(lo), abs(hi)) for lo, hi in spec.full_scale[i : i + 3])  # type: ignore[return-value]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -447,13 +815,19 @@ class Sample(NamedTuple):
 
 
 class Truth(NamedTuple):
-    """Noiseless ground truth of a sample (sensor frame): rad/s, m/s², gauss."""
+    r"""Noiseless, unclipped ground truth of a sample.
+
+    ``omega`` (rad/s), ``specific_force`` (m/s², :math:`R(q)^T ((0, 0, g) + a)`) and ``field`` (gauss)
+    in the sensor frame; ``linear_acceleration`` :math:`a` (m/s²) of the hand in the earth frame
+    (NWU), zero outside bursts (:class:`Burst`).
+    """
 
     t: float
     q: np.ndarray
     omega: np.ndarray
     specific_force: np.ndarray
     field: np.ndarray
+    linear_acceleration: np.ndarray
 
 
 class GloveSimulator:
@@ -476,6 +850,10 @@ class GloveSimulator:
         Default ``SensorModel(seed=seed)``.
     n_pack_start : int
         Counter of sample 0 (the counter wraps at 65536).
+    bursts : sequence of Burst
+        Strokes and shakes of the hand: their linear acceleration (:func:`burst_acceleration`, with the
+        true orientation) adds to the specific force the accelerometer reads; the orientation is
+        unchanged.  Empty by default: the accelerometer sees gravity only.
     """
 
     def __init__(
@@ -487,6 +865,7 @@ class GloveSimulator:
         sensor: SensorModel | None = None,
         *,
         n_pack_start: int = 0,
+        bursts: Sequence[Burst] = (),
     ) -> None:
         if not rate_hz > 0:
             raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
@@ -498,6 +877,10 @@ class GloveSimulator:
         self.seed = int(seed)
         self.sensor = sensor if sensor is not None else SensorModel(seed=seed)
         self.n_pack_start = int(n_pack_start)
+        self.bursts: tuple[Burst, ...] = tuple(bursts)
+        bad = [b for b in self.bursts if not isinstance(b, Burst)]
+        if bad:
+            raise ValueError(f"bursts must be Burst values, got {bad[0]!r}")
 
     @property
     def period(self) -> float:
@@ -508,13 +891,18 @@ class GloveSimulator:
         """Time of sample ``k``, seconds."""
         return k / self.rate_hz
 
+    def linear_acceleration(self, t: float, q: np.ndarray) -> np.ndarray | None:
+        """The bursts' earth-frame acceleration at ``t`` (m/s²), or None without bursts."""
+        return burst_acceleration(self.bursts, t, q) if self.bursts else None
+
     def truth(self, k: int) -> Truth:
         """Noiseless ground truth of sample ``k``."""
         t = self.time(k)
         q = self.script.orientation(t)
         omega = self.script.angular_rate(t)
-        v = self.sensor.true_values(q, omega)
-        return Truth(t, q, omega, v[3:6], v[6:9])
+        a = self.linear_acceleration(t, q)
+        v = self.sensor.true_values(q, omega, a)
+        return Truth(t, q, omega, v[3:6], v[6:9], np.zeros(3) if a is None else a)
 
     def sample(self, k: int) -> Sample:
         """Sample ``k``: ``(t, frame, q_true)``."""
@@ -523,7 +911,8 @@ class GloveSimulator:
         t = self.time(k)
         q = self.script.orientation(t)
         rng = np.random.default_rng([self.seed, 1, k])
-        counts = self.sensor.counts(q, self.script.angular_rate(t), rng)
+        a = self.linear_acceleration(t, q)
+        counts = self.sensor.counts(q, self.script.angular_rate(t), rng, accel_earth=a)
         return Sample(t, Frame(self.mote_id, (self.n_pack_start + k) & 0xFFFF, counts), q)
 
     def samples(self, n: int, start: int = 0) -> list[Sample]:

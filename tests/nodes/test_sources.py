@@ -1,5 +1,6 @@
 """Sources and sinks through real parts: a pseudo-terminal for the mote, files for record and replay."""
 
+import math
 import os
 import re
 import time
@@ -547,6 +548,79 @@ def test_simulate_mote_must_be_a_mote_id_when_the_patch_is_checked(mote):
         patch(f"node glove simulate mote={mote}\n")
     assert "int 0..255" in default_registry.get("simulate").help_text()
     assert patch("node glove simulate mote=255\n").nodes["glove"].sim.mote_id == 255
+
+
+@pytest.mark.parametrize(
+    "params, said",
+    [
+        ("burst=drums", "parameter 'burst' expects one of none, strokes, shake"),
+        ("burst=strokes burst_axis=sideways", "expects one of vertical, pointing, both"),
+        ("burst=strokes burst_g=0", "parameter 'burst_g' expects a number > 0"),
+        ("burst=strokes burst_rate=-5", "parameter 'burst_rate' expects a number > 0"),
+        ("burst=shake burst_length=0", "parameter 'burst_length' expects a number > 0"),
+        ("burst=shake burst_every=0", "parameter 'burst_every' expects a number > 0"),
+        ("burst=strokes burst_length=40", "burst_length 40 s is longer than burst_every 30 s"),
+        (
+            "burst=strokes burst_length=0.1 burst_rate=5",
+            "less than a whole stroke: make burst_length at least 0.2 s",
+        ),
+        ("burst=shake burst_length=0.3 burst_rate=5", "less than two whole shake cycles"),
+    ],
+)
+def test_simulate_burst_parameters_are_checked_with_the_patch(params, said):
+    from pointat.errors import PatchError
+
+    with pytest.raises(PatchError, match=re.escape(said)):
+        patch(f"node glove simulate {params}\n")
+
+
+def test_simulate_bursts_default_to_none_and_unused_burst_parameters_are_not_held_against_it():
+    assert patch("node glove simulate\n").nodes["glove"].sim.bursts == ()
+    assert patch("node glove simulate burst_length=40 burst_rate=0.01\n").nodes["glove"].sim.bursts == ()
+    glove = patch("node glove simulate burst=shake burst_axis=both burst_g=2\n").nodes["glove"]
+    (b,) = glove.sim.bursts
+    assert (b.kind, b.axis, b.peak_g, b.rate, b.start, b.duration, b.every) == (
+        "shake",
+        "both",
+        2.0,
+        5.0,
+        30.0,
+        6.0,
+        30.0,
+    )
+
+
+def _simulate(params: str, seconds: float) -> list:
+    rt = patch(f"node glove simulate rate=100 seed=3 {params}\nnode out collect\nglove.adc -> out\n")
+    rt.advance(seconds)
+    rt.shutdown()
+    return rt.nodes["out"].messages
+
+
+def test_simulate_strokes_change_the_accelerometer_in_the_burst_windows_only():
+    from pointat.devices.glove_sim import Burst, SensorModel
+    from pointat.devices.mote_frame import ADC_MAX
+
+    burst = "burst=strokes burst_every=1 burst_length=0.5 burst_rate=4"  # 10 g, up and down
+    plain, drummed = _simulate("duration=3.6", 4.0), _simulate(f"duration=3.6 {burst}", 4.0)
+    assert len(plain) == len(drummed) == 360
+    windows = []
+    for p, d in zip(plain, drummed, strict=True):
+        assert p.time == d.time
+        assert p.value[:3] == d.value[:3] and p.value[6:] == d.value[6:]  # gyro, mag: as they were
+        if p.value != d.value:
+            windows.append(round(p.time, 2))
+    assert {math.floor(t) for t in windows} == {1, 2, 3}  # every burst_every seconds from 1 s ...
+    assert all(t - math.floor(t) < 0.5 for t in windows)  # ... for burst_length
+    assert len(windows) == 3 * (50 - 2)  # all but the two strokes' starts, where a = 0
+    # the impacts (10 g up, on top of gravity) clip at the ADC, as the real glove would
+    z = [d.value[5] for d in drummed]
+    assert z.count(ADC_MAX) == 6 and max(p.value[5] for p in plain) < 2600  # one sample in each impact
+    # the same as the simulator with the burst described directly
+    sim = GloveSimulator(
+        rate_hz=100.0, seed=3, sensor=SensorModel(seed=3), bursts=[Burst(1.0, 0.5, 10.0, 4.0, every=1.0)]
+    )
+    assert all(d.value == sim.sample(k).frame.channels for k, d in enumerate(drummed))
 
 
 def test_replay_reads_gzipped_ndjson(tmp_path):
