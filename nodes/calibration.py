@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from pointat.devices.mote_frame import ADC_MAX, ADC_NULL, DEFAULT_RESOLUTION
+from pointat.devices.mote_frame import ADC_MAX, ADC_NULL, DEFAULT_RESOLUTION, MoteSpec, adc_full_scale
 from pointat.errors import worth_reporting
 from pointat.maths.calibration import (
     Calibration,
@@ -247,17 +247,27 @@ class Scaling(Node):
                     ", ".join(nominal),
                 )
         self.factor: tuple[float, ...] = tuple(float(f) for f in factor)
-        self.full_scale = (self._full_scale(cal, 3), self._full_scale(cal, 0))
+        self.full_scale = self._full_scale(cal)
 
-    def _full_scale(self, cal: Calibration | None, first: int) -> float:
-        """The reading at which the least sensitive of three axes (from channel ``first``) sticks."""
-        nulls = None
-        if cal is not None:
-            n = np.asarray(cal.gyro_null if first == 0 else cal.acc_null, dtype=float)
-            if np.all((n > 0.0) & (n < ADC_MAX)):
-                nulls = n.tolist()
-        counts = [self.RAIL_COUNTS] * 3 if nulls is None else [min(n, ADC_MAX - n) for n in nulls]
-        return min(c * abs(self.factor[first + a]) for a, c in enumerate(counts))
+    def _full_scale(self, cal: Calibration | None) -> tuple[float, float]:
+        """(accelerometer, gyro): the reading at which the least sensitive axis of each sticks."""
+
+        def nulls(n: Any) -> list[float]:
+            n = np.asarray(n, dtype=float)
+            if cal is not None and np.all((n > 0.0) & (n < ADC_MAX)):
+                return n.tolist()
+            return [self.RAIL_COUNTS] * 3  # a null that far from a rail is that far from the nearer one
+
+        spec = MoteSpec(
+            null=nulls(cal.gyro_null if cal else 0) + nulls(cal.acc_null if cal else 0) + [ADC_NULL] * 3,
+            resolution=[abs(f) or 1.0 for f in self.factor[:6]] + [1.0] * 3,
+        )
+        # a sensor scaled by 0 reads 0 whatever the counts: no rail to tell (0, not known)
+        acc, gyro = (
+            min(adc_full_scale(s, spec)) if all(self.factor[i : i + 3]) else 0.0
+            for s, i in (("accel", 3), ("gyro", 0))
+        )
+        return acc, gyro
 
     def loadbang(self) -> None:
         self.out(3, self.full_scale)

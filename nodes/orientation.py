@@ -453,34 +453,16 @@ fuse.flags -> state
             raise ValueError(f"dip must be -90..90 deg (or nan: learned), got {values['dip']}")
 
     def setup(self) -> None:
-        dip = None if math.isnan(self.p.dip) else math.radians(self.p.dip)
-        self.filter = TQTFilter(
-            self.p.k or None,
-            rho=self.p.rho,
-            iterations=self.p.iterations,
-            mode=self.p.mode,
-            use_gyro=self.p.use_gyro,
-            dip=dip,
-            k_heading=self.p.k_heading,
-            **_ranges(self.p.acc_range, self.p.gyro_range),
-        )
+        self.filter = TQTFilter(self.p.k or None, **_settings(self.p))
         self._bits = 0  # the flags last reported ("ok" until a flag is up)
         self.reset_clock()
 
     def param_changed(self, name: str) -> None:
-        value = getattr(self.p, name)
-        if name == "k" and value == 0:  # 0: the mode's own gain, live as at load
-            value = TQTFilter.default_k(self.p.mode, self.p.use_gyro)
-        if name in ("acc_range", "gyro_range"):
-            self.filter.retune(**_ranges(**{name: value}))
-        else:
-            self.filter.retune(**{name: value})
+        _retune(self.filter, self.p, name)
 
     def on_range(self, msg: Message) -> None:
         acc, gyro = as_floats(msg, 2)
-        if not (acc >= 0.0 and gyro >= 0.0 and math.isfinite(acc) and math.isfinite(gyro)):
-            raise ValueError(f"range must be two finite numbers >= 0 (accelerometer, gyro), got {acc} {gyro}")
-        self.filter.retune(acc_range=acc, gyro_range=gyro)
+        self.filter.retune(acc_range=acc, gyro_range=gyro)  # (refuses what the constructor refuses)
 
     def on_gyro(self, msg: Message) -> None:
         gyro = as_floats(msg, 3)
@@ -507,14 +489,30 @@ fuse.flags -> state
 _NOT_REST = ~int(TQTFlags.REST)  # resting is normal, not a status to report
 
 
-def _ranges(acc_range: float | None = None, gyro_range: float | None = None) -> dict[str, float]:
-    """The nodes' full scales (g, deg/s) in the filter's units (m/s², rad/s)."""
-    out = {}
-    if acc_range is not None:
-        out["acc_range"] = acc_range * STANDARD_GRAVITY
-    if gyro_range is not None:
-        out["gyro_range"] = math.radians(gyro_range)
-    return out
+def _settings(p: Any) -> dict[str, Any]:
+    """The filter's keyword settings from a ``tqt`` or ``tqt_bank`` node's parameters (its ``k`` apart:
+    0 there is the mode's own), full scales from g and deg/s into m/s² and rad/s."""
+    return {
+        "rho": p.rho,
+        "iterations": p.iterations,
+        "mode": p.mode,
+        "use_gyro": p.use_gyro,
+        "dip": None if math.isnan(p.dip) else math.radians(p.dip),
+        "k_heading": p.k_heading,
+        "acc_range": p.acc_range * STANDARD_GRAVITY,
+        "gyro_range": math.radians(p.gyro_range),
+    }
+
+
+def _retune(target: TQTFilter | TQTBank, p: Any, name: str) -> None:
+    """A ``tqt`` or ``tqt_bank`` node's live parameter ``name`` changed: into its filter, in the filter's
+    units (``k`` 0: the mode's own gain, live as at load)."""
+    if name == "k":
+        target.retune(k=p.k or target.default_k(p.mode, p.use_gyro))
+    elif name in ("acc_range", "gyro_range"):
+        target.retune(**{name: _settings(p)[name]})
+    else:
+        target.retune(**{name: getattr(p, name)})
 
 
 #: (bit, name) of every flag, lowest bit first: the order the ``flags`` outlet names them in.
@@ -633,19 +631,7 @@ right.gyro -> suit.gyro2
 
     def setup(self) -> None:
         p, n = self.p, self.p.sensors
-        dip = None if math.isnan(p.dip) else math.radians(p.dip)
-        self.bank = TQTBank(
-            n,
-            p.k or None,
-            rho=p.rho,
-            iterations=p.iterations,
-            mode=p.mode,
-            use_gyro=p.use_gyro,
-            dip=dip,
-            k_heading=p.k_heading,
-            backend=p.backend,
-            **_ranges(p.acc_range, p.gyro_range),
-        )
+        self.bank = TQTBank(n, p.k or None, backend=p.backend, **_settings(p))
         self._gyro = [_NAN3] * n
         self._accel = [_NAN3] * n
         self._mag = [_NAN3] * n
@@ -667,13 +653,7 @@ right.gyro -> suit.gyro2
         self._initialised = [False] * n
 
     def param_changed(self, name: str) -> None:
-        value = getattr(self.p, name)
-        if name == "k" and value == 0:
-            value = TQTBank.default_k(self.p.mode, self.p.use_gyro)
-        if name in ("acc_range", "gyro_range"):
-            self.bank.retune(**_ranges(**{name: value}))
-        else:
-            self.bank.retune(**{name: value})
+        _retune(self.bank, self.p, name)
 
     def _make_handler(self, index: int, inlet: Inlet) -> Any:
         sensor, part = divmod(index, 3)

@@ -67,6 +67,7 @@ from pointat.devices.mote_frame import (
     DEFAULT_SPEC,
     Frame,
     MoteSpec,
+    adc_full_scale,
     encode_frame,
     encode_text,
 )
@@ -776,29 +777,6 @@ class SensorModel:
     ) -> tuple[int, ...]:
         """ADC counts 0..4095 of :meth:`values`."""
         return self.spec.to_counts(self.values(q, omega, rng, accel_earth=accel_earth).tolist())
-
-
-def adc_full_scale(
-    sensor: Literal["gyro", "accel", "mag"], spec: MoteSpec = DEFAULT_SPEC
-) -> tuple[float, float, float]:
-    """The glove's own full scale: the symmetric range (±, physical units) each axis of ``sensor`` spans
-    through the 12-bit ADC, the smaller of ``null * resolution`` and ``(4095 - null) * resolution``.
-
-    Beyond it a reading clips at count 0 or 4095 (one side reaches a count further).  Units as
-    :class:`MoteSpec`: °/s, m/s², gauss.
-
-    Examples
-    --------
-    >>> [round(v, 4) for v in adc_full_scale("accel")], round(adc_full_scale("accel")[0] / GRAVITY, 3)
-    ([39.3024, 39.3024, 39.3024], 4.008)
-    >>> [round(v, 1) for v in adc_full_scale("gyro")]
-    [204.7, 204.7, 204.7]
-    """
-    groups = {"gyro": 0, "accel": 3, "mag": 6}
-    if sensor not in groups:
-        raise ValueError(f"sensor must be 'gyro', 'accel' or 'mag', got {sensor!r}")
-    i = groups[sensor]
-    return tuple(min(abs(lo), abs(hi)) for lo, hi in spec.full_scale[i : i + 3])  # type: ignore[return-value]
 
 
 # --------------------------------------------------------------------------------------------------

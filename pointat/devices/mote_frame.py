@@ -134,6 +134,7 @@ __all__ = [
     "MoteStats",
     "NewMote",
     "ParserStats",
+    "adc_full_scale",
     "could_be_lost",
     "crc16_ccitt_false",
     "encode_frame",
@@ -309,6 +310,31 @@ class MoteSpec:
 
 
 DEFAULT_SPEC = MoteSpec()
+
+
+def adc_full_scale(
+    sensor: Literal["gyro", "accel", "mag"], spec: MoteSpec = DEFAULT_SPEC
+) -> tuple[float, float, float]:
+    """The glove's own full scale: the symmetric range (±, physical units) each axis of ``sensor`` spans
+    through the 12-bit ADC, the smaller of ``null * resolution`` and ``(4095 - null) * resolution``.
+
+    Beyond it a reading clips at count 0 or 4095 (one side reaches a count further).  Units as
+    :class:`MoteSpec`: °/s, m/s², gauss.
+
+    Examples
+    --------
+    >>> [round(v, 4) for v in adc_full_scale("accel")], round(adc_full_scale("accel")[0] / 9.80665, 3)
+    ([39.3024, 39.3024, 39.3024], 4.008)
+    >>> [round(v, 1) for v in adc_full_scale("gyro")]
+    [204.7, 204.7, 204.7]
+    """
+    groups = {"gyro": 0, "accel": 3, "mag": 6}
+    if sensor not in groups:
+        raise ValueError(f"sensor must be 'gyro', 'accel' or 'mag', got {sensor!r}")
+    i = groups[sensor]
+    return tuple(min(abs(lo), abs(hi)) for lo, hi in spec.full_scale[i : i + 3])  # type: ignore[return-value]
+
+
 """The default :class:`MoteSpec`: null 2048 and :data:`DEFAULT_RESOLUTION` on every channel."""
 
 

@@ -446,33 +446,27 @@ class TQTFlags(IntFlag):
 
     NONE = 0
     #: gyro not finite, or beyond :data:`~pointat.maths.scalar.MAX_RATE`: no rate propagation this step
-    GYRO_INVALID = 1
+    GYRO_INVALID = tqt_step.F_GYRO_INVALID
     #: accelerometer zero, not finite, or impossible (beyond half again its full scale; with no full scale
     #: known, :data:`ACC_LIMIT` times the first reading): no gravity correction this step
-    ACC_INVALID = 2
+    ACC_INVALID = tqt_step.F_ACC_INVALID
     #: magnetometer zero or not finite: no magnetic correction this step
-    MAG_INVALID = 4
+    MAG_INVALID = tqt_step.F_MAG_INVALID
     #: ``dt`` not a finite positive number: nothing done
-    DT_INVALID = 8
+    DT_INVALID = tqt_step.F_DT_INVALID
     #: no valid accelerometer + magnetometer pair seen yet: the output is the identity
-    UNINITIALISED = 16
+    UNINITIALISED = tqt_step.F_UNINITIALISED
     #: robust mode: the field's norm or dip is off its reference, the magnetometer was ignored
-    MAG_DISTURBED = 32
+    MAG_DISTURBED = tqt_step.F_MAG_DISTURBED
     #: robust mode: the sensor is at rest, the gyro bias is being learned
-    REST = 64
+    REST = tqt_step.F_REST
     #: robust mode: an accelerometer axis reached its full scale (``acc_range``) within the last 0.5 s
-    ACC_SATURATED = 128
+    ACC_SATURATED = tqt_step.F_ACC_SATURATED
     #: robust mode: a gyro axis reached its full scale (``gyro_range``) within the last 0.5 s
-    GYRO_SATURATED = 256
+    GYRO_SATURATED = tqt_step.F_GYRO_SATURATED
     #: robust mode: the specific force's norm is off gravity by more than half a g on average over 0.25 s
     #: (down again below 0.3 g)
-    SHAKING = 512
-
-
-_GYRO_INVALID = int(TQTFlags.GYRO_INVALID)
-_ACC_INVALID = int(TQTFlags.ACC_INVALID)
-_MAG_INVALID = int(TQTFlags.MAG_INVALID)
-_UNINITIALISED = int(TQTFlags.UNINITIALISED)
+    SHAKING = tqt_step.F_SHAKING
 
 
 Mode = Literal["robust", "paper"]
@@ -554,6 +548,7 @@ class _TQTParams:
         self.acc_range = float(acc_range)
         self.gyro_range = float(gyro_range)
         self._p = self._params()
+        self._step = tqt_step.robust_step if mode == "robust" else _paper_step
         self.reset()
 
     @classmethod
@@ -634,7 +629,8 @@ class _TQTParams:
         >>> f.k, f.k_heading
         (0.5, 0.1)
         """
-        for name, value in gains.items():
+        new = {}
+        for name, value in gains.items():  # all checked before any is set: a refusal changes nothing
             if name not in self._TUNABLE:
                 raise ValueError(f"cannot retune {name!r}; tunable: {', '.join(self._TUNABLE)}")
             value = float(value)
@@ -642,6 +638,8 @@ class _TQTParams:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
             if value == 0.0 and name in ("acc_tau", "bias_tau"):  # time constants: as the constructor says
                 raise ValueError(f"{name} must be > 0, got {value!r}")
+            new[name] = value
+        for name, value in new.items():
             setattr(self, name, value)
         self._p[:] = self._params()  # in place: a bank's compiled kernel holds the same vector
 
@@ -693,7 +691,8 @@ class TQTFilter(_TQTParams):
        :math:`\alpha = k\Delta t`.
     4. *Magnetic gating.*  The magnetometer is ignored while its norm deviates more than
        ``mag_norm_tol`` (relative) or its dip more than ``mag_dip_tol`` from the reference, learned on the
-       first sample and refined at rest (within the gate only).
+       first sample and refined at rest (within the gate only).  Gating on the accelerometer norm is not
+       done: it made every variant worse on BROAD.
     5. *Saturation* (when the source gives ``acc_range`` / ``gyro_range``, the sensor's full scale per
        axis).  A chunk of acceleration goes into :math:`e` only if neither it nor its neighbours saw an
        axis at full scale: a stroke is left out whole, swing and impact, never one side of it, so the
@@ -747,9 +746,9 @@ class TQTFilter(_TQTParams):
 
     Notes
     -----
-    The defaults, and the evidence for each, are in ``benchmarks/README.md`` (leave-one-trial-out over
-    the ten BROAD trials, Laidig et al. 2021, one vendored in ``pointat/data``, and simulated strokes,
-    shakes and clipping with known truth):
+    The evidence for the defaults: ``benchmarks/LOO.md`` (leave-one-trial-out over the ten BROAD trials,
+    Laidig et al. 2021, one vendored in ``pointat/data``) and ``tests/maths/test_tqt_strokes.py``
+    (simulated strokes, shakes and clipping with known truth):
 
     * ``k = 1`` (f_c ≈ 0.16 Hz): the tilt follows the averaged vertical within about a second; the
       smoothing is the 2 s summing of extension 3 (the patent's "time weighted summing").
@@ -784,8 +783,7 @@ class TQTFilter(_TQTParams):
         """
         q0 = None if q is None else tuple(float(c) for c in quat_normalize(q))
         self._s = tqt_step.new_state(q0, self.dip)  # type: ignore[arg-type]
-        self._flags = 0 if q0 is not None else _UNINITIALISED
-        self._step = tqt_step.robust_step if self.mode == "robust" else _paper_step
+        self._flags = 0 if q0 is not None else tqt_step.F_UNINITIALISED
 
     @property
     def q(self) -> tuple[float, float, float, float]:
@@ -856,11 +854,11 @@ class TQTFilter(_TQTParams):
 def _paper_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
     """One sample of paper mode on the state vector of :mod:`pointat.maths.tqt_step` (``p`` holds ``k``;
     ``rho`` and ``iterations`` ride after the robust parameters)."""
-    flags, go = tqt_step.paper_begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
+    flags, go = tqt_step.begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
     if not go:
         return flags
-    a_ok = not flags & _ACC_INVALID
-    m_ok = not flags & _MAG_INVALID and s[tqt_step.S_MAG_KNOWN] != 0.0  # no reference yet: no field
+    a_ok = not flags & tqt_step.F_ACC_INVALID
+    m_ok = not flags & tqt_step.F_MAG_INVALID and s[tqt_step.S_MAG_KNOWN] != 0.0  # no reference yet: no field
     w, x, y, z = s[0], s[1], s[2], s[3]
     vx = vy = vz = 0.0
     if a_ok or m_ok:
@@ -871,7 +869,7 @@ def _paper_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
             (s[tqt_step.S_NX], 0.0, s[tqt_step.S_NZ]), p[_P_RHO], int(p[_P_ITERATIONS]),
         )  # fmt: skip
     alpha = p[tqt_step.P_ALPHA]
-    if not flags & _GYRO_INVALID and p[tqt_step.P_USE_GYRO]:
+    if not flags & tqt_step.F_GYRO_INVALID and p[tqt_step.P_USE_GYRO]:
         h = 0.5 * dt
         hx, hy, hz = h * gx + alpha * vx, h * gy + alpha * vy, h * gz + alpha * vz
     else:
@@ -1048,9 +1046,6 @@ class TQTBank(_TQTParams):
             self.update(zeros, zeros, zeros, 0.01)
             self.reset()
 
-    def retune(self, **gains: float) -> None:
-        super().retune(**gains)
-
     def reset(self, q: ArrayLike | None = None) -> None:
         """Forget everything (all sensors); start from ``q`` or from each sensor's next valid acc / mag pair.
 
@@ -1061,7 +1056,7 @@ class TQTBank(_TQTParams):
         """
         qs = [None] * self.n if q is None else np.broadcast_to(quat_normalize(q), (self.n, 4)).tolist()
         self._s = np.array([tqt_step.new_state(qi, self.dip) for qi in qs])
-        self._flags = np.full(self.n, 0 if q is not None else _UNINITIALISED, dtype=np.int64)
+        self._flags = np.full(self.n, 0 if q is not None else tqt_step.F_UNINITIALISED, dtype=np.int64)
 
     @property
     def q(self) -> np.ndarray:
@@ -1133,8 +1128,7 @@ class TQTBank(_TQTParams):
             self._kernel(np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m), dt, here,
                          self._s, self._p, self._flags)  # fmt: skip
             return self._s[:, :4].copy()
-        step = tqt_step.robust_step if self.mode == "robust" else _paper_step
-        p = self._p
+        step, p = self._step, self._p
         for i, (gi, ai, mi) in enumerate(zip(g.tolist(), a.tolist(), m.tolist(), strict=True)):
             if here[i]:
                 s = self._s[i].tolist()

@@ -40,10 +40,11 @@ __all__ = [
     "CHUNK",
     "K_RECOVER",
     "RECOVER_TIME",
-    "paper_begin",
+    "begin",
     "params",
-    "robust_step",
     "new_state",
+    "robust_bank",
+    "robust_step",
 ]
 
 _INF = math.inf
@@ -202,17 +203,20 @@ def _rotate(w, x, y, z, vx, vy, vz):  # type: ignore[no-untyped-def]
     return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
 
 
-def _mul_exp(w, x, y, z, hx, hy, hz):  # type: ignore[no-untyped-def]
-    """:math:`q \\otimes \\exp(0, h)` for floats (``h`` = half the rotation vector, body frame)."""
+def _exp(hx, hy, hz):  # type: ignore[no-untyped-def]
+    """:math:`\\exp(0, h)`, the unit quaternion of half rotation vector ``h``, for floats."""
     n2 = hx * hx + hy * hy + hz * hz
     if n2 < _EXP_TAYLOR:
         c, s = 1.0 - 0.5 * n2, 1.0 - n2 / 6.0
     else:
         n = math.sqrt(n2)
         c, s = math.cos(n), math.sin(n) / n
-    hx *= s
-    hy *= s
-    hz *= s
+    return c, hx * s, hy * s, hz * s
+
+
+def _mul_exp(w, x, y, z, hx, hy, hz):  # type: ignore[no-untyped-def]
+    """:math:`q \\otimes \\exp(0, h)` for floats (``h`` = half the rotation vector, body frame)."""
+    c, hx, hy, hz = _exp(hx, hy, hz)
     return (
         w * c - x * hx - y * hy - z * hz,
         w * hx + x * c + y * hz - z * hy,
@@ -282,9 +286,10 @@ def _accept_acc(s, p, ax, ay, az, a2):  # type: ignore[no-untyped-def]
     return True
 
 
-def _begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
+def begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
     """Validate the sample and learn what is still unknown (TRIAD start, first readings, magnetic
-    reference).  Returns ``(flags, go)``: ``go`` false when this sample is done with (``flags`` stored)."""
+    reference): the first part of every mode's step.  Returns ``(flags, go)``: ``go`` false when this
+    sample is done with (no valid ``dt``, not initialised yet, or the sample that set the orientation)."""
     if not 0.0 < dt < _INF:  # also catches NaN
         return F_DT_INVALID, False
     if dt != p[P_DT]:
@@ -325,11 +330,6 @@ def _begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-unt
     return flags, True
 
 
-def paper_begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
-    """:func:`_begin` for paper mode, whose correction :mod:`pointat.maths.tqt` does on floats."""
-    return _begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
-
-
 def _turn_average(s, cw, sx, sy, sz):  # type: ignore[no-untyped-def]
     """Turn the acceleration average and its pending chunks with a correction of the estimate."""
     for i in (S_E, S_CUR, S_PREV):
@@ -367,7 +367,7 @@ def _add_to_average(s, p, ex, ey, ez, dt, bad):  # type: ignore[no-untyped-def]
 def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
     """One sample of robust mode (:class:`~pointat.maths.tqt.TQTFilter`): changes ``s`` (and ``p``'s
     per-``dt`` coefficients), returns the flag bits."""
-    flags, go = _begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
+    flags, go = begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
     if not go:
         return flags
     g_ok = (flags & F_GYRO_INVALID) == 0
@@ -469,15 +469,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
             alpha = max(p[P_ALPHA], p[P_ALPHA_REC]) if recovering else p[P_ALPHA]
             eh = math.sqrt(eh2)
             f = 0.5 * alpha * math.atan2(eh, ez) / eh  # half the correction angle, per |e_h|
-            sx, sy = f * ey, -f * ex  # half rotation vector about (e x up)
-            s2 = sx * sx + sy * sy
-            if s2 < _EXP_TAYLOR:
-                cw, sinc = 1.0 - 0.5 * s2, 1.0 - s2 / 6.0
-            else:
-                sn = math.sqrt(s2)
-                cw, sinc = math.cos(sn), math.sin(sn) / sn
-            sx *= sinc
-            sy *= sinc
+            cw, sx, sy, _ = _exp(f * ey, -f * ex, 0.0)  # half rotation vector about (e x up)
             # q <- C q, and the average with it, C = (cw, sx, sy, 0) in the earth frame
             w, x, y, z = (
                 cw * w - sx * x - sy * y,

@@ -745,3 +745,24 @@ def test_retune_refuses_what_the_constructor_refuses():
     assert all(
         math.isfinite(c) for c in flt.update((0.1, 0.0, 0.0), (0.0, 0.0, 9.81), (0.3, 0.0, -0.4), 0.01)
     )
+
+
+def test_the_steps_triad_is_accmag_quat():
+    """tqt_step._triad is accmag_quat on floats (numba compiles it; accmag_quat it cannot): held equal here,
+    degenerate pairs included."""
+    from pointat.maths import tqt_step
+    from pointat.maths.fusion import accmag_quat
+
+    rng = np.random.default_rng(5)
+    pairs = [(rng.normal(0, 10, 3), rng.normal(0, 1, 3)) for _ in range(500)]
+    pairs += [
+        ((0.0, 0.0, G), (0.0, 0.0, -0.5)),
+        ((0.0, 0.0, 0.0), FIELD),
+        ((0.0, 0.0, G), (math.nan, 0.0, 0.0)),
+    ]
+    for acc, mag in pairs:
+        ok, *q = tqt_step._triad(*(float(c) for c in acc), *(float(c) for c in mag))
+        ref = accmag_quat(acc, mag)
+        assert ok == (ref is not None)
+        if ok:
+            np.testing.assert_allclose(q, ref, atol=1e-12)

@@ -1,5 +1,6 @@
 """The Pointing-at chain on the simulated glove, against its ground truth."""
 
+import math
 import socket
 import sys
 from pathlib import Path
@@ -8,8 +9,9 @@ import numpy as np
 import pytest
 
 from pointat.devices.glove_sim import GloveSimulator
+from pointat.maths.calibration import Calibration
 from pointat.maths.quaternion import matrix_to_quat, quat_angle
-from pointat.message import vector
+from pointat.message import make, vector
 from pointat.testing import patch
 
 LIB = Path(__file__).resolve().parents[2] / "patches" / "lib"
@@ -391,3 +393,38 @@ f.distance -> out.distance
             rt.shutdown()
     assert rt.nodes["out"].sent - sent == 400  # every sample went the whole way
     assert seen == []
+
+
+def test_scaling_tells_tqt_the_adcs_full_scale_so_a_clipped_axis_is_known(tmp_path):
+    """scaling's range (the ADC's rails through its resolutions) reaches tqt at start; with a calibration
+    file's nulls it is their nearer rail's, without them mid-scale less 5 % (said early, never late)."""
+    wires = "fuse.quat -> est\nunits.range -> fuse.range\nunits.range -> scale\n"
+    rt = glove_into("fuse", 1, "node fuse tqt\nnode est collect\nnode scale collect\n" + wires)
+    rt.start()
+    (acc, gyro), rail = rt.nodes["scale"].values[-1], 2048 - 0.05 * 4095
+    assert (acc, gyro) == pytest.approx((rail * 0.0192, rail * math.radians(0.1)))
+    f = rt.nodes["fuse"].filter
+    assert (f.acc_range, f.gyro_range) == (acc, gyro)
+    path = tmp_path / "cal.json"
+    Calibration(gyro_null=[2050.0, 2040.0, 2049.0], acc_null=[2000.0, 2100.0, 2048.0]).save(path)
+    rt = patch(f"node units scaling calibration={path}\nnode scale collect\nunits.range -> scale\n")
+    rt.start()
+    acc, gyro = rt.nodes["scale"].values[-1]
+    assert (acc, gyro) == pytest.approx(((4095 - 2100) * 0.0192, 2040 * math.radians(0.1)))  # nearest rails
+
+
+def test_tqt_full_scale_parameters_are_in_g_and_degrees_and_live():
+    from pointat.message import method
+
+    rt = patch("node fuse tqt acc_range=4 gyro_range=2000\n")
+    f = rt.nodes["fuse"]
+    assert f.filter.acc_range == pytest.approx(4.0 * 9.80665)
+    assert f.filter.gyro_range == pytest.approx(math.radians(2000.0))
+    rt.start()
+    f.receive(0, method("acc_range", 16.0))
+    assert f.filter.acc_range == pytest.approx(16.0 * 9.80665)
+    f.receive(0, method("k", 0.0))  # 0: the mode's own gain
+    assert f.filter.k == 1.0
+    with pytest.raises(ValueError, match="acc_range must be a finite number >= 0"):
+        f.receive(3, make([-1.0, 3.0]))
+    assert f.filter.acc_range == pytest.approx(16.0 * 9.80665)  # a refused range changes nothing
