@@ -357,9 +357,9 @@ class TQT(SampleClock, Flagged, Node):
     corrupt one, NaN or a thousand g, is dropped), and a hand's pushes and pulls cancel in it, so hard
     strokes do not tip the sound.  When an axis clips at its full scale the reading is wrong, so that
     whole stretch of motion is left out of the average (never only the clipped peaks, which would tip
-    it) and the gyro carries the orientation through it.  When the gyro itself clips (a turn faster
-    than it measures), the orientation is re-found from gravity and the field within about two seconds
-    afterwards.  To know a clipped axis the filter needs the sensor's full scale: wire ``scaling``'s
+    it) and the gyro carries the orientation through it.  A gyro that clips (a turn faster than it
+    measures) leaves the orientation behind the hand: the flag says so, and gravity and the field bring
+    it back at the usual pace (a quicker catch-up made real recordings worse).  To know a clipped axis the filter needs the sensor's full scale: wire ``scaling``'s
     ``range`` outlet to the ``range`` inlet (the glove's ADC), or set ``acc_range`` and ``gyro_range``.
     ``flags`` says ``acc_saturated``, ``gyro_saturated`` and ``shaking`` while they last (and
     ``mag_disturbed``, ``bad_gyro``..., or ``ok``).

@@ -296,3 +296,13 @@ def test_a_failed_child_is_reported_with_the_end_of_what_it_printed(tmp_path):
     log.write_text("")
     assert _last_words(log) == "; it printed nothing"
     assert _last_words(tmp_path / "none.log") == ""
+
+
+def test_leave_one_out_scores_each_trial_with_the_point_best_on_the_others():
+    from benchmarks.loo import grid_points, leave_one_out
+
+    s = np.array([[1.0, 1.0, 9.0], [2.0, 2.0, 1.0], [5.0, 0.5, 5.0]])
+    chosen, loo = leave_one_out(s)
+    # held out 0: point 1 is best on trials 1, 2 (mean 1.5); held out 1: point 1 (1.5); held out 2: point 0 (1.0)
+    assert chosen.tolist() == [1, 1, 0] and loo.tolist() == [2.0, 2.0, 9.0]
+    assert grid_points({"a": (1, 2), "b": (3,)}) == [{"a": 1, "b": 3}, {"a": 2, "b": 3}]

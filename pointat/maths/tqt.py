@@ -694,11 +694,10 @@ class TQTFilter(_TQTParams):
        first sample and refined at rest (within the gate only).  Gating on the accelerometer norm is not
        done: it made every variant worse on BROAD.
     5. *Saturation* (when the source gives ``acc_range`` / ``gyro_range``, the sensor's full scale per
-       axis).  A chunk of acceleration goes into :math:`e` only if neither it nor its neighbours saw an
-       axis at full scale: a stroke is left out whole, swing and impact, never one side of it, so the
-       average stays unbiased.  A saturated gyro turned the estimate by less than the hand turned: the
-       average starts again after it, and for two seconds both corrections run at 5 1/s, the magnetometer
-       gated by its norm alone.
+       axis).  No chunk of acceleration goes into :math:`e` from just before a spell of accelerometer
+       saturation (clips less than 1 s apart) to 1 s after it: strokes are left out whole, swing and
+       impact, never one side of them, so the average stays unbiased; once the gyro alone has turned
+       the estimate by half a turn a chunk goes in all the same.  A saturated gyro is flagged only.
 
     Nothing a hand can produce is refused: a reading counts as corrupt only beyond half again the full
     scale, or with none known beyond :data:`ACC_LIMIT` (1000) times the first reading.  :attr:`flags`

@@ -16,14 +16,14 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
 * **Saturation is known, not guessed**, when the source says its full scale (``acc_range``,
   ``gyro_range``): an axis at its rail reads less than the truth.  Leaving out only the clipped samples
   would leave out one side of a zero-mean stroke, so the acceleration average is fed in *chunks* of
-  :data:`CHUNK` seconds, and a chunk goes in only when neither it nor its neighbours saw saturation: the
-  whole stroke is left out, its swing with its impact.  What is averaged stays an average over whole
-  stretches of motion, so it stays unbiased; the average is then at most two chunks late (0.2 s, beside
-  its 2 s time constant).
-* **A saturated gyro** turns the estimate by less than the hand turned, so after it the filter leans on
-  gravity and the field: the acceleration average starts again from the first clean chunk, and for
-  :data:`RECOVER_TIME` seconds both corrections run at :data:`K_RECOVER` (1/s) and the magnetometer is
-  gated by its norm alone (its dip, measured through a tilt that may be wrong, cannot be trusted).
+  :data:`CHUNK` seconds, and none joins it from a chunk before a spell of saturation (saturations less
+  than :data:`SATURATION_SPELL` apart) to that long after the spell: the strokes are left out whole,
+  swings with impacts.  Only once the gyro alone has turned the estimate by :data:`TURN_BUDGET` does a
+  chunk join all the same: a long spell of fast turning would cost more in gyro drift than a clipped
+  chunk costs in bias.  The average is at most two chunks late (0.2 s, beside its 2 s time constant).
+* **A saturated gyro** is flagged, nothing more.  Leaning on gravity and the field after it (the average
+  started anew, faster corrections) fixed the simulated rolls but made every real recording with a
+  clipped gyro worse (BROAD with the gyro clipped at 300 and 500 °/s; ``benchmarks/README.md``).
 
 The state and parameter layouts are private to :mod:`pointat.maths.tqt`; nothing else reads them.
 """
@@ -38,8 +38,6 @@ __all__ = [
     "ACC_LIMIT",
     "ACC_RELEARN",
     "CHUNK",
-    "K_RECOVER",
-    "RECOVER_TIME",
     "begin",
     "params",
     "new_state",
@@ -61,13 +59,15 @@ ACC_RELEARN = 50
 _RANGE_CORRUPT = 1.5
 #: Seconds of acceleration summed into one chunk of the earth-frame average (robust mode).
 CHUNK = 0.1
-#: Seconds after the last saturated gyro sample during which the corrections run fast.
-RECOVER_TIME = 2.0
-#: The gain (1/s) of both corrections while recovering from a saturated gyro.
-K_RECOVER = 5.0
-#: Seconds a saturation flag stays up after the last saturated sample (strokes at 2 Hz and more read as
-#: one spell, not as a flickering flag).
-_SATURATION_HOLD = 0.5
+#: Saturations less than this many seconds apart are one spell (strokes or shakes at 1 Hz and faster): the
+#: acceleration average takes nothing from a chunk before a spell, during it, and for this long after
+#: it, and the saturation flag is up as long.
+SATURATION_SPELL = 1.0
+#: Radians the gyro may turn the estimate alone, the average taking nothing, before a chunk joins it spell
+#: or not: a gyro's scale error (0.5-1 % for MEMS parts) costs about a degree a half turn, as much as a
+#: clipped chunk's bias at one chunk a half turn.  Slow pointing rides through a spell on the gyro; fast
+#: turning keeps the average fed.
+TURN_BUDGET = math.pi
 #: Shaking: the mean deviation of the specific force's norm from gravity, over :data:`_SHAKE_TAU`
 #: seconds, above which the flag goes up and below which it goes down again (fractions of gravity).
 _SHAKE_ON = 0.5
@@ -105,24 +105,22 @@ S_E = 16  # 3: earth-frame acceleration average
 S_E_AGE = 19  # seconds of acceleration in the average (0: none yet, no gravity correction)
 S_CUR = 20  # 3: the chunk being summed (earth-frame acceleration x seconds)
 S_CUR_T = 23  # its seconds
-S_CUR_BAD = 24  # 1.0: it saw saturation
-S_PREV = 25  # 3: the chunk before, waiting for its successor's verdict
-S_PREV_T = 28
-S_PREV_BAD = 29
-S_PREV2_BAD = 30  # the chunk before that saw saturation
-S_A2_MAX = 31  # ACC_LIMIT times the first reading, squared
-S_A_OVER = 32  # readings in a row beyond it
-S_MAG_KNOWN = 33  # 1.0: the magnetic reference is set
-S_MAG_NORM = 34
-S_DIP = 35  # dip reference (rad)
-S_NX = 36  # magnetic reference (cos dip, 0, -sin dip)
-S_NZ = 37
-S_ACC_SAT_T = 38  # seconds since the accelerometer last saturated
-S_GYRO_SAT_T = 39  # seconds since the gyro last saturated
-S_SHAKE = 40  # low-pass of the relative deviation of |a| from gravity
-S_SHAKING = 41  # 1.0: shaking (with hysteresis)
-S_GNORM = 42  # |gravity| in the accelerometer's unit (first reading, refined at rest)
-STATE_SIZE = 43
+S_PREV = 24  # 3: the chunk before, waiting for its successor's end to be judged
+S_PREV_T = 27
+S_A2_MAX = 28  # ACC_LIMIT times the first reading, squared
+S_A_OVER = 29  # readings in a row beyond it
+S_MAG_KNOWN = 30  # 1.0: the magnetic reference is set
+S_MAG_NORM = 31
+S_DIP = 32  # dip reference (rad)
+S_NX = 33  # magnetic reference (cos dip, 0, -sin dip)
+S_NZ = 34
+S_ACC_SAT_T = 35  # seconds since the accelerometer last saturated
+S_GYRO_SAT_T = 36  # seconds since the gyro last saturated
+S_SHAKE = 37  # low-pass of the relative deviation of |a| from gravity
+S_SHAKING = 38  # 1.0: shaking (with hysteresis)
+S_GNORM = 39  # |gravity| in the accelerometer's unit (first reading, refined at rest)
+S_TURN = 40  # radians the gyro has turned the estimate since a chunk last joined the average
+STATE_SIZE = 41
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -131,10 +129,8 @@ P_REST_TIME, P_REST_GYRO, P_REST_ACC, P_BIAS_CLIP = 6, 7, 8, 9
 P_USE_GYRO, P_HAS_DIP = 10, 11
 P_ACC_RANGE, P_GYRO_RANGE = 12, 13  # full scale per axis (0: not known)
 # per-dt coefficients, recomputed when dt changes
-P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_ALPHA_REC, P_C_SAT = (
-    14, 15, 16, 17, 18, 19, 20, 21, 22,
-)  # fmt: skip
-PARAM_SIZE = 23
+P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_C_SAT = 14, 15, 16, 17, 18, 19, 20, 21
+PARAM_SIZE = 22
 
 _LONG_AGO = 1e9  # "seconds since" for a saturation never seen
 
@@ -191,7 +187,6 @@ def _coefficients(p, dt):  # type: ignore[no-untyped-def]
     p[P_ALPHA] = min(p[P_K] * dt, 1.0)
     # without a gyro nothing carries the heading between corrections: it follows the field as fast as tilt
     p[P_ALPHA_MAG] = p[P_ALPHA] if no_gyro else min(p[P_K_HEADING] * dt, 1.0)
-    p[P_ALPHA_REC] = min(K_RECOVER * dt, 1.0)
     p[P_C_SAT] = 1.0 - math.exp(-dt / _SHAKE_TAU)
 
 
@@ -336,19 +331,18 @@ def _turn_average(s, cw, sx, sy, sz):  # type: ignore[no-untyped-def]
         s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
 
 
-def _add_to_average(s, p, ex, ey, ez, dt, bad):  # type: ignore[no-untyped-def]
+def _add_to_average(s, p, ex, ey, ez, dt, calm):  # type: ignore[no-untyped-def]
     """Sum one earth-frame acceleration into the current chunk; when the chunk is full, the chunk before it
-    joins the average if neither it nor its neighbours were ``bad`` (saw saturation)."""
+    joins the average if all is still ``calm`` (no saturation for :data:`SATURATION_SPELL` seconds)."""
     s[S_CUR] += ex * dt
     s[S_CUR + 1] += ey * dt
     s[S_CUR + 2] += ez * dt
     s[S_CUR_T] += dt
-    if bad:
-        s[S_CUR_BAD] = 1.0
     if s[S_CUR_T] < CHUNK * (1.0 - 1e-9):
         return
     t = s[S_PREV_T]
-    if t > 0.0 and s[S_PREV_BAD] == 0.0 and s[S_PREV2_BAD] == 0.0 and s[S_CUR_BAD] == 0.0:
+    if t > 0.0 and (calm or s[S_TURN] >= TURN_BUDGET):
+        s[S_TURN] = 0.0
         age = s[S_E_AGE]
         c = 1.0 - math.exp(-t / p[P_ACC_TAU])
         if age < p[P_ACC_TAU]:  # (re)starting: the plain mean of what there is, until a time constant is in
@@ -358,10 +352,8 @@ def _add_to_average(s, p, ex, ey, ez, dt, bad):  # type: ignore[no-untyped-def]
         s[S_E + 1] += c * (s[S_PREV + 1] * inv - s[S_E + 1])
         s[S_E + 2] += c * (s[S_PREV + 2] * inv - s[S_E + 2])
         s[S_E_AGE] = age + t
-    s[S_PREV2_BAD] = s[S_PREV_BAD]
-    s[S_PREV], s[S_PREV + 1], s[S_PREV + 2] = s[S_CUR], s[S_CUR + 1], s[S_CUR + 2]
-    s[S_PREV_T], s[S_PREV_BAD] = s[S_CUR_T], s[S_CUR_BAD]
-    s[S_CUR] = s[S_CUR + 1] = s[S_CUR + 2] = s[S_CUR_T] = s[S_CUR_BAD] = 0.0
+    s[S_PREV], s[S_PREV + 1], s[S_PREV + 2], s[S_PREV_T] = s[S_CUR], s[S_CUR + 1], s[S_CUR + 2], s[S_CUR_T]
+    s[S_CUR] = s[S_CUR + 1] = s[S_CUR + 2] = s[S_CUR_T] = 0.0
 
 
 def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
@@ -381,27 +373,27 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     a_sat = a_ok and r > 0.0 and (abs(ax) >= r or abs(ay) >= r or abs(az) >= r)
     if g_sat:
         s[S_GYRO_SAT_T] = 0.0
-        s[S_E_AGE] = 0.0  # turned by less than the hand: the average starts again after it
     elif s[S_GYRO_SAT_T] < _LONG_AGO:
         s[S_GYRO_SAT_T] += dt
     if a_sat:
         s[S_ACC_SAT_T] = 0.0
     elif s[S_ACC_SAT_T] < _LONG_AGO:
         s[S_ACC_SAT_T] += dt
-    if s[S_ACC_SAT_T] < _SATURATION_HOLD:
+    if s[S_ACC_SAT_T] < SATURATION_SPELL:
         flags |= F_ACC_SATURATED
-    if s[S_GYRO_SAT_T] < _SATURATION_HOLD:
+    if s[S_GYRO_SAT_T] < SATURATION_SPELL:
         flags |= F_GYRO_SATURATED
-    recovering = use_gyro and s[S_GYRO_SAT_T] < RECOVER_TIME
-    # the dip seen through the estimate's tilt is no test of the field while that tilt may be off:
-    # recovering, or with no gyro to carry the tilt between corrections (it lags the motion)
-    dip_gate = use_gyro and not recovering
+    # without a gyro to carry the tilt between corrections it lags the motion, and the dip seen through it
+    # is no test of the field
+    dip_gate = use_gyro
     w, x, y, z = s[S_QW], s[S_QX], s[S_QY], s[S_QZ]
     bx, by, bz = s[S_BIAS], s[S_BIAS + 1], s[S_BIAS + 2]
     # (0) propagation with the bias-corrected rate, exact over the sample
     if g_ok and use_gyro:
         h = 0.5 * dt
         w, x, y, z = _mul_exp(w, x, y, z, h * (gx - bx), h * (gy - by), h * (gz - bz))
+        if s[S_TURN] < TURN_BUDGET:
+            s[S_TURN] += dt * math.sqrt((gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2)
     # (2) rest detection and gyro bias; shaking
     rest = False
     if a_ok:
@@ -413,7 +405,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
             s[S_SHAKING] = 0.0
     if s[S_SHAKING] != 0.0:
         flags |= F_SHAKING
-    if g_ok and a_ok and not (g_sat or a_sat):
+    if g_ok and a_ok:
         c = p[P_C_REST]
         lgx = s[S_LPG] + c * (gx - s[S_LPG])
         lgy = s[S_LPG + 1] + c * (gy - s[S_LPG + 1])
@@ -454,10 +446,9 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     correct = False
     if use_gyro:
         if a_ok:
+            calm = s[S_ACC_SAT_T] >= SATURATION_SPELL
             aex, aey, aez = _rotate(w, x, y, z, ax, ay, az)
-            _add_to_average(s, p, aex, aey, aez, dt, g_sat or a_sat)
-        elif g_sat:
-            s[S_CUR_BAD] = 1.0
+            _add_to_average(s, p, aex, aey, aez, dt, calm)
         correct = s[S_E_AGE] > 0.0
     elif a_ok and not a_sat:  # accelerometer / magnetometer only: no frame to average in, the reading itself
         s[S_E], s[S_E + 1], s[S_E + 2] = _rotate(w, x, y, z, ax, ay, az)
@@ -466,9 +457,8 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         ex, ey, ez = s[S_E], s[S_E + 1], s[S_E + 2]
         eh2 = ex * ex + ey * ey
         if eh2 > 0.0:
-            alpha = max(p[P_ALPHA], p[P_ALPHA_REC]) if recovering else p[P_ALPHA]
             eh = math.sqrt(eh2)
-            f = 0.5 * alpha * math.atan2(eh, ez) / eh  # half the correction angle, per |e_h|
+            f = 0.5 * p[P_ALPHA] * math.atan2(eh, ez) / eh  # half the correction angle, per |e_h|
             cw, sx, sy, _ = _exp(f * ey, -f * ex, 0.0)  # half rotation vector about (e x up)
             # q <- C q, and the average with it, C = (cw, sx, sy, 0) in the earth frame
             w, x, y, z = (
@@ -488,8 +478,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         if abs(norm - ref) > p[P_MAG_NORM_TOL] * ref or (dip_gate and abs(dip - s[S_DIP]) > p[P_MAG_DIP_TOL]):
             flags |= F_MAG_DISTURBED
         elif bh > 0.0:
-            alpha = max(p[P_ALPHA_MAG], p[P_ALPHA_REC]) if recovering else p[P_ALPHA_MAG]
-            half = -0.5 * alpha * math.atan2(bey, bex)
+            half = -0.5 * p[P_ALPHA_MAG] * math.atan2(bey, bex)
             cz, sz = math.cos(half), math.sin(half)
             w, x, y, z = cz * w - sz * z, cz * x - sz * y, cz * y + sz * x, cz * z + sz * w
             _turn_average(s, cz, 0.0, 0.0, sz)

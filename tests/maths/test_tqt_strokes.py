@@ -4,7 +4,8 @@ on the simulated glove with known truth (:class:`pointat.devices.glove_sim.Burst
 The hand points slowly (the demo script) and makes a 6 s burst from t = 10 s.  Claims held here, each
 against the truth: 1 s after any burst up to 15 g, with ideal sensors or with the accelerometer clipped at
 the glove's ±4 g (its full scale given to the filter), the estimate is within 2° of the truth; with
-noise and a gyro bias, the burst adds at most 2° to the error the same motion has without it.
+noise and a gyro bias, the burst adds at most 2° to the error the same motion has without it.  How the
+same rules fare on real recordings (BROAD, clipped by hand) is in benchmarks/README.md.
 """
 
 from __future__ import annotations
@@ -110,22 +111,22 @@ def test_clipped_strokes_without_the_full_scale_tip_the_estimate():
     assert unknown[after] > 5.0 and known[after] < 1.0
 
 
-def test_a_saturated_gyro_is_recovered_from_gravity_and_the_field():
-    """The demo's 90° rolls (141 °/s) through a gyro that clips at 90 °/s: the estimate turns by less than
-    the hand.  Told the full scale, the filter is back within 2° two seconds after each spell; not told,
-    it is still 9° and more off."""
+def test_a_saturated_gyro_is_flagged_and_changes_nothing_else():
+    """The demo's 90° rolls (141 °/s) through a gyro that clips at 90 °/s.  The flag is up through each
+    spell and down a second after it; the estimate is the one the filter makes without the full scale: a
+    quicker catch-up after the spell fixed these rolls but made every BROAD recording with a clipped gyro
+    worse (benchmarks/README.md), so there is none."""
     q, g, a, m = readings([], 41.0, noise=False)
     r = math.radians(90.0)
     saturated = np.any(np.abs(g) > r, axis=1)
     g = np.clip(g, -r, r)
     known, flags = run(TQTFilter(gyro_range=r), g, a, m)
-    unknown = run(TQTFilter(), g, a, m)[0]
+    np.testing.assert_array_equal(known, run(TQTFilter(), g, a, m)[0])
     ends = np.flatnonzero(saturated[:-1] & ~saturated[1:])
     assert len(ends) == 2  # the roll there and the roll back
     for i in ends:
-        assert error_deg(known, q)[i + 200] <= 2.0
-        assert error_deg(unknown, q)[i + 200] > 9.0
-        assert flags[i] & TQTFlags.GYRO_SATURATED
+        assert flags[i] & TQTFlags.GYRO_SATURATED and not flags[i + 110] & TQTFlags.GYRO_SATURATED
+    assert not (flags[: np.flatnonzero(saturated)[0]] & TQTFlags.GYRO_SATURATED).any()
 
 
 def test_accel_mag_only_tracking_follows_slow_motion_within_two_degrees():
