@@ -12,7 +12,6 @@ data.  Total RMSE in degrees, the data set's metric; the unclipped run beside th
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from collections.abc import Sequence
@@ -21,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.accuracy import _tqt, _vqf_params, trial_files
+from benchmarks.accuracy import _tqt, _vqf_params
+from benchmarks.loo import table_main
 from pointat.maths.evaluation import broad_rmse, load_broad
 
 G = 9.80665
@@ -90,21 +90,7 @@ def report(files: list[Path], workers: int) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from benchmarks.__main__ import DEFAULT_DATA
-
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.clipping", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of BROAD trials (*.csv.gz)")
-    ap.add_argument("--out", type=Path, default=Path(__file__).with_name("CLIPPING.md"))
-    ap.add_argument("--workers", type=int, default=2)
-    args = ap.parse_args(argv)
-    files = trial_files(args.data)
-    if not files:
-        print(f"python -m benchmarks.clipping: no BROAD trials in {args.data}", file=sys.stderr)
-        return 2
-    text = report(files, args.workers)
-    args.out.write_text(text)
-    print(text)
-    return 0
+    return table_main(argv, "clipping", __doc__, "CLIPPING.md", 1, report)
 
 
 if __name__ == "__main__":

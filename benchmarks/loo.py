@@ -133,22 +133,45 @@ def _params(p: dict[str, float]) -> str:
     return ", ".join(f"{k}={v:g}" for k, v in p.items())
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def table_main(
+    argv: Sequence[str] | None,
+    module: str,
+    doc: str,
+    out: str,
+    least: int,
+    report: Callable[[list[Path], int], str],
+) -> int:
+    """The command line of a BROAD table (``python -m benchmarks.MODULE``): ``--data``, ``--out`` (default
+    ``out`` beside this file), ``--workers``; the table written and printed."""
     from benchmarks.__main__ import DEFAULT_DATA
 
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.loo", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog=f"python -m benchmarks.{module}", description=doc.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of BROAD trials (*.csv.gz)")
-    ap.add_argument("--out", type=Path, default=Path(__file__).with_name("LOO.md"))
+    ap.add_argument("--out", type=Path, default=Path(__file__).with_name(out))
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)
     files = trial_files(args.data)
-    if len(files) < 3:
-        print(f"python -m benchmarks.loo: needs 3 or more BROAD trials in {args.data}", file=sys.stderr)
+    if len(files) < least:
+        print(
+            f"python -m benchmarks.{module}: needs {least} or more BROAD trials in {args.data}",
+            file=sys.stderr,
+        )
         return 2
-    text = report(files, args.workers, lambda s: print(s, file=sys.stderr))
+    text = report(files, args.workers)
     args.out.write_text(text)
     print(text)
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return table_main(
+        argv,
+        "loo",
+        __doc__,
+        "LOO.md",
+        3,
+        lambda files, n: report(files, n, lambda s: print(s, file=sys.stderr)),
+    )
 
 
 if __name__ == "__main__":
