@@ -88,6 +88,8 @@ class AccuracyResults:
     families: dict[str, str] = field(default_factory=dict)  # filter -> "pointat" | library
     seconds: dict[str, float] = field(default_factory=dict)
     errors: list[str] = field(default_factory=list)
+    loo: str = ""  # benchmarks.loo's table (Markdown, without its title)
+    shakes: str = ""  # benchmarks.shakes's
 
     def mean(self, name: str) -> Score:
         s = list(self.scores[name].values())
@@ -295,4 +297,10 @@ def run_all(files: list[Path], progress: Callable[[str], None]) -> AccuracyResul
             res.seconds[name] = res.seconds.get(name, 0.0) + time.perf_counter() - t0
             res.families[name] = family
             res.scores.setdefault(name, {})[trial] = Score(*broad_rmse(q, d["q_gt"], d["movement"]))
+    from benchmarks import loo, shakes  # (they import this module)
+
+    if len(files) >= 3:
+        res.loo = loo.report(files, 2, progress).split("\n", 2)[2]
+    progress("accuracy: strikes and shakes, simulated")
+    res.shakes = shakes.report().split("\n", 2)[2]
     return res

@@ -615,6 +615,14 @@ def _accuracy_section(acc: AccuracyResults, data_note: str) -> list[str]:
     out += ["Run time of each filter over these trials (s, this machine):", ""]
     out += _table(["filter", "seconds"], rows)
     out += ["![Mean total RMSE by filter](figures/accuracy_mean.svg)", ""]
+    if acc.loo:
+        out += ["### Leave-one-trial-out (`python -m benchmarks.loo`)", "", acc.loo]
+    if acc.shakes:
+        out += [
+            "### Strikes and shakes, simulated with known truth (`python -m benchmarks.shakes`)",
+            "",
+            acc.shakes,
+        ]
     return out
 
 

@@ -12,6 +12,7 @@ reported on its ``flags`` outlet; nothing downstream ever sees NaN.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import logging
 import math
@@ -359,8 +360,10 @@ class TQT(SampleClock, Flagged, Node):
     whole stretch of motion is left out of the average (never only the clipped peaks, which would tip
     it) and the gyro carries the orientation through it.  A gyro that clips (a turn faster than it
     measures) leaves the orientation behind the hand: the flag says so, and gravity and the field bring
-    it back at the usual pace (a quicker catch-up made real recordings worse).  To know a clipped axis the filter needs the sensor's full scale: wire ``scaling``'s
-    ``range`` outlet to the ``range`` inlet (the glove's ADC), or set ``acc_range`` and ``gyro_range``.
+    it back at the usual pace (a quicker catch-up made real recordings worse).  To know a clipped axis
+    the filter needs the sensor's full scale: wire a ``range`` outlet to the ``range`` inlet
+    (``scaling``'s knows the glove's ADC; ``replay``'s and ``osc_in``'s send the ``acc_range`` and
+    ``gyro_range`` you give them from the sensor's data sheet), or set ``acc_range`` and ``gyro_range``.
     ``flags`` says ``acc_saturated``, ``gyro_saturated`` and ``shaking`` while they last (and
     ``mag_disturbed``, ``bad_gyro``..., or ``ok``).
 
@@ -555,7 +558,8 @@ class TQTBankNode(Node):
     clock) are updated once per sample all the same, some ticks in two updates.  ``flags`` sends ``I
     status`` when sensor I's status changes: ``ok``, ``missing`` (it missed 2 ticks in a row, ``MISSING``:
     a single lost packet, or a sample that came out of turn, is not reported), or the filter's flags as
-    ``tqt`` reports them.
+    ``tqt`` reports them.  ``range`` (first inlet; from ``scaling``'s ``range``) gives every sensor
+    of the bank the full scale of its accelerometer and gyro, as ``tqt``'s does.
     """
 
     pure = True
@@ -601,7 +605,8 @@ right.gyro -> suit.gyro2
 
     @classmethod
     def layout(cls, values: Mapping[str, Any]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
-        inlets: list[Inlet] = []
+        inlets = [dataclasses.replace(TQT.inlets[-1], hot=False)]  # range: first, as the ports that do not
+        # depend on sensors are (Pd's stub is drawn for 16 sensors)
         outlets = [
             Outlet("quats", "vector", "every sensor's quaternion, 4N numbers, sensor 1 first"),
             Outlet(
@@ -655,8 +660,14 @@ right.gyro -> suit.gyro2
     def param_changed(self, name: str) -> None:
         _retune(self.bank, self.p, name)
 
+    def on_range(self, msg: Message) -> None:
+        acc, gyro = as_floats(msg, 2)
+        self.bank.retune(acc_range=acc, gyro_range=gyro)  # every sensor: one model of sensor in a bank
+
     def _make_handler(self, index: int, inlet: Inlet) -> Any:
-        sensor, part = divmod(index, 3)
+        if index == 0:
+            return self.on_range
+        sensor, part = divmod(index - 1, 3)
         return partial((self._on_gyro, self._on_accel, self._on_mag)[part], sensor)
 
     def _on_accel(self, i: int, msg: Message) -> None:

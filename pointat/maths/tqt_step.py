@@ -120,7 +120,8 @@ S_SHAKE = 37  # low-pass of the relative deviation of |a| from gravity
 S_SHAKING = 38  # 1.0: shaking (with hysteresis)
 S_GNORM = 39  # |gravity| in the accelerometer's unit (first reading, refined at rest)
 S_TURN = 40  # radians the gyro has turned the estimate since a chunk last joined the average
-STATE_SIZE = 41
+S_BIAS_T = 41  # seconds of rest in the bias estimate (a plain mean of them while fewer than bias_tau)
+STATE_SIZE = 42
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -431,7 +432,11 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
             if s[S_REST_T] >= p[P_REST_TIME]:
                 rest = True
                 flags |= F_REST
-                c = p[P_C_BIAS]
+                # the mean of every rest so far until bias_tau of it is in, then a running average that
+                # forgets: a glove that rested 3 s knows its bias, and one that warms up follows it
+                t = s[S_BIAS_T] + dt
+                s[S_BIAS_T] = t
+                c = max(p[P_C_BIAS], dt / t)
                 s[S_BIAS], s[S_BIAS + 1], s[S_BIAS + 2] = (
                     bx + c * (lgx - bx),
                     by + c * (lgy - by),

@@ -419,6 +419,22 @@ def test_robust_learns_the_gyro_bias_at_rest():
     np.testing.assert_allclose(f.bias, bias, atol=5e-4)
 
 
+def test_a_glove_that_rested_a_few_seconds_knows_its_bias_and_points_right():
+    """A cheap gyro's bias (1°/s, ten times BROAD's) and a performer who rests 5 s at the start: the bias
+    is the mean of that rest (not a fraction of it, as a bias_tau-long running average alone would learn),
+    so the heading does not settle about bias / k_heading (20°) off while the hand moves."""
+    bias = np.radians((1.0, -0.8, 0.6))
+    dt, q, gyro, acc, mag = synthetic(seed=2, seconds=40.0, rest=5.0, bias=tuple(bias), noise=True)
+    f = TQTFilter()
+    out = []
+    for i in range(len(gyro)):
+        out.append(f.update(gyro[i], acc[i], mag[i], dt))
+        if i == int(5.0 / dt) - 1:  # (rest is told after 1.5 s of it, and the first sample is a turn's)
+            np.testing.assert_allclose(f.bias, bias, atol=np.radians(0.1))
+    error = np.degrees(quat_angle(np.array(out), q))
+    assert error[int(25 / dt) :].max() < 2.0  # the drift of the rest before the bias was known, gone
+
+
 def test_robust_ignores_a_magnetic_disturbance():
     """A magnet near the sensor (|B| +50%, 30° off) for 10 s: gated, the heading keeps to the gyro."""
     dt, q, gyro, acc, mag = synthetic(seed=4, seconds=40.0)

@@ -1,6 +1,7 @@
 """tqt_bank: many sensors through the tqt filter together, as one node in a patch."""
 
 import logging
+import math
 
 import numpy as np
 import pytest
@@ -69,7 +70,7 @@ GYRO = (0.0, 0.0, 0.5)  # turning about the vertical at 0.5 rad/s
 def tick(bank, k, sensors=(1, 2)):
     """Sample k (t = k / 100 s) from each of ``sensors``: mag, accel, then the hot gyro."""
     for s in sensors:
-        i = 3 * (s - 1)
+        i = 1 + 3 * (s - 1)  # inlet 0 is range
         bank.receive(i + 2, floats((0.2, 0.0, -0.4), k / 100))
         bank.receive(i + 1, floats((0.0, 0.0, 9.81), k / 100))
         bank.receive(i, floats(GYRO, k / 100))
@@ -117,7 +118,7 @@ def test_sensors_delivered_in_no_fixed_order_are_each_updated_once_a_sample():
         rt.start()
         for k in range(300):
             for s in order(k) if k < 299 else (1, 2, 3):  # the last in turn, so nothing is left pending
-                i = 3 * (s - 1)
+                i = 1 + 3 * (s - 1)  # inlet 0 is range
                 wobble = 0.3 * np.sin(0.05 * k + s)
                 rt.nodes["bank"].receive(i + 2, floats((0.2, 0.05 * s, -0.4), k / 100))
                 rt.nodes["bank"].receive(i + 1, floats((wobble, 0.0, 9.81), k / 100))
@@ -189,12 +190,31 @@ def test_bank_gains_are_live_and_the_layout_follows_sensors():
     assert bank.bank.k_heading == 0.2
     with pytest.raises(ValueError, match="cannot change while running"):
         bank.receive(0, method("sensors", 3))
-    assert [i.name for i in bank.in_specs] == ["gyro1", "accel1", "mag1", "gyro2", "accel2", "mag2"]
+    assert [i.name for i in bank.in_specs] == ["range", "gyro1", "accel1", "mag1", "gyro2", "accel2", "mag2"]
     assert [o.name for o in bank.out_specs] == ["quats", "flags", "quat1", "quat2"]
 
 
+def test_the_range_inlet_gives_every_sensor_its_full_scale_and_saturation_is_flagged():
+    rt, bank = bank2()
+    bank.receive(0, floats((4 * 9.80665, math.radians(500.0)), 0.0))
+    assert bank.bank.acc_range == pytest.approx(4 * 9.80665)
+    assert bank.bank.gyro_range == pytest.approx(math.radians(500.0))
+    for k in range(200):
+        tick(bank, k)
+    i = 1 + 3  # sensor 2 strikes: its accelerometer sticks at the rail on x
+    bank.receive(i + 2, floats((0.2, 0.0, -0.4), 2.0))
+    bank.receive(i + 1, floats((4 * 9.80665, 0.0, 9.81), 2.0))
+    bank.receive(i, floats(GYRO, 2.0))
+    tick(bank, 200, sensors=(1,))
+    reports = rt.nodes["flags"].values
+    assert (2, "acc_saturated") in [(r[0], r[1]) for r in reports if r[1] != "ok"]
+    assert not [r for r in reports if r[0] == 1 and r[1] != "ok"]
+
+
 def test_bad_bank_wiring_and_settings_name_the_place():
-    with pytest.raises(PatchError, match=r"<test>:3: .*no inlet 'gyro3'; inlets are gyro1 \(0\), accel1"):
+    with pytest.raises(
+        PatchError, match=r"<test>:3: .*no inlet 'gyro3'; inlets are range \(0\), gyro1 \(1\)"
+    ):
         patch("node bank tqt_bank sensors=2\nnode x tqt\nx -> bank.gyro3\n")
     with pytest.raises(PatchError, match="sensors"):
         patch("node bank tqt_bank sensors=0\n")
