@@ -27,7 +27,7 @@ from pointat.maths.calibration import (
     six_position_accel,
 )
 from pointat.message import Message, as_floats, as_vector, floats
-from pointat.node import Inlet, Node, Outlet, Param
+from pointat.node import Inlet, Node, Outlet, Param, names_path
 from pointat.registry import register
 
 log = logging.getLogger(__name__)
@@ -370,6 +370,8 @@ class Calibrate(Node):
     that does not read (a hand edit gone wrong) is not replaced by ``save`` until ``clear`` is sent.
     """
 
+    needs_input = True
+
     #: How far (a factor) a gyro scale from a turn may be from the nominal ``gyro`` resolution's.
     TURN_FACTOR = 2.0
     #: How much the field's strength may still vary over the sweep once calibrated (95th percentile of
@@ -571,6 +573,7 @@ class Calibrate(Node):
         self._turned = False
         self.out(0, ("gyro_scale", ax, scale))
 
+    @names_path
     def do_save(self, path: Any = None) -> None:
         target = str(path) if path is not None else self.p.file
         if self._unread is not None and os.path.realpath(target) == os.path.realpath(self._unread):
@@ -581,6 +584,7 @@ class Calibrate(Node):
         self.calibration.save(target)
         self.out(0, ("saved", target))
 
+    @names_path
     def do_load(self, path: Any = None) -> None:
         target = str(path) if path is not None else self.p.file
         self.calibration = _load(target)

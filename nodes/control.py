@@ -351,6 +351,7 @@ node ctl route recalibrate reference
 class Send(Node):
     """Send every message to all ``receive`` nodes of the same bus name, anywhere in the patch."""
 
+    needs_input = True
     inlets = (
         Inlet("in", ("any",), "the message to send"),
         Inlet("bus", ("symbol",), "set the bus name", param="bus"),
@@ -394,6 +395,7 @@ class Loadbang(Node):
 class Print(Node):
     """Print every message to the console, behind a prefix (as Pd's print)."""
 
+    needs_input = True
     inlets = (Inlet("in", ("any",), "any message"),)
     params = (
         Param("prefix", "symbol", "print", "text before each message"),
@@ -483,6 +485,8 @@ class Msg(Node):
 
     ``,`` separates messages sent one after the other; ``; bus message`` sends to a ``receive`` bus.
     """
+
+    needs_input = True
 
     inlets = (Inlet("in", ("any",), "bang or the values for $1, $2..."),)
     outlets = (Outlet("out", "any", "the message"),)

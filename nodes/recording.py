@@ -26,6 +26,7 @@ import math
 import os
 import threading
 import time
+import warnings
 import zlib
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
@@ -35,7 +36,7 @@ import numpy as np
 
 from pointat.maths.quaternion import enu_to_nwu
 from pointat.message import Message, floats, vector
-from pointat.node import Inlet, Node, Outlet, Param
+from pointat.node import FULL_SCALE_PARAMS, RANGE_OUTLET, Inlet, Node, Outlet, Param, full_scale
 from pointat.registry import register
 
 log = logging.getLogger(__name__)
@@ -104,7 +105,10 @@ def read_csv_table(path: str | Path) -> tuple[list[str], np.ndarray]:
     if not header or header[0] != "t":
         raise ValueError(f"{path}: expected a header line starting with 't', got {','.join(header)!r}")
     try:
-        rows = np.loadtxt((line for _, line in lines), delimiter=",", ndmin=2, comments="#")
+        # lines of blanks (and a comment) are skipped, as _first_bad_row skips them: loadtxt reads them as
+        # a row of one empty cell, and refused a file whose last line held a space
+        data = (line for _, line in lines if line.split("#", 1)[0].strip())
+        rows = np.loadtxt(data, delimiter=",", ndmin=2, comments="#")
     except Unreadable:
         raise
     except ValueError:
@@ -129,11 +133,25 @@ def _first_bad_row(path: Path, width: int) -> str:
         if len(cells) != width:
             return f"{path}:{n}: {len(cells)} values, the header names {width} columns"
         for col, cell in enumerate(cells, 1):
-            try:
-                float(cell)
-            except ValueError:
+            if not _number(cell):
                 return f"{path}:{n}: column {col}: {cell!r} is not a number"
     return f"{path}: not a table of numbers"
+
+
+def _number(cell: str) -> bool:
+    """Whether a CSV cell is a number as :func:`read_csv_table` reads it: numpy's ``loadtxt`` decides
+    (Python's ``float`` also takes ``1_000`` and other scripts' digits, and not a leading ``\x1c``)."""
+    try:
+        if float(cell) is not None and cell.isascii() and "_" not in cell:
+            return True  # the common case, fast
+    except ValueError:
+        pass
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # loadtxt warns of a cell of blanks ("no data")
+        try:
+            return np.loadtxt([cell], delimiter=",", ndmin=1, comments=None).size == 1
+        except ValueError:
+            return False
 
 
 @register("record")
@@ -145,6 +163,8 @@ class Record(Node):
     under the header already there (other ``columns`` are refused: replay could not read the take).  A
     file deleted while it is written is written anew from there, and the log says so.
     """
+
+    needs_input = True
 
     inlets = (Inlet("in", ("any",), "the stream to record"),)
     params = (
@@ -278,7 +298,7 @@ def _recorded(kind: Any, value: Any, t: float) -> Message:
     if not isinstance(kind, str) or not kind:
         raise ValueError(f"kind must be a name, got {kind!r}")
     number = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if kind == "vector":
+    if kind == "vector" and isinstance(value, list):  # (a string's characters are no numbers: "123")
         return vector(value, t)
     if kind == "float" and number:
         return Message(kind, float(value), t)
@@ -306,6 +326,10 @@ class Replay(Node):
     pass at most, about 5 ms of them (the runtime's ``QUEUE_BUDGET``), never for the whole queue.  At the
     end it bangs ``done`` and, unless ``loop``, its part in the patch is over: a patch whose sources
     have all ended stops by itself.
+
+    The recorded sensor's full scale (``acc_range`` in g, ``gyro_range`` in °/s, from its data sheet)
+    goes out of ``range`` as the patch starts, for ``tqt``'s ``range``: a recording of strikes that
+    saturated the accelerometer is then fused as the live glove would be.
     """
 
     outlets = (
@@ -320,12 +344,14 @@ class Replay(Node):
         ),
         Outlet("row", "any", "every row but t, as one vector (NDJSON: the message as recorded)"),
         Outlet("done", "bang", "at the end of the file"),
+        RANGE_OUTLET,
     )
     params = (
         Param("file", "path", doc="the recording (.csv, .ndjson, either gzipped: .csv.gz...)", reads=True),
         Param("speed", "float", 1.0, "1 real time, 2 twice as fast, 0 as fast as possible", minimum=0.0),
         Param("loop", "bool", False, "start again at the end"),
         FORMAT,
+        *FULL_SCALE_PARAMS,
     )
     example = """
 node source replay file=trial.csv.gz speed=0
@@ -356,6 +382,9 @@ source.mag -> fuse.mag
         self._read()
         self.active = True
         self.spawn(self._pump, "replay")
+
+    def loadbang(self) -> None:
+        full_scale(self)
 
     def _read(self) -> None:
         path = self.p.file
@@ -480,7 +509,8 @@ source.mag -> fuse.mag
                 d = json.loads(line)
                 kind, value, t = d["kind"], d["value"], float(d["t"])
                 messages.append(_recorded(kind, value, t))
-            except (ValueError, KeyError, TypeError) as exc:
+            # (OverflowError: a number past a float's range, 1e400 written as an integer; RecursionError: [[[...)
+            except (ValueError, KeyError, TypeError, OverflowError, RecursionError) as exc:
                 raise ValueError(f"{path}:{lineno}: not a recorded message: {exc}") from exc
         self._messages = messages
         self._times = np.array([m.time for m in messages])
@@ -536,4 +566,5 @@ source.mag -> fuse.mag
     def _done(self) -> None:
         self.time = float(self._times[-1]) if len(self._times) else 0.0
         self.active = False
+        self.ended = True
         self.out(5, None)

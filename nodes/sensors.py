@@ -31,7 +31,7 @@ from pointat.devices.serial_reader import (
 )
 from pointat.errors import worth_reporting
 from pointat.message import Message, method, vector
-from pointat.node import Inlet, Node, Outlet, Param
+from pointat.node import Inlet, Node, Outlet, Param, names_path
 from pointat.registry import register
 from pointat.runtime import Timer
 
@@ -184,12 +184,14 @@ base.1 -> nulls2 -> right
         if self.p.device:
             self.do_open(self.p.device)
 
+    @names_path
     def on_control(self, msg: Message) -> None:
         if msg.kind == "symbol":
             self.do_open(msg.value)
         elif msg.kind == "bang":
             self.do_stats()
 
+    @names_path
     def do_open(self, path: Any) -> None:
         self.do_close()
         self.active = True
@@ -557,6 +559,7 @@ glove -> nulls -> cal
         k = self._k
         t = k / self.p.rate
         if self.p.duration and t >= self.p.duration:
+            self.ended = True
             if self._pty is not None:  # its reader is done too, before the pseudo-terminal goes
                 self.out(2, method("close", time=t))
             self.close()

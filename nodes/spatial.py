@@ -40,6 +40,8 @@ class Vbap(Node):
     direction with ``osc_out profile=vbap`` to ``examples/pd/vbap_receiver.pd``.
     """
 
+    needs_input = True
+
     inlets = (
         Inlet(
             "azimuth",

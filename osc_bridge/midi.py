@@ -834,6 +834,8 @@ class MidiOut(_PortWatch, Node):
     the last value is sent again, so the receiver catches up.
     """
 
+    needs_input = True
+
     inlets = (
         Inlet(
             "in",

@@ -31,7 +31,7 @@ from pythonosc.osc_packet import OscPacket
 
 from pointat.errors import Repeats, did_you_mean, worth_reporting
 from pointat.message import Message, as_float, floats, make, method
-from pointat.node import Inlet, Node, Outlet, Param
+from pointat.node import FULL_SCALE_PARAMS, RANGE_OUTLET, Inlet, Node, Outlet, Param, full_scale
 from pointat.registry import register
 from pointat.runtime import Timer
 
@@ -82,10 +82,10 @@ def encode_message(address: str, args: Sequence[Any]) -> bytes:
     for a in args:
         if isinstance(a, float):
             tags.append("f")
-            data.append(_F32.pack(a))
+            data.append(_F32.pack(_fit(a)))
         elif isinstance(a, int):  # bool included
             tags.append("i")
-            data.append(_I32.pack(int(a)))
+            data.append(_I32.pack(_fit(int(a))))
         else:
             tags.append("s")
             data.append(_osc_string(str(a)))
@@ -113,7 +113,28 @@ class UpdateEncoder:
         )
 
     def encode(self, source: Source) -> list[bytes]:
-        return [head + pack(*[g(source) for g in getters]) for head, getters, pack in self.parts]
+        try:
+            return [head + pack(*[g(source) for g in getters]) for head, getters, pack in self.parts]
+        except (struct.error, OverflowError):  # a number beyond float32 / int32: the nearest that fits
+            return [head + pack(*[_fit(g(source)) for g in getters]) for head, getters, pack in self.parts]
+
+
+#: The largest finite float32 (an OSC ``f``).
+F32_MAX = 3.4028234663852886e38
+
+
+def _fit(value: Any) -> Any:
+    """``value`` brought into what OSC's ``f`` and ``i`` hold: a float beyond float32 to ±its largest
+    (as a float32 cast saturates in a DSP), an int beyond int32 to its ends.
+
+    >>> _fit(1e39), _fit(-1e39), _fit(2**40), _fit(0.5)
+    (3.4028234663852886e+38, -3.4028234663852886e+38, 2147483647, 0.5)
+    """
+    if isinstance(value, float):
+        return max(-F32_MAX, min(F32_MAX, value)) if math.isfinite(value) else value
+    if isinstance(value, int) and not isinstance(value, bool):
+        return max(-(2**31), min(2**31 - 1, value))
+    return value
 
 
 def ntp_time(unix_seconds: float) -> bytes:
@@ -143,6 +164,9 @@ _EMPTY = {"T": True, "F": False, "N": None, "I": math.inf}
 #: Other types python-osc reads (blob, MIDI, time tag, colour, arrays); any other is an error.  (Not the
 #: char ``c`` nor ``I``: python-osc 1.10 skips them with a warning, and the arguments after them shift.)
 _RARE = frozenset("bmtr[]")
+#: Types read here that python-osc skips (the arguments after them shift): a message with one of them and
+#: one of :data:`_RARE` is refused rather than misread.
+_SKIPPED = frozenset("cIS")
 
 
 @functools.lru_cache(maxsize=256)
@@ -177,6 +201,11 @@ def _arg_plan(tags: str) -> tuple[tuple[str, Any], ...] | None:
             raise ValueError(f"unknown OSC type tag {t!r}")
     if run:
         plan.append(("fixed", struct.Struct(">" + run)))
+    if rare and (skipped := _SKIPPED.intersection(tags)):
+        raise ValueError(
+            f"type tag {min(skipped)!r} beside a blob, array, time tag, MIDI or colour argument is not read"
+            " (python-osc, which reads those, would skip it and read the arguments after it shifted)"
+        )
     return None if rare else tuple(plan)
 
 
@@ -436,6 +465,8 @@ class OscOut(Node):
     are counted in ``failed``.
     """
 
+    needs_input = True
+
     inlets = (
         Inlet("azimuth", ("float", "int", "list", "bang"), "degrees, + left (or a list: az el dist spread)"),
         Inlet("elevation", ("float", "int"), "degrees, + up"),
@@ -506,6 +537,10 @@ dir.azimuth -> out.azimuth
         for name in ("delay", "rate", "deadband", "radius"):
             if not math.isfinite(values[name]) or values[name] < 0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {values[name]}")
+        if values["radius"] > F32_MAX:
+            raise ValueError(
+                f"radius {values['radius']:g} is beyond an OSC float (float32, at most {F32_MAX:.4g})"
+            )
         if 0 < values["rate"] < MIN_RATE:
             raise ValueError(f"rate must be 0 (every update) or at least {MIN_RATE} Hz, got {values['rate']}")
         if values["delay"] > 0 and not values["bundle"]:
@@ -802,7 +837,13 @@ class OscIn(Node):
     sender's own sample spacing when Wi-Fi delivers a few packets at once; plain messages and bundles
     tagged "immediately" keep their arrival time.
     Malformed packets are counted (``malformed``) and dropped; the patch keeps running.
+
+    A sensor's full scale (its data sheet's ±g and ±°/s: ``acc_range``, ``gyro_range``) goes out of
+    ``range`` as the patch starts; wired to ``tqt``'s ``range``, a reading stuck at the limit during a
+    strike is known to be saturated rather than taken for the hand's motion.
     """
+
+    acts_alone = True  # live control
 
     outlets = (
         Outlet("gyro", "vector", "angular rate, rad/s"),
@@ -810,6 +851,7 @@ class OscIn(Node):
         Outlet("mag", "vector", "magnetic field, gauss"),
         Outlet("quat", "vector", "orientation quaternion (w, x, y, z), as the device defines it"),
         Outlet("any", "any", "every other message: selector = address, then the arguments"),
+        RANGE_OUTLET,
     )
     params = (
         Param("port", "int", 9001, "UDP port to listen on (0: any free port)"),
@@ -825,6 +867,7 @@ class OscIn(Node):
             "stamp a bundle's messages with its time tag (the sender's clock, mapped onto ours) instead of "
             "their arrival: samples that Wi-Fi delivers in bursts keep their spacing",
         ),
+        *FULL_SCALE_PARAMS,
     )
     example = """
 node phone osc_in port=9001 device=zigsim host=0.0.0.0 allow=["192.168.1.0/24"]
@@ -883,6 +926,9 @@ phone.quat -> dir
         self._sock = sock
         self.active = True
         self.add_reader(sock, self._readable)  # read on the scheduler thread: no hand-off
+
+    def loadbang(self) -> None:
+        full_scale(self)
 
     @property
     def address(self) -> tuple[str, int]:
@@ -1038,6 +1084,17 @@ phone.quat -> dir
                 address,
                 f"node '{name}' has no inlets to take values; send /pointat/{name}/PARAM value or "
                 f"/pointat/{name}/METHOD",
+            )
+            return True
+        node = rt.nodes[name]
+        handler = node._handlers[0] if selector is None else getattr(node, "do_" + selector, None)
+        if args and getattr(handler, "names_path", False):  # the rule: live control names no path
+            self._refuse(
+                address,
+                f"node '{name}': live control names no files or devices (the patch does): send "
+                f"/pointat/{name}/{selector or ''} with no arguments"
+                if selector
+                else f"node '{name}': live control names no files or devices (the patch does)",
             )
             return True
         try:  # on the scheduler thread already: straight to the node, nothing queued or lost

@@ -192,6 +192,10 @@ def check_fields(fields: Sequence[Any]) -> tuple[str | int | float, ...]:
             raise ValueError(f"field {f!r}: expected a field name or a number")
         if isinstance(f, str) and f not in FIELDS:
             raise ValueError(f"unknown field '{f}' (fields: {' '.join(FIELDS)}, or a number)")
+        if isinstance(f, int) and not -(2**31) <= f < 2**31:
+            raise ValueError(f"field {f}: an OSC int is 32 bits (-2147483648 .. 2147483647)")
+        if isinstance(f, float) and math.isfinite(f) and abs(f) > 3.4028234663852886e38:
+            raise ValueError(f"field {f:g}: beyond an OSC float (float32, at most 3.403e+38)")
         out.append(f)
     return tuple(out)
 
@@ -339,6 +343,12 @@ class Rule:
             ) from None
         if len(values) != len(idx):  # a string, a blob, True... (bool is not int here)
             raise ValueError(f"{self.pattern}: expected numbers, got {[args[i] for i in idx]!r}")
+        if not math.isfinite(sum(values)):  # rare: a NaN or an infinity, sent as such or made by the scale
+            for v, i in zip(values, idx, strict=True):
+                if not math.isfinite(v) and math.isfinite(args[i]):
+                    raise ValueError(
+                        f"{self.pattern}: argument {i} = {args[i]!r} times the scale {scale:g} is not a finite number"
+                    )
         return values
 
 
@@ -387,4 +397,6 @@ def parse_rule(text: str) -> Rule:
         factor = float(scale) if star else 1.0
     except ValueError:
         raise ValueError(f"map entry {text!r}: scale '{scale}' is not a number") from None
+    if not math.isfinite(factor):  # 1e400, inf, nan: every reading would come out as infinity or NaN
+        raise ValueError(f"map entry {text!r}: scale '{scale}' is not a finite number")
     return Rule(pattern, outlet, None, factor)

@@ -377,9 +377,9 @@ def _osc_value(text: str) -> int | float | str:
 
 
 def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
-    from pythonosc.udp_client import SimpleUDPClient
+    import socket
 
-    from osc_bridge.nodes import udp_port
+    from osc_bridge.nodes import encode_message, udp_port
 
     host, _, text = args.to.rpartition(":")
     if host.startswith("[") and host.endswith("]"):  # [::1]:9001, as IPv6 addresses are written with a port
@@ -393,12 +393,32 @@ def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
         print(f"error: OSC address {args.address!r} must start with '/'", file=sys.stderr)
         return 2
     values = [_osc_value(v) for v in args.values]
+    target = host or "127.0.0.1"
     try:
-        SimpleUDPClient(host or "127.0.0.1", port).send_message(args.address, values)
+        family, _, _, _, addr = socket.getaddrinfo(target, port, type=socket.SOCK_DGRAM)[0]
+        with socket.socket(family, socket.SOCK_DGRAM) as sock:
+            sock.connect(addr)  # connected: the host's "port unreachable" comes back as an error
+            sock.send(encode_message(args.address, values))
+            sock.settimeout(SEND_WAIT)
+            try:
+                sock.recv(1)
+            except TimeoutError:  # no word back: delivered as far as UDP can tell
+                pass
+    except ConnectionRefusedError:
+        print(
+            f"error: nothing listens on UDP {target}:{port}: is the patch running, with osc_in port={port}?",
+            file=sys.stderr,
+        )
+        return 1
     except OSError as exc:
-        print(f"error: cannot send to {host or '127.0.0.1'}:{port}: {exc.strerror or exc}", file=sys.stderr)
+        print(f"error: cannot send to {target}:{port}: {exc.strerror or exc}", file=sys.stderr)
         return 1
     return 0
+
+
+#: Seconds ``pointat send`` waits for the host to say that nothing listens on the port (this machine,
+#: or one on the network that answers with ICMP "port unreachable"; a silent one cannot be told).
+SEND_WAIT = 0.2
 
 
 COMMANDS = {

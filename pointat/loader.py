@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import PatchError, Problem, Where, closest, did_you_mean
-from .node import Inlet, Node, Outlet, ParamError
+from .node import MAX_DEPTH, Inlet, Node, Outlet, ParamError
 from .patchfile import format_value, parse_value, read_patch
 from .registry import Registry, default_registry
 from .runtime import Runtime
@@ -75,8 +75,21 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> 
 
     Arguments given to the instance override the abstraction's ``args`` defaults; ``$name`` is replaced
     in parameter values, ``$0`` by the instance's full name (``left/fuse`` for an instance ``fuse`` inside
-    an instance ``left``: unique in the whole patch, however deep).
+    an instance ``left``: unique in the whole patch, however deep).  :class:`PatchError` lists every
+    instance that cannot be expanded.
     """
+    problems: list[Problem] = []
+    out = _expand(spec, problems, _stack, _prefix)
+    if problems:
+        raise PatchError(problems)
+    return out
+
+
+def _expand(
+    spec: PatchSpec, problems: list[Problem], _stack: tuple[str, ...] = (), _prefix: str = ""
+) -> PatchSpec:
+    """:func:`expand`, its problems added to ``problems``: the instances that cannot be expanded are left
+    out (with their wires), the rest is there to be checked."""
     if not _stack:  # the top patch: an abstraction checked, run or converted on its own has its defaults;
         # any other $name is a mistake at its own line, not one to meet inside an abstraction it is given to
         spec = _with_arguments(spec, {**spec.args, "0": Path(spec.path).stem})
@@ -86,7 +99,6 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> 
     # (instance, port name) -> [(node, port)] for inlets; -> (node, port) for outlets
     inlet_map: dict[tuple[str, str | int], list[tuple[str, str | int]]] = {}
     outlet_map: dict[tuple[str, str | int], tuple[str, str | int]] = {}
-    problems: list[Problem] = []
     failed: set[str] = set()
     for decl in spec.nodes:
         if not is_abstraction(decl.type):
@@ -154,8 +166,7 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> 
         for s, o in srcs:
             for d, i in dsts:
                 out.wires.append(Wire(s, o, d, i, w.where))
-    if problems:
-        raise PatchError(problems)
+    out.failed = failed  # type: ignore[attr-defined]  # (check: their wires are not "no such node")
     return out
 
 
@@ -166,9 +177,17 @@ def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
 
 def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], outer: str = "") -> PatchSpec:
     base = Path(parent.path).parent
+    if "\0" in decl.type:
+        raise PatchError(
+            f"abstraction name {decl.type!r} holds a NUL character: no file is named so", decl.where
+        )
     path = _abstraction_path(parent, decl)
     if path.is_dir():
         raise PatchError(f"abstraction '{decl.type}' is a folder ({path}), not a patch file", decl.where)
+    if path.exists() and not path.is_file():  # a device (/dev/zero), a FIFO: no end to read to, or none
+        raise PatchError(
+            f"abstraction '{decl.type}' is not a regular file ({path}): a patch is a text file", decl.where
+        )
     if not path.exists():
         near = [str(f.relative_to(base)) for f in (*base.glob("*.pat"), *base.glob("*/*.pat"))]
         hint = closest(decl.type, near)
@@ -321,11 +340,20 @@ def check(
         )
 
     spec, overrides = _set_arguments(spec, overrides, problems)
-    try:
-        flat = expand(spec)
-    except PatchError as exc:  # with the --set problems found before, all at once
-        raise PatchError(problems + exc.problems) from None
+    flat = _expand(spec, problems)  # what cannot be expanded is said, the rest still checked
     result = Checked(flat)
+    # nodes refused (a parameter, a range), with the ports their declaration gives, so that their wires
+    # are checked in the same run
+    refused_ports: dict[str, tuple[tuple[Inlet, ...], tuple[Outlet, ...]]] = {}
+
+    def set_aside(cls: type[Node], decl: NodeDecl, values: Mapping[str, Any] | None) -> None:
+        try:
+            refused_ports[decl.name] = cls.layout(
+                values if values is not None else {p.name: p.default for p in cls.params}
+            )
+        except Exception:  # (a layout that needs the refused value): the class's own ports
+            refused_ports[decl.name] = (cls.inlets, cls.outlets)
+
     names: dict[str, NodeDecl] = {}
     for decl in flat.nodes:
         first = names.get(decl.name)
@@ -368,6 +396,18 @@ def check(
             values = cls.resolve_params(decl.args, decl.params)
         except (ParamError, ValueError) as exc:
             problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}{hint(decl.name)}"))
+            partial = getattr(exc, "partial", None)
+            if partial is not None:  # the ranges of the values that did fit, said now too
+                try:
+                    cls.validate(partial)
+                except (ParamError, ValueError) as more:
+                    if str(more) not in str(exc):
+                        problems.append(
+                            Problem(decl.where, f"{label} ({decl.type}): {more}{hint(decl.name)}")
+                        )
+                except Exception:  # (a check that needs the refused value)
+                    pass
+            set_aside(cls, decl, partial)
             continue
         refused = False
         for key, value in over.get(decl.name, {}).items():  # the command line's, not the file's, to blame
@@ -380,6 +420,7 @@ def check(
                 problems.append(Problem(None, f"--set {decl.name}.{key}: {label} ({decl.type}): {exc}"))
                 refused = True
         if refused:
+            set_aside(cls, decl, values)
             continue
         try:
             _anchor_paths(cls, values, decl, over.get(decl.name, {}))
@@ -390,6 +431,7 @@ def check(
             ins, outs = cls.layout(values)
         except (ParamError, ValueError) as exc:
             problems.append(Problem(decl.where, f"{label} ({decl.type}): {exc}{hint(decl.name)}"))
+            set_aside(cls, decl, values)
             continue
         result.nodes[decl.name] = Resolved(decl, cls, values, ins, outs)
         files = [p.name for p in cls.params if p.reads and values.get(p.name)]
@@ -434,29 +476,38 @@ def check(
                     Problem(w.where, f"wire {w}: no node named '{end}'" + did_you_mean(end, names))
                 )
                 ok = False
-        if not ok or w.src not in result.nodes or w.dst not in result.nodes:
+        if not ok:
+            continue
+
+        def ports(name: str) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]] | None:
+            r = result.nodes.get(name)
+            return (r.inlets, r.outlets) if r is not None else refused_ports.get(name)
+
+        src_ports, dst_ports = ports(w.src), ports(w.dst)
+        o = i = None
+        if src_ports is not None:
+            o = _port_index(src_ports[1], w.outlet)
+            if o is None:
+                problems.append(
+                    Problem(
+                        w.where,
+                        f"wire {w}: node '{w.src}' ({names[w.src].type}) has no outlet {w.outlet!r}; "
+                        f"outlets are {_port_list(src_ports[1])}",
+                    )
+                )
+        if dst_ports is not None:
+            i = _port_index(dst_ports[0], w.inlet)
+            if i is None:
+                problems.append(
+                    Problem(
+                        w.where,
+                        f"wire {w}: node '{w.dst}' ({names[w.dst].type}) has no inlet {w.inlet!r}; "
+                        f"inlets are {_port_list(dst_ports[0])}",
+                    )
+                )
+        if o is None or i is None or w.src not in result.nodes or w.dst not in result.nodes:
             continue
         s, d = result.nodes[w.src], result.nodes[w.dst]
-        o = _port_index(s.outlets, w.outlet)
-        i = _port_index(d.inlets, w.inlet)
-        if o is None:
-            problems.append(
-                Problem(
-                    w.where,
-                    f"wire {w}: node '{w.src}' ({s.decl.type}) has no outlet {w.outlet!r}; "
-                    f"outlets are {_port_list(s.outlets)}",
-                )
-            )
-        if i is None:
-            problems.append(
-                Problem(
-                    w.where,
-                    f"wire {w}: node '{w.dst}' ({d.decl.type}) has no inlet {w.inlet!r}; "
-                    f"inlets are {_port_list(d.inlets)}",
-                )
-            )
-        if o is None or i is None:
-            continue
         if not _kinds_meet(s.outlets[o], d.inlets[i]):
             problems.append(
                 Problem(
@@ -479,15 +530,30 @@ def check(
                 )
             )
     result.warnings += _never_triggered(result)
+    result.warnings += _going_nowhere(result)
     if not flat.nodes:  # all comments, or a file of another kind: it would run and do nothing
         result.warnings.append(
             Problem(Where(flat.path), "the patch has no nodes: it does nothing", "warning")
         )
-    if not problems:
-        problems += _cycles(result)
+    problems += _cycles(result)  # among the nodes and wires that are right: said with the rest
+    result.warnings += _too_deep(result)
     if problems:
-        raise PatchError(problems)
+        raise PatchError(_in_line_order(problems))
     return result
+
+
+def _in_line_order(problems: list[Problem]) -> list[Problem]:
+    """Problems in the order of the lines they are at: the command line's first, then each file's (in the
+    order the files first come up) by line."""
+    files: dict[str, int] = {}
+    for p in problems:
+        if p.where is not None:
+            files.setdefault(p.where.file, len(files))
+
+    def key(p: Problem) -> tuple[int, int, int]:
+        return (0, 0, 0) if p.where is None else (1, files[p.where.file], p.where.line or 0)
+
+    return sorted(problems, key=key)
 
 
 def _inside(node: str, param: str, names: Mapping[str, NodeDecl], registry: Registry) -> str:
@@ -538,9 +604,14 @@ def _set_arguments(
     return dataclasses.replace(spec, nodes=nodes), rest
 
 
+def _needs_input(cls: type[Node]) -> bool:
+    return cls.pure if cls.needs_input is None else cls.needs_input
+
+
 def _never_triggered(result: Checked) -> list[Problem]:
-    """Nodes that only compute from their inputs, fed on cold inlets only: they store what comes and
-    never output (the wire to the hot inlet is missing, or went to a cold one by mistake)."""
+    """Nodes that act on their inputs (:attr:`Node.needs_input`: filters, conversions, sinks) fed on
+    cold inlets only: they store what comes and never act (the wire to the hot inlet is missing, or went
+    to a cold one by mistake); and those nothing is wired to at all."""
     fed: dict[str, set[int]] = {}
     for _src, _o, dst, i in result.wires:
         fed.setdefault(dst, set()).add(i)
@@ -550,18 +621,106 @@ def _never_triggered(result: Checked) -> list[Problem]:
         if i is not None:
             fed.setdefault(port.node, set()).add(i)
     found = []
+    live = _live_control(result)
     for name, r in result.nodes.items():
+        if not _needs_input(r.cls) or not r.inlets:
+            continue
+        if name not in fed and not r.cls.type_name == "send":  # (a send may be fed by a msg's "; bus")
+            if live and {"any", "bang"} & set(r.inlets[0].accepts):
+                continue  # a button for live control (/pointat/press/bang): that is what it is there for
+            found.append(
+                Problem(
+                    r.decl.where,
+                    f"node '{name}' ({r.decl.type}): nothing is wired to it, so it never acts"
+                    + (" (unless live control sends to it)" if live else ""),
+                    "warning",
+                )
+            )
+            continue
         hot = {i for i, inlet in enumerate(r.inlets) if inlet.is_hot(i)}
-        if r.cls.pure and name in fed and hot and not fed[name] & hot:
+        if name in fed and hot and not fed[name] & hot:
             inlets = " or ".join(f"'{r.inlets[i].name}'" for i in sorted(hot))
             found.append(
                 Problem(
                     r.decl.where,
                     f"node '{name}' ({r.decl.type}) is fed on cold inlets only: nothing reaches its hot "
-                    f"inlet {inlets}, so it never outputs",
+                    f"inlet {inlets}, so it never acts"
+                    + (" (unless live control sends to it)" if live else ""),
                     "warning",
                 )
             )
+    return found
+
+
+def _live_control(result: Checked) -> bool:
+    """Whether messages from outside may reach any node (an ``osc_in`` that takes live control)."""
+    return any(r.cls.acts_alone and r.values.get("control", True) for r in result.nodes.values())
+
+
+def _going_nowhere(result: Checked) -> list[Problem]:
+    """What computes for nothing: a patch with no output at all; sources whose outlets are wired to
+    nothing; the patch's own chains (not an abstraction's spare outlets) that reach no output."""
+    if not result.nodes:
+        return []
+    found = []
+    sinks = [n for n, r in result.nodes.items() if not r.cls.pure and r.inlets]
+    if not sinks and not any(r.cls.acts_alone for r in result.nodes.values()) and not result.spec.outlets:
+        found.append(
+            Problem(
+                Where(result.spec.path),
+                "the patch has no output (osc_out, midi_out, print, record...): it computes and sends nothing",
+                "warning",
+            )
+        )
+        return found
+    feeds = {src for src, _o, _d, _i in result.wires}
+    for name, r in result.nodes.items():
+        if r.outlets and not r.inlets and not r.cls.acts_alone and name not in feeds:
+            if not any(p.node == name for p in result.spec.outlets):
+                found.append(
+                    Problem(
+                        r.decl.where,
+                        f"node '{name}' ({r.decl.type}): its outlets are wired to nothing",
+                        "warning",
+                    )
+                )
+    # pure nodes of the patch's own file fed but reaching no node with effects (the runtime skips them)
+    useful = {n for n, r in result.nodes.items() if not r.cls.pure}
+    useful |= {p.node for p in result.spec.outlets}
+    feeders: dict[str, list[str]] = {}
+    for src, _o, dst, _i in result.wires:
+        feeders.setdefault(dst, []).append(src)
+    for name, r in result.nodes.items():  # send -> receive: a receive's bus is fed by its sends
+        if r.cls.type_name == "receive":
+            feeders.setdefault(name, []).extend(
+                n
+                for n, s in result.nodes.items()
+                if s.cls.type_name == "send" and s.values.get("bus") == r.values.get("bus")
+            )
+    stack = list(useful)
+    while stack:
+        for src in feeders.get(stack.pop(), ()):
+            if src not in useful:
+                useful.add(src)
+                stack.append(src)
+    own = result.spec.path
+    idle = [
+        n
+        for n, r in result.nodes.items()
+        if n not in useful
+        and r.decl.where is not None
+        and r.decl.where.file == own
+        and n in feeds | set(feeders)
+    ]
+    if idle:
+        found.append(
+            Problem(
+                result.nodes[idle[0]].decl.where,
+                f"{', '.join(repr(n) for n in idle)}: what they compute reaches no output (osc_out, print, "
+                "record...), so they are not run",
+                "warning",
+            )
+        )
     return found
 
 
@@ -617,8 +776,38 @@ def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) ->
                 decl.params[name] = moved(value, decl)
 
 
-def _cycles(result: Checked) -> list[Problem]:
-    """Feedback loops through hot inlets with no deferring node (delay, metro) on them."""
+def _too_deep(result: Checked) -> list[Problem]:
+    """A chain through hot inlets longer than the runtime's :data:`~pointat.node.MAX_DEPTH` (no loop in
+    it; loops are :func:`_cycles`'): messages stop there, as Pd's "stack overflow" stops them."""
+    edges = _hot_edges(result)
+    into = {n: 0 for n in edges}
+    for v in edges:
+        for w in edges[v]:
+            into[w] += 1
+    depth = {n: 1 for n in edges}
+    ready = [n for n, k in into.items() if k == 0]
+    while ready:  # Kahn's order; what a loop holds never gets ready (and is _cycles' to say)
+        v = ready.pop()
+        for w in edges[v]:
+            depth[w] = max(depth[w], depth[v] + 1)
+            into[w] -= 1
+            if into[w] == 0:
+                ready.append(w)
+    deepest = max(depth, key=depth.__getitem__, default=None)
+    if deepest is None or depth[deepest] - 1 <= MAX_DEPTH:  # (hops between the nodes)
+        return []
+    return [
+        Problem(
+            result.nodes[deepest].decl.where,
+            f"a chain of {depth[deepest]} nodes one after the other ends at '{deepest}': messages stop after "
+            f"{MAX_DEPTH} (put a delay in it)",
+            "warning",
+        )
+    ]
+
+
+def _hot_edges(result: Checked) -> dict[str, list[str]]:
+    """Node -> the nodes it sends to synchronously (a hot inlet, no deferring node between)."""
     edges: dict[str, list[str]] = {n: [] for n in result.nodes}
     for src, _o, dst, i in result.wires:
         s, d = result.nodes[src], result.nodes[dst]
@@ -632,42 +821,57 @@ def _cycles(result: Checked) -> list[Problem]:
     for name, r in result.nodes.items():
         if r.cls.type_name == "send":
             edges[name] += buses.get(str(r.values.get("bus")), [])
-    # Tarjan's strongly connected components
+    return edges
+
+
+def _cycles(result: Checked) -> list[Problem]:
+    """Feedback loops through hot inlets with no deferring node (delay, metro) on them."""
+    edges = _hot_edges(result)
+    # Tarjan's strongly connected components, iterative: a chain of thousands of nodes is no recursion
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
     on: set[str] = set()
     sccs: list[list[str]] = []
-    counter = [0]
 
-    def visit(v: str) -> None:
-        index[v] = low[v] = counter[0]
-        counter[0] += 1
+    def enter(v: str) -> None:
+        index[v] = low[v] = len(index)
         stack.append(v)
         on.add(v)
-        for w in edges[v]:
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            sccs.append(comp)
 
-    for v in edges:
-        if v not in index:
-            visit(v)
+    for root in edges:
+        if root in index:
+            continue
+        enter(root)
+        work = [(root, iter(edges[root]))]
+        while work:
+            v, todo = work[-1]
+            for w in todo:
+                if w not in index:
+                    enter(w)
+                    work.append((w, iter(edges[w])))
+                    break
+                if w in on:
+                    low[v] = min(low[v], index[w])
+            else:  # every edge of v done
+                work.pop()
+                if work:
+                    u = work[-1][0]
+                    low[u] = min(low[u], low[v])
+                if low[v] == index[v]:
+                    comp = []
+                    while True:
+                        w = stack.pop()
+                        on.discard(w)
+                        comp.append(w)
+                        if w == v:
+                            break
+                    sccs.append(comp)
+    position = {name: k for k, name in enumerate(result.nodes)}
     problems = []
     for comp in sccs:
         if len(comp) > 1 or comp[0] in edges[comp[0]]:
-            order = sorted(comp, key=list(result.nodes).index)
+            order = sorted(comp, key=position.__getitem__)
             where = result.nodes[order[0]].decl.where
             problems.append(
                 Problem(

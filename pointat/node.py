@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from .errors import FeedbackError, did_you_mean, worth_reporting
+from .maths.calibration import STANDARD_GRAVITY
 from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
@@ -78,8 +79,29 @@ def _check_arguments(sel: str, fn: Callable[..., Any], args: Sequence[Any]) -> N
         raise TypeError(f"method '{sel}' takes {takes}; got {len(args)} value(s) {tuple(args)}") from None
 
 
+def _shown(value: Any, most: int = 60) -> str:
+    """``repr(value)``, its middle left out when it is long (a 300-digit number, a pasted paragraph).
+
+    >>> _shown(10**100)
+    '1000000000000000000000000…0000000000000000000000000 (101 characters)'
+    """
+    text = repr(value)
+    if len(text) <= most:
+        return text
+    half = (most - 10) // 2
+    return f"{text[:half]}…{text[-half:]} ({len(text)} characters)"
+
+
 class ParamError(ValueError):
-    """A parameter value does not fit its declaration; the loader adds the place."""
+    """A parameter value does not fit its declaration; the loader adds the place.
+
+    ``partial``: from :meth:`Node.resolve_params`, the values that did fit, defaults for the others (what
+    the loader checks the node's ranges and wires with, so that one run finds every problem).
+    """
+
+    def __init__(self, message: str, partial: dict[str, Any] | None = None):
+        super().__init__(message)
+        self.partial = partial
 
 
 @dataclass(frozen=True)
@@ -126,7 +148,9 @@ class Param:
                 or (self.maximum is not None and number > self.maximum)
             ):
                 kind = "a whole number" if self.type == "int" else "a number"
-                raise ParamError(f"parameter '{self.name}' expects {kind} {self._range()}; got {value!r}")
+                raise ParamError(
+                    f"parameter '{self.name}' expects {kind} {self._range()}; got {_shown(value)}"
+                )
         return number
 
     def _range(self) -> str:
@@ -154,7 +178,7 @@ class Param:
                 number = float(value)
                 if not math.isfinite(number) and not (math.isnan(number) and self._nan_default):
                     # NaN and infinity mean nothing as a setting, but where NaN is the default's "none"
-                    raise ParamError(f"parameter '{self.name}' expects a finite number; got {value!r}")
+                    raise ParamError(f"parameter '{self.name}' expects a finite number; got {_shown(value)}")
                 return number
             if t == "int":
                 if isinstance(value, float) and value.is_integer():
@@ -179,7 +203,7 @@ class Param:
                 s = str(value) if not isinstance(value, float) else repr(value)
                 if self.choices and s not in self.choices:
                     raise ParamError(
-                        f"parameter '{self.name}' expects one of {', '.join(self.choices)}; got {s!r}"
+                        f"parameter '{self.name}' expects one of {', '.join(self.choices)}; got {_shown(s)}"
                     )
                 return s
             if t == "list":
@@ -198,7 +222,7 @@ class Param:
         except (TypeError, ValueError):
             pass
         expected = {"float": "a number", "int": "a whole number", "bool": "true or false"}.get(t, f"a {t}")
-        raise ParamError(f"parameter '{self.name}' expects {expected}; got {value!r}")
+        raise ParamError(f"parameter '{self.name}' expects {expected}; got {_shown(value)}")
 
     @property
     def _nan_default(self) -> bool:
@@ -278,6 +302,12 @@ class Node:
     #: path from such a node reaches a node with effects (an output, a file, a print), the runtime does
     #: not feed it at all (:meth:`pointat.runtime.Runtime.prune`).
     pure: ClassVar[bool] = False
+    #: True for nodes that do nothing until a message reaches their hot inlet: ``pointat check`` warns
+    #: when nothing in the patch wires to it.  ``None`` (the default): as :attr:`pure` says; sinks
+    #: (``osc_out``, ``record``, ``print``) say True, sources with an optional inlet (``mote``) False.
+    needs_input: ClassVar[bool | None] = None
+    #: True for nodes that do their work with nothing wired to their outlets (``osc_in``'s live control).
+    acts_alone: ClassVar[bool] = False
     #: Parameter values the type's Pd stub (:func:`pointat.pdfile.write_stubs`) is drawn for, where the
     #: ports depend on parameters and the defaults would give too few.
     stub_values: ClassVar[dict[str, Any]] = {}
@@ -336,6 +366,7 @@ class Node:
         """
         named = dict(named or {})
         values: dict[str, Any] = {}
+        problems: list[str] = []  # every one, not the first: a patch is mended in one go
         pos = list(positional)
         for p in cls.params:
             if not pos:
@@ -346,25 +377,31 @@ class Node:
             else:
                 values[p.name] = pos.pop(0)
         if pos:
-            raise ParamError(
+            problems.append(
                 f"too many creation arguments: {len(positional)} given, "
                 f"{len([p for p in cls.params if not p.variadic])} expected ({', '.join(map(repr, pos))} left over)"
             )
         for key, value in named.items():
             p = cls.param(key)
             if p is None:
-                raise ParamError(cls.unknown_param(key))
-            if key in values:
-                raise ParamError(f"parameter '{key}' given twice (by position and by name)")
-            values[key] = value
+                problems.append(cls.unknown_param(key))
+            elif key in values:
+                problems.append(f"parameter '{key}' given twice (by position and by name)")
+            else:
+                values[key] = value
         out = {}
         for p in cls.params:
             if p.name in values:
-                out[p.name] = p.coerce(values[p.name])
+                try:
+                    out[p.name] = p.coerce(values[p.name])
+                    continue
+                except (ParamError, ValueError) as exc:
+                    problems.append(str(exc))
             elif p.default is REQUIRED:
-                raise ParamError(f"parameter '{p.name}' is required ({p.doc or p.type})")
-            else:
-                out[p.name] = p.default
+                problems.append(f"parameter '{p.name}' is required ({p.doc or p.type})")
+            out[p.name] = p.default
+        if problems:
+            raise ParamError("; ".join(problems), out)
         return out
 
     # ----------------------------------------------------------------- instance
@@ -380,6 +417,9 @@ class Node:
         self.time = 0.0
         self.rt: Runtime | None = None
         self.active = False
+        #: Set by a source whose material is over (a take played to its end, a duration run out), as
+        #: against one closed by a message: the patch's end (:meth:`Runtime._finished`).
+        self.ended = False
         self.errors = 0
         self._handlers = [self._make_handler(i, inlet) for i, inlet in enumerate(self.in_specs)]
         #: What :meth:`out` calls with a data message, per inlet: the handler itself, or the class's own
@@ -520,7 +560,7 @@ class Node:
             depth = rt.depth + 1
             if depth > MAX_DEPTH:
                 rt.depth = 0
-                raise self._loop(outlet, f"more than {MAX_DEPTH} nested messages")
+                raise self._loop(outlet, f"more than {MAX_DEPTH} nested messages", deep=True)
             rt.depth = depth
         for node, inlet in targets:
             try:
@@ -540,9 +580,14 @@ class Node:
         if rt is not None:
             rt.depth -= 1
 
-    def _loop(self, outlet: int, what: str) -> FeedbackError:
+    def _loop(self, outlet: int, what: str, deep: bool = False) -> FeedbackError:
         """The error of a feedback loop found at ``outlet``.  (Built here, not in :meth:`out`: with the
         message formatted inside it, a hop through ``out`` measured 0.57 instead of 0.38 µs, CPython 3.11.)"""
+        if deep:  # a loop, or a chain longer than MAX_DEPTH (which check warns of)
+            return FeedbackError(
+                f"{what}, last from node '{self.name}' outlet {outlet}: a feedback loop (put a delay in it), "
+                f"or a chain of more than {MAX_DEPTH} nodes one after the other (put a delay 0 in it)"
+            )
         return FeedbackError(
             f"feedback loop: {what}, last from node '{self.name}' outlet {outlet}; put a delay in the loop"
         )
@@ -638,3 +683,45 @@ class Node:
         if cls.example:
             lines += ["example:", *("  " + ln for ln in cls.example.strip().splitlines())]
         return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- paths
+def names_path(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Mark a method (``do_save``) or an inlet's handler that takes a file or device path.
+
+    The rule for live control from outside the patch (``osc_in``'s ``/pointat/...``): it names no path.
+    Such a method is called without one (``/pointat/cal/save`` saves to the file the patch chose), and
+    a path sent to it is refused; only the patch itself (a ``msg`` box, a wire) gives paths.
+    """
+    fn.names_path = True  # type: ignore[attr-defined]
+    return fn
+
+
+# ----------------------------------------------------------------------------- sensor full scale
+#: The sensor full scale, for a source that delivers readings of sensors it cannot see (``replay``,
+#: ``osc_in``): the user says it, the ``range`` outlet (:data:`RANGE_OUTLET`) tells ``tqt``'s ``range``.
+FULL_SCALE_PARAMS = (
+    Param(
+        "acc_range",
+        "float",
+        0.0,
+        "the accelerometer's full scale per axis, as its data sheet gives it (0: not known)",
+        unit="g",
+        minimum=0.0,
+    ),
+    Param(
+        "gyro_range", "float", 0.0, "the gyro's full scale per axis (0: not known)", unit="deg/s", minimum=0.0
+    ),
+)
+RANGE_OUTLET = Outlet(
+    "range",
+    "list",
+    "full scale: accelerometer m/s², gyro rad/s, once at start when acc_range or gyro_range is set",
+)
+
+
+def full_scale(node: Node) -> None:
+    """Send ``node``'s full scale (:data:`FULL_SCALE_PARAMS`) from its ``range`` outlet, when one is set."""
+    if node.p.acc_range or node.p.gyro_range:
+        outlet = [o.name for o in type(node).outlets].index("range")
+        node.out(outlet, (node.p.acc_range * STANDARD_GRAVITY, math.radians(node.p.gyro_range)))

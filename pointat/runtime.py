@@ -53,7 +53,7 @@ import struct
 import threading
 import time
 import weakref
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 from .errors import FeedbackError, PatchError, Problem, Repeats, worth_reporting
@@ -317,6 +317,8 @@ class Runtime:
         self.clock: RealClock | ManualClock = RealClock() if realtime else ManualClock()
         self.realtime = realtime
         self.running = False
+        self._sources: list[Node] = []  # active after the start, not for live control only (_finished)
+        self._over_told = False
         self.depth = 0
         self.bus: dict[str, list[Node]] = {}
         self.dropped = 0
@@ -560,7 +562,7 @@ class Runtime:
         self.clock.reset()
         self.running = True
         failures = []
-        for node in list(self.nodes.values()):
+        for node in self._downstream_first():
             try:
                 node.start()
             except Exception as exc:  # a port that cannot open, a file that cannot be read...
@@ -572,6 +574,43 @@ class Runtime:
             raise StartError(failures)
         for node in list(self.nodes.values()):
             self._guard(node, node.loadbang)
+        # the sources whose end is the patch's end (see _finished)
+        self._sources = [n for n in self.nodes.values() if n.active and not self._listens_only(n)]
+        self._over_told = False
+
+    def _downstream_first(self) -> list[Node]:
+        """Every node, each after the nodes it sends to (a loop's in declaration order): a sink is ready
+        (a file open, a socket bound) before a source that speaks as it starts (a ``mote``'s ``opened``)
+        says anything.  Iterative: a chain of thousands of nodes is no recursion."""
+        receivers: dict[str, list[Node]] = {}
+        for node in self.nodes.values():
+            if node.type_name == "receive":
+                receivers.setdefault(node.p.bus, []).append(node)
+
+        def after(node: Node) -> Iterator[Node]:
+            for targets in node._targets:
+                yield from (t for t, _ in targets)
+            if node.type_name == "send":
+                yield from receivers.get(node.p.bus, ())
+
+        order: list[Node] = []
+        seen: set[int] = set()
+        for root in self.nodes.values():
+            if id(root) in seen:
+                continue
+            seen.add(id(root))
+            stack = [(root, after(root))]
+            while stack:
+                node, todo = stack[-1]
+                for nxt in todo:
+                    if id(nxt) not in seen:
+                        seen.add(id(nxt))
+                        stack.append((nxt, after(nxt)))
+                        break
+                else:
+                    stack.pop()
+                    order.append(node)
+        return order
 
     def run(self, duration: float | None = None) -> None:
         """Run on this thread until stopped, ``duration`` seconds pass, or nothing is left to happen.
@@ -659,9 +698,32 @@ class Runtime:
     # (Without the GIL, a free-threaded Python, the look has no memory barrier: a wake-up might be
     # missed, and the post would then wait for the next wake-up, IDLE at the latest.)
     def _finished(self) -> bool:
-        if self._queue.queue or any(n.active for n in self.nodes.values()):
+        """Nothing queued, no timer, and no node active; a node that only listens for live control (an
+        ``osc_in`` whose outlets are wired to nothing) does not keep a patch running whose own sources
+        are all done, one of them at the end of its material (a ``replay`` at the end of its take, a
+        ``simulate`` whose duration ran out): the take is over."""
+        if self._queue.queue or not all(t.cancelled for t in self._timers):
             return False
-        return all(t.cancelled for t in self._timers)
+        active = [n for n in self.nodes.values() if n.active]
+        if not active:
+            return True
+        if any(n.active for n in self._sources) or not any(n.ended for n in self._sources):
+            return False  # (a source closed by a message may be opened again by live control)
+        if not self._over_told:
+            self._over_told = True
+            self.console(
+                "the patch's sources have ended ("
+                + ", ".join(f"{n.type_name} '{n.name}'" for n in self._sources)
+                + "); live control ("
+                + ", ".join(f"{n.type_name} '{n.name}'" for n in active)
+                + ") ends with them"
+            )
+        return True
+
+    @staticmethod
+    def _listens_only(node: Node) -> bool:
+        """A node active for live control only: it acts alone, and nothing is wired to its outlets."""
+        return type(node).acts_alone and not any(node._targets)
 
     #: Longest sleep in select (seconds), so that a stop is noticed even if its wake-up were lost.
     IDLE = 0.25

@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from typing import Any
@@ -73,3 +74,13 @@ def wait_until(predicate: Callable[[], bool], timeout: float = 5.0, poll: float 
 
 
 wait_until.__test__ = False  # type: ignore[attr-defined]
+
+
+def beside(patch: str | os.PathLike[str]) -> list[str]:
+    """``--set NODE.port=0`` for every ``osc_in`` of ``patch`` (listening on any free port instead of
+    the one in the file, 9001 in the shipped patches): a test that runs the patch runs beside one a
+    performer has running."""
+    from .loader import expand, read_spec
+
+    spec = expand(read_spec(patch))
+    return [a for d in spec.nodes if d.type == "osc_in" for a in ("--set", f"{d.name}.port=0")]

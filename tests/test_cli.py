@@ -16,9 +16,13 @@ from pointat.cli import main
 from pointat.maths.calibration import Calibration
 from pointat.node import ParamError
 from pointat.registry import default_registry
+from pointat.testing import beside
 
 ROOT = Path(__file__).resolve().parent.parent
 PATCHES = sorted((ROOT / "patches").glob("*.pat")) + sorted((ROOT / "examples").glob("**/*.pat"))
+
+
+GLOVE = ROOT / "patches" / "glove_tqt.pat"
 
 
 def pointat(*args, timeout=60):
@@ -50,16 +54,28 @@ def copy_of_repo(tmp_path_factory):
     return root
 
 
+@pytest.fixture
+def a_patch_running_beside():
+    """Port 9001 held, as a performer's running patch holds it (or it is held already: the same)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        try:
+            held.bind(("127.0.0.1", 9001))
+        except OSError:
+            pass
+        yield
+
+
 @pytest.mark.parametrize("path", [p for p in PATCHES if "evaluate" not in p.name], ids=lambda p: p.name)
-def test_every_shipped_patch_runs_briefly(path, copy_of_repo):
-    out = pointat("run", copy_of_repo / path.relative_to(ROOT), "--for", "1.5", timeout=60)
+def test_every_shipped_patch_runs_briefly(path, copy_of_repo, a_patch_running_beside):
+    copy = copy_of_repo / path.relative_to(ROOT)
+    out = pointat("run", copy, "--for", "1.5", *beside(copy), timeout=60)
     assert out.returncode == 0, out.stderr
     assert "Traceback" not in out.stderr
     assert "ERROR" not in out.stderr, out.stderr
 
 
 def test_main_job_prints_directions():
-    out = pointat("run", "patches/glove_tqt.pat", "--for", "3")
+    out = pointat("run", "patches/glove_tqt.pat", "--for", "3", *beside(GLOVE))
     assert out.returncode == 0, out.stderr
     lines = [ln for ln in out.stdout.splitlines() if ln.startswith("azimuth elevation distance:")]
     assert len(lines) >= 3
@@ -104,7 +120,7 @@ def test_a_terminal_that_stops_reading_does_not_stop_the_patch(tmp_path):
 
 def test_a_pipe_closed_by_its_reader_ends_the_run_quietly():  # pointat run ... | head -2
     proc = subprocess.Popen(
-        [sys.executable, "-m", "pointat.cli", "run", "patches/glove_tqt.pat", "--for", "60"],
+        [sys.executable, "-m", "pointat.cli", "run", "patches/glove_tqt.pat", "--for", "60", *beside(GLOVE)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         cwd=ROOT,
@@ -146,14 +162,14 @@ def test_rt_runs_at_real_time_priority_or_says_why_not(tmp_path):
 
 
 def test_spin_runs_a_patch_and_is_refused_with_rt_or_out_of_range():
-    ok = pointat("run", "-v", "--spin", "2", "patches/glove_tqt.pat", "--for", "3")
+    ok = pointat("run", "-v", "--spin", "2", "patches/glove_tqt.pat", "--for", "3", *beside(GLOVE))
     assert ok.returncode == 0, ok.stderr
     assert "polling for input for 2 ms after each input" in ok.stderr
     assert "azimuth elevation distance:" in ok.stdout
-    both = pointat("run", "--rt", "--spin", "2", "patches/glove_tqt.pat", "--for", "1")
+    both = pointat("run", "--rt", "--spin", "2", "patches/glove_tqt.pat", "--for", "1", *beside(GLOVE))
     assert both.returncode == 2 and "--spin with --rt" in both.stderr and "Traceback" not in both.stderr
     for bad in ("-1", "x", "nan", "2000"):
-        out = pointat("run", "--spin", bad, "patches/glove_tqt.pat", "--for", "1")
+        out = pointat("run", "--spin", bad, "patches/glove_tqt.pat", "--for", "1", *beside(GLOVE))
         assert out.returncode == 2 and "argument --spin" in out.stderr, (bad, out.stderr)
 
 
@@ -410,6 +426,20 @@ def test_send_delivers_one_osc_message_with_typed_arguments():
     assert [t for t in msg.dgram.split(b",", 1)[1][:4].decode()] == ["i", "f", "s", "f"]
     bad = pointat("send", "99999", "/x")
     assert bad.returncode == 2 and "expected a port 1..65535 or host:port" in bad.stderr
+
+
+def test_send_to_a_port_nobody_listens_on_says_so_and_fails():
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]  # free now: nothing listens once it is closed
+    out = pointat("send", str(port), "/pointat/press/bang")
+    assert out.returncode == 1
+    assert (
+        f"nothing listens on UDP 127.0.0.1:{port}: is the patch running, with osc_in port={port}?"
+        in out.stderr
+    )
 
 
 def test_what_building_a_node_refuses_check_refuses_first():

@@ -554,6 +554,7 @@ FrameFormat = Literal["auto", "binary", "text"]
 _SYNC0, _SYNC1 = SYNC
 _DOLLAR = ord("$")
 _LF = ord("\n")
+_CR = ord("\r")
 _CANDIDATE = {
     "auto": re.compile(rb"[\xa5$0-9]"),
     "binary": re.compile(rb"\xa5"),
@@ -732,12 +733,15 @@ class FrameParser:
     def _try_text(self, buf: bytearray, pos: int, frames: list[Frame]) -> int:
         n = len(buf)
         i = pos + 1 if buf[pos] == _DOLLAR else pos
-        end = _LINE_BODY.match(buf, i, min(n, i + MAX_LINE)).end()
-        if end < n and buf[end] == _LF:
+        limit = i + MAX_LINE + 1  # MAX_LINE bytes, and the CR of a CRLF ending
+        end = _LINE_BODY.match(buf, i, min(n, limit)).end()
+        if end < n and buf[end] == _LF and (end < limit or buf[end - 1] == _CR):
             # a malformed line is dropped whole, up to its newline (no line or frame can hide inside)
             nbytes = end + 1 - pos
             return nbytes if self._parse_line(bytes(buf[i:end]), nbytes, frames) else -nbytes
-        if end - i >= MAX_LINE:
+        # too long when a byte past MAX_LINE is no line ending, whatever the chunking: a line of exactly
+        # MAX_LINE bytes whose CR or LF has not come yet is waited for
+        if end == limit and (end < n or buf[end - 1] != _CR):
             self._corrupt(None, "text", f"line longer than {MAX_LINE} bytes")
             return -(end - pos)
         if end < n:  # a byte no line may hold (binary data, a control character, a '$'): not a line

@@ -483,6 +483,8 @@ class Calibration:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ValueError(f"{source}: not valid JSON: {exc}") from None
+        except ValueError as exc:  # an integer of more than 4300 digits (sys.get_int_max_str_digits)
+            raise ValueError(f"{source}: not a calibration: {exc}") from None
         except RecursionError:
             raise ValueError(f"{source}: nested too deeply to be a calibration") from None
         return cls.from_dict(data, source=source)

@@ -138,31 +138,103 @@ def test_feedback_loop_without_delay_is_an_error_but_a_delay_breaks_it():
 
 def test_fan_out_into_one_node_is_a_warning():
     checked = check(parse_patch("node t trigger f\nnode p pack 0 0\nt -> p.1\nt -> p.0\n", "w.pat"), REG)
-    [w] = checked.warnings
+    [w] = [w for w in checked.warnings if "wire order" in w.message]  # (and that it does nothing)
     assert w.severity == "warning" and w.where.line == 4 and "in wire order" in w.message
 
 
 def test_a_node_fed_on_cold_inlets_only_is_a_warning():
     # the gyro wire forgotten (or sent to a cold inlet by mistake): the filter would store and stay silent
-    text = "node src msg 1 2 3\nnode u unpack 0 0 0\nnode f tqt\nsrc -> u\nu.0 -> f.accel\nu.1 -> f.mag\n"
+    text = (
+        "node lb loadbang\nnode src msg 1 2 3\nnode u unpack 0 0 0\nnode f tqt\nnode p print\n"
+        "lb -> src\nsrc -> u\nu.0 -> f.accel\nu.1 -> f.mag\nf -> p\n"
+    )
     [w] = check(parse_patch(text, "c.pat"), REG).warnings
-    assert w.severity == "warning" and w.where.line == 3
+    assert w.severity == "warning" and w.where.line == 4
     assert "node 'f' (tqt) is fed on cold inlets only" in w.message and "hot inlet 'gyro'" in w.message
-    # wired to the hot inlet, or not wired at all (driven by live control): nothing to say
+    assert "live control" not in w.message  # nothing from outside could reach it either
+    # wired to the hot inlet: nothing to say
     assert not check(parse_patch(text + "u.2 -> f.gyro\n", "c.pat"), REG).warnings
-    assert not check(parse_patch("node f tqt\nnode p print\nf -> p\n", "c.pat"), REG).warnings
     # an abstraction checked on its own: its inlet feeds the hot inlet from outside
     assert not check(parse_patch("inlet gyro -> f.gyro\n" + text, "c.pat"), REG).warnings
+
+
+def test_check_warns_about_what_can_never_act():
+    def warnings(text):
+        return [
+            (w.where.line if w.where else None, w.message)
+            for w in check(parse_patch(text, "w.pat"), REG).warnings
+        ]
+
+    # a filter and a sink nothing is wired to
+    [(line, msg)] = warnings("node f tqt\nnode p print\nf -> p\n")
+    assert line == 1 and "node 'f' (tqt): nothing is wired to it, so it never acts" in msg
+    # an osc_out fed on its cold inlets only (the azimuth, its hot inlet, forgotten)
+    text = "node g simulate\nnode q quat2euler\nnode o osc_out port=9\ng.truth -> q\nq.1 -> o.elevation\n"
+    [(line, msg)] = warnings(text)
+    assert line == 3 and "node 'o' (osc_out) is fed on cold inlets only" in msg and "'azimuth'" in msg
+    # a sink with no source; a source wired to nothing
+    assert [m for _, m in warnings("node o osc_out port=9\nnode g simulate\n")] == [
+        "node 'o' (osc_out): nothing is wired to it, so it never acts",
+        "node 'g' (simulate): its outlets are wired to nothing",
+    ]
+    # a patch that sends nothing anywhere
+    [(line, msg)] = warnings("node g simulate\nnode n offset\nnode u scaling\ng -> n -> u\n")
+    assert "the patch has no output" in msg
+    # a chain of the patch that reaches no output, beside one that does
+    msgs = warnings(
+        "node g simulate\nnode n offset\nnode u scaling\nnode p print\ng -> n -> u\ng.truth -> p\n"
+    )
+    assert msgs == [
+        (2, "'n', 'u': what they compute reaches no output (osc_out, print, record...), so they are not run")
+    ]
+    # a button for live control is what it is there for; a filter is not
+    text = "node ctl osc_in port=0\nnode press msg bang\nnode f tqt\nnode p print\npress -> p\nf -> p\n"
+    [(line, msg)] = warnings(text)
+    assert line == 3 and msg.endswith("never acts (unless live control sends to it)")
+
+
+def test_check_says_every_problem_in_one_run(tmp_path):
+    """Syntax-free but wrong in every other way: parameter types, ranges, wires, a loop and a missing
+    abstraction, all in one run, in the order of the lines."""
+    (tmp_path / "show.pat").write_text(
+        "node glove simulate rate=abc\nnode fuse tqt dip=120\nnode out osc_out port=9999 radius=-1\n"
+        "node b msg 1\nnode c t b b\nglove.adc -> fuse.gyro\nfuse.nope -> out\nghost -> out\n"
+        "node x missing.pat\nb -> c\nc -> b\nglove.adc -> fuse.wrong\n"
+    )
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "show.pat"), REG)
+    said = [(p.where.line, p.message) for p in info.value.problems]
+    lines = [line for line, _ in said]
+    assert lines == sorted(lines)
+    text = "\n".join(m for _, m in said)
+    for part in (
+        "parameter 'rate' expects a number; got 'abc'",
+        "dip must be -90..90",
+        "radius must be a finite number >= 0",
+        "feedback loop with no delay: b -> c -> b",
+        "node 'fuse' (tqt) has no outlet 'nope'",
+        "no node named 'ghost'",
+        "'missing.pat' not found",
+        "node 'fuse' (tqt) has no inlet 'wrong'",  # a wire into a node that is itself refused
+    ):
+        assert part in text, part
+    # two wrong parameters of one node: both
+    with pytest.raises(PatchError) as info:
+        check(parse_patch("node g simulate rate=abc seed=-1 nosuch=1\n", "p.pat"), REG)
+    [problem] = info.value.problems
+    assert "rate" in problem.message and "seed" in problem.message and "nosuch" in problem.message
 
 
 def test_a_file_a_node_reads_at_start_that_is_not_there_is_a_warning(tmp_path):
     (tmp_path / "take1.csv").write_text("t,gx\n")
     (tmp_path / "show.pat").write_text("node a replay file=take1.csv\nnode b replay file=take2.csv\n")
-    [w] = check(read_spec(tmp_path / "show.pat"), REG).warnings  # relative to the patch: take1 is found
+    warnings = check(read_spec(tmp_path / "show.pat"), REG).warnings
+    [w] = [w for w in warnings if "no file" in w.message]  # relative to the patch: take1 is found
     assert w.severity == "warning" and w.where.line == 2
     assert "node 'b' (replay): parameter 'file': no file" in w.message and "take2.csv" in w.message
     # a file a node writes may well not be there yet
-    assert not check(parse_patch("node r record file=out.csv\n", str(tmp_path / "r.pat")), REG).warnings
+    text = "node g simulate\nnode r record file=out.csv\ng.truth -> r\n"
+    assert not check(parse_patch(text, str(tmp_path / "r.pat")), REG).warnings
 
 
 def test_all_errors_are_reported_at_once():
@@ -418,3 +490,18 @@ def test_lists_nested_too_deep_long_words_and_arguments_given_twice_are_located(
     assert parse_patch(f"node p print prefix={word}\n").node("p").params["prefix"] == word
     assert errors_of("args n=1 n=2\nnode m metro $n\n") == [(1, "argument 'n' given twice")]
     assert errors_of("args n=1\nargs n=2\nnode m metro $n\n") == [(2, "argument 'n' given twice")]
+
+
+def test_a_chain_of_thousands_of_nodes_is_checked_without_recursion_and_its_depth_is_told():
+    n = 3000
+    text = "node n0 loadbang\n" + "".join(f"node n{i} t b\n" for i in range(1, n)) + "node p print\n"
+    text += "".join(f"n{i - 1} -> n{i}\n" for i in range(1, n)) + f"n{n - 1} -> p\n"
+    checked = check(parse_patch(text, "deep.pat"), REG)
+    [w] = checked.warnings
+    assert f"a chain of {n + 1} nodes one after the other ends at 'p': messages stop after 250" in w.message
+    # a loop as long: found (iteratively), named from its first node
+    loop = text + "n2999 -> n1\n"
+    with pytest.raises(PatchError, match=r"deep.pat:2: .*feedback loop with no delay: n1 -> n2 -> n3"):
+        check(parse_patch(loop, "deep.pat"), REG)
+    short = "node a loadbang\nnode b t b\nnode p print\na -> b -> p\n"
+    assert not check(parse_patch(short, "s.pat"), REG).warnings

@@ -29,7 +29,7 @@ import pytest
 
 from osc_bridge.profiles import PROFILES
 from pointat.message import make
-from pointat.testing import patch
+from pointat.testing import beside, patch
 
 ROOT = Path(__file__).resolve().parents[2]
 NTP_UNIX = 2208988800
@@ -267,7 +267,9 @@ def example_runs(dump):
     redirect = ["--set", f"out.port={dump.port}"] if dump is not None else []
     if dump is not None:
         dump.drain(0.02)
-    runs = {name: _pointat("run", path, "--for", "1", *redirect) for name, path in files.items()}
+    runs = {
+        name: _pointat("run", path, "--for", "1", *redirect, *beside(path)) for name, path in files.items()
+    }
     done = {}
     for name in files:
         check = checks[name].communicate(timeout=60)

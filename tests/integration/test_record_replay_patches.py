@@ -8,6 +8,8 @@ import sys
 import threading
 from pathlib import Path
 
+from pointat.testing import beside
+
 ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
 
@@ -48,6 +50,7 @@ class Listener:
 
 def _run(patch: str, *sets: str, seconds: float | None = None) -> subprocess.CompletedProcess:
     args = [a for s in sets for a in ("--set", s)] + ([] if seconds is None else ["--for", str(seconds)])
+    args += beside(ROOT / patch) if not any(s.startswith("ctl.port=") for s in sets) else []
     return subprocess.run(
         [sys.executable, "-m", "pointat.cli", "run", patch, *args],
         cwd=ROOT,

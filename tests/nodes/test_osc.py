@@ -6,6 +6,7 @@ library that encodes them; packets sent to osc_in are built with python-osc.
 """
 
 import math
+import os
 import socket
 import struct
 import time
@@ -19,7 +20,7 @@ from pythonosc.osc_message_builder import OscMessageBuilder
 from osc_bridge.profiles import PROFILES
 from pointat.errors import PatchError
 from pointat.loader import load
-from pointat.message import make
+from pointat.message import make, method
 from pointat.testing import patch
 
 IMMEDIATELY = b"\x00" * 7 + b"\x01"
@@ -1141,3 +1142,75 @@ def test_the_field_clamps_are_min_max_including_nan():
         expected = (min(max(v, -90.0), 90.0), min(max(v, 0.0), 90.0), min(max(v, 0.0), 100.0))
         got = (FIELDS["el"].fn(s), FIELDS["dist"].fn(s), FIELDS["spread"].fn(s))
         assert str(got) == str(expected)  # (as text: nan == nan)
+
+
+def test_osc_in_says_the_sensors_full_scale_and_tqt_flags_a_reading_at_the_rail(started):
+    rt, imu, addr = in_patch(
+        started,
+        "device=ngimu acc_range=16 gyro_range=2000",
+        "node fuse tqt\nnode r collect\nnode flags collect\nimu.range -> r\nimu.range -> fuse.range\n"
+        "imu.gyro -> fuse.gyro\nimu.accel -> fuse.accel\nimu.mag -> fuse.mag\nfuse.flags -> flags",
+    )
+    [(acc, gyro)] = rt.nodes["r"].values
+    assert acc == pytest.approx(16 * 9.80665) and gyro == pytest.approx(math.radians(2000.0))
+    rest = osc("/sensors", 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 20.0, 0.0, -40.0, 1013.25)
+    strike = osc("/sensors", 0.0, 0.0, 0.0, 16.0, 0.0, 1.0, 20.0, 0.0, -40.0, 1013.25)  # x at +16 g
+    with sender() as tx:
+        for _ in range(5):
+            tx.sendto(rest.dgram, addr)
+        tx.sendto(strike.dgram, addr)
+        assert wait_for(rt, lambda: any("acc_saturated" in str(v) for v in rt.nodes["flags"].values))
+
+
+def test_numbers_beyond_float32_neither_silence_osc_out_nor_pass_as_settings(started, receivers):
+    rx = receivers()
+    rt, out = out_node(started, rx.port, "profile=generic fields=[az, dist_m] radius=3e38")
+    push(out, 30.0, el=0.0, dist=0.0)
+    [(_, _, _, (az, dist_m))] = rx.messages(1)
+    assert dist_m == pytest.approx(3e38, rel=1e-6)  # the largest radius an OSC float holds goes out
+    with pytest.raises(ValueError, match=r"radius 1e\+39 is beyond an OSC float"):
+        out.receive(0, method("radius", 1e39))  # as a live OSC double would set it
+    assert out.p.radius == 3e38
+    push(out, 40.0, el=0.0, dist=0.0)
+    [(_, _, _, (az, dist_m))] = rx.messages(1)  # not silenced
+    assert az == pytest.approx(40.0)
+    with pytest.raises(PatchError, match=r"<test>:1: .*radius 1e\+39 is beyond an OSC float"):
+        patch(f"node out osc_out port={rx.port} radius=1e39")
+    with pytest.raises(PatchError, match=r"field 5000000000: an OSC int is 32 bits"):
+        patch(f"node out osc_out port={rx.port} profile=generic fields=[az, 5000000000]")
+    with pytest.raises(PatchError, match=r"field 1e\+39: beyond an OSC float"):
+        patch(f"node out osc_out port={rx.port} profile=generic fields=[az, 1e39]")
+
+
+def test_live_control_names_no_file_or_device(tmp_path, started, caplog):
+    """The rule: a message from outside names no path.  ``/pointat/cal/save`` saves where the patch
+    says; ``/pointat/cal/save ~/.bashrc`` (any local process can send it) is refused and writes nothing;
+    so are ``load PATH`` and a device path sent to a ``mote``."""
+    cal = tmp_path / "cal.json"
+    victim = tmp_path / "bashrc"
+    victim.write_text("export PS1=x\n")
+    master, slave = os.openpty()
+    try:
+        rt, imu, addr = in_patch(
+            started,
+            "",
+            f"node cal calibrate file={cal}\nnode base mote device={os.ttyname(slave)}\nnode s collect\n"
+            "node m1 collect\nbase.m1 -> m1\ncal -> s",
+        )
+        with sender() as tx:
+            for address, args in (
+                ("/pointat/cal/save", [str(victim)]),
+                ("/pointat/cal/load", [str(victim)]),
+                ("/pointat/base/open", ["/etc/passwd"]),
+                ("/pointat/base", ["/etc/passwd"]),
+            ):
+                tx.sendto(osc(address, *args).dgram, addr)
+            assert wait_for(rt, lambda: imu.refused_control == 4)
+            tx.sendto(osc("/pointat/cal/save").dgram, addr)
+            assert wait_for(rt, lambda: cal.exists())
+        assert victim.read_text() == "export PS1=x\n"
+        assert rt.nodes["base"].p.device == os.ttyname(slave)
+        assert "live control names no files or devices" in caplog.text
+    finally:
+        os.close(master)
+        os.close(slave)

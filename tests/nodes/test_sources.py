@@ -756,3 +756,69 @@ def test_replay_negative_speed_is_a_load_error_at_its_line(tmp_path):
     rec.write_text("t,v0\n0,1\n")
     with pytest.raises(PatchError, match=r"<test>:1.*speed.*>= 0.*-1"):
         patch(f"node src replay file={rec} speed=-1\n")
+
+
+def test_replay_tells_tqt_the_recorded_sensors_full_scale_and_a_strike_at_the_rail_is_flagged(tmp_path):
+    """A recording of a strike that saturated a ±2 g accelerometer: with the data sheet's full scale on
+    replay, tqt knows the axis stuck at the rail (flags acc_saturated) rather than taking it for motion."""
+    take = tmp_path / "strike.csv"
+    rows = ["t,gyr_x,gyr_y,gyr_z,acc_x,acc_y,acc_z,mag_x,mag_y,mag_z"]
+    for i in range(300):
+        acc_x = 2 * 9.80665 if 200 <= i < 210 else 0.0  # x stuck at +2 g for 0.1 s
+        rows.append(f"{i / 100},0,0,0,{acc_x},0,9.81,0.2,0,-0.4")
+    take.write_text("\n".join(rows) + "\n")
+    text = (
+        "node src replay file={} speed=0 acc_range=2 gyro_range=250\nnode fuse tqt\nnode r collect\n"
+        "node flags collect\nsrc.range -> r\nsrc.range -> fuse.range\nsrc.gyro -> fuse.gyro\n"
+        "src.accel -> fuse.accel\nsrc.mag -> fuse.mag\nfuse.flags -> flags\n"
+    )
+    rt = patch(text.format(take), realtime=True)
+    rt.run(10)
+    [(acc, gyro)] = rt.nodes["r"].values
+    assert acc == pytest.approx(2 * 9.80665) and gyro == pytest.approx(math.radians(250.0))
+    said = [str(v) for v in rt.nodes["flags"].values]
+    assert any("acc_saturated" in s for s in said), said
+    rt = patch(text.format(take).replace(" acc_range=2 gyro_range=250", ""), realtime=True)
+    rt.run(10)
+    assert rt.nodes["r"].values == []  # not known: nothing said, tqt guesses as before
+    assert not any("acc_saturated" in str(v) for v in rt.nodes["flags"].values)
+
+
+def test_a_sink_declared_after_its_source_gets_the_sources_first_event(tmp_path):
+    """``mote`` says ``opened`` as it starts; a ``record`` declared after it must already have its file
+    open (the runtime starts every node after the nodes it sends to)."""
+    master, slave = os.openpty()
+    link = tmp_path / "base"
+    os.symlink(os.ttyname(slave), link)
+    log = tmp_path / "events.ndjson"
+    rt = patch(f"node base mote device={link} rate=100\nnode rec record file={log}\nbase.events -> rec\n")
+    try:
+        rt.start()
+    finally:
+        rt.shutdown()
+        os.close(master)
+        os.close(slave)
+    assert '"opened"' in log.read_text()
+
+
+def test_a_take_that_is_over_ends_the_run_though_live_control_still_listens(tmp_path, caplog):
+    """replay_glove.pat with speed=0: its osc_in (live control only, its outlets wired to nothing) must
+    not keep the run going once the take is played; an osc_in that feeds the patch does."""
+    import logging
+
+    take = tmp_path / "take.csv"
+    take.write_text("t,value\n" + "".join(f"{i / 100},{i}\n" for i in range(50)))
+    text = f"node src replay file={take} speed=0\nnode ctl osc_in port=0\nnode got collect\nsrc.row -> got\n"
+    rt = patch(text, realtime=True)
+    t0 = time.monotonic()
+    with caplog.at_level(logging.INFO, logger="pointat.console"):
+        rt.run(20)
+    assert time.monotonic() - t0 < 10 and len(rt.nodes["got"].values) == 50
+    assert (
+        "the patch's sources have ended (replay 'src'); live control (osc_in 'ctl') ends with them"
+        in caplog.text
+    )
+    rt = patch(text + "node more collect\nctl.any -> more\n", realtime=True)  # osc_in is a source here
+    t0 = time.monotonic()
+    rt.run(1.0)
+    assert time.monotonic() - t0 >= 0.9  # ran for its whole duration
