@@ -17,7 +17,7 @@ import importlib.util
 import logging
 import math
 from collections.abc import Mapping
-from functools import lru_cache, partial
+from functools import partial
 from typing import Any, ClassVar
 
 import numpy as np
@@ -59,25 +59,13 @@ def _as_quat(msg: Message) -> sq.Quat:
     return _matrix_quat(values) if n == 9 else sq.normalize(values)
 
 
-#: The matrix :func:`_matrix` built last and the quaternion it was built from (with w >= 0, as
-#: :func:`~pointat.maths.scalar.matrix_quat` gives it).  Torre's chain turns ``complementary``'s matrix
-#: back into a quaternion at once (``matrix2quat``): that node reads it here instead of working it out
-#: again (0.9 µs).  Only that very tuple matches (compared by identity), and one assignment replaces the
-#: pair, so another thread's runtime never sees half of one.
-_made: tuple[tuple[float, ...] | None, sq.Quat] = (None, (1.0, 0.0, 0.0, 0.0))
-
-
 def _matrix(q: sq.Quat, time: float) -> Message:
-    global _made
-    m = sq.quat_matrix(q)
-    _made = (m, q if q[0] >= 0.0 else (-q[0], -q[1], -q[2], -q[3]))
-    return floats(m, time)
+    return floats(sq.quat_matrix(q), time)
 
 
 def _matrix_quat(m: tuple[float, ...]) -> sq.Quat:
-    """:func:`~pointat.maths.scalar.matrix_quat` of finite ``m``, read back if :func:`_matrix` built it."""
-    made = _made
-    return made[1] if m is made[0] else sq.matrix_quat(m)
+    """:func:`~pointat.maths.scalar.matrix_quat` of finite ``m``."""
+    return sq.matrix_quat(m)
 
 
 class SampleClock:
@@ -919,10 +907,7 @@ class Quat2Euler(Node):
         self.emit(*(math.degrees(a) for a in sq.euler(_as_quat(msg))))
 
 
-#: :func:`~pointat.maths.scalar.azimuth_elevation` remembering its last call: ``azi_ele`` and
-#: ``roll_distance`` fed by the same outlet get the same quaternion, and the second one is a lookup
-#: (0.16 instead of 0.69 µs).  Both call it with the same four positional arguments, hashable tuples.
-_pointing = lru_cache(maxsize=1)(sq.azimuth_elevation)
+_pointing = sq.azimuth_elevation
 _HAND_X = (1.0, 0.0, 0.0)
 
 

@@ -14,8 +14,10 @@ import threading
 from pathlib import Path
 
 from . import __version__
+from .checking import check
 from .errors import PatchError, PointatError, did_you_mean
-from .loader import build, check, parse_overrides, read_spec
+from .expansion import read_spec
+from .loader import build, parse_overrides
 from .registry import Registry, default_registry
 from .runtime import CPU_DMA_LATENCY, keep_cpus_awake, realtime_priority
 from .spec import is_pd_file
@@ -324,7 +326,7 @@ def cmd_help(args: argparse.Namespace, registry: Registry) -> int:
 
 
 def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
-    from .loader import rebase_paths
+    from .expansion import rebase_paths
     from .patchfile import write_patch
 
     spec = read_spec(args.source)

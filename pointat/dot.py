@@ -6,8 +6,8 @@ import shutil
 import subprocess
 from pathlib import Path
 
+from .checking import Checked
 from .errors import PointatError
-from .loader import Checked
 from .patchfile import format_value
 
 __all__ = ["to_dot", "write_svg"]

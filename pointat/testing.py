@@ -18,7 +18,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from .loader import build, check
+from .checking import check
+from .loader import build
 from .message import Message, make
 from .node import Inlet, Node
 from .patchfile import parse_patch
@@ -80,7 +81,7 @@ def beside(patch: str | os.PathLike[str]) -> list[str]:
     """``--set NODE.port=0`` for every ``osc_in`` of ``patch`` (listening on any free port instead of
     the one in the file, 9001 in the shipped patches): a test that runs the patch runs beside one a
     performer has running."""
-    from .loader import expand, read_spec
+    from .expansion import expand, read_spec
 
     spec = expand(read_spec(patch))
     return [a for d in spec.nodes if d.type == "osc_in" for a in ("--set", f"{d.name}.port=0")]
