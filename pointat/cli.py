@@ -381,7 +381,7 @@ def _osc_value(text: str) -> int | float | str:
 def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
     import socket
 
-    from osc_bridge.nodes import encode_message, udp_port
+    from .devices.osc_wire import encode_message, udp_port
 
     host, _, text = args.to.rpartition(":")
     if host.startswith("[") and host.endswith("]"):  # [::1]:9001, as IPv6 addresses are written with a port

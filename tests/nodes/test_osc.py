@@ -979,7 +979,7 @@ nulls.status -> status
 def test_our_encoder_writes_what_python_osc_writes():
     from pythonosc.osc_message_builder import OscMessageBuilder
 
-    from osc_bridge.nodes import encode_message
+    from pointat.devices.osc_wire import encode_message
 
     for address, args in [
         ("/a", []),
@@ -997,7 +997,8 @@ def test_our_encoder_writes_what_python_osc_writes():
 
 @pytest.mark.parametrize("profile", sorted(PROFILES))
 def test_the_compiled_update_encoder_writes_what_render_and_encode_message_write(profile):
-    from osc_bridge.nodes import UpdateEncoder, encode_message
+    from osc_bridge.nodes import UpdateEncoder
+    from pointat.devices.osc_wire import encode_message
     from osc_bridge.profiles import Source
 
     prof = PROFILES[profile]
@@ -1050,7 +1051,7 @@ def _python_osc(data):
 def _python_osc_reads_all(data):
     """Whether python-osc reads every argument of ``data``: it skips the char ``c`` and Infinitum ``I``
     (with a warning), and the arguments after them shift."""
-    from osc_bridge.nodes import _read_string
+    from pointat.devices.osc_wire import _read_string
 
     def tags(message):
         _address, j = _read_string(message, 0, len(message))
@@ -1072,7 +1073,7 @@ def _messages(data):
 
 
 def test_decode_packet_reads_what_python_osc_reads():
-    from osc_bridge.nodes import decode_packet
+    from pointat.devices.osc_wire import decode_packet
 
     for data in _packets():
         assert decode_packet(data) == _python_osc(data)
@@ -1081,7 +1082,7 @@ def test_decode_packet_reads_what_python_osc_reads():
 def test_decode_packet_says_malformed_with_a_value_error_and_never_reads_garbage_as_data():
     import random
 
-    from osc_bridge.nodes import decode_packet
+    from pointat.devices.osc_wire import decode_packet
 
     rng = random.Random(7)
     packets = _packets()
@@ -1110,7 +1111,7 @@ def _char_then_floats():
 
 
 def test_decode_packet_reads_chars_and_infinitum_in_place_and_checks_every_tag():
-    from osc_bridge.nodes import decode_packet
+    from pointat.devices.osc_wire import decode_packet
 
     data = _char_then_floats()  # python-osc 1.10 skips the char: [9e-44, 1.0, 2.0]
     assert decode_packet(data) == [("/imu/acc", ["A", 1.0, 2.0, 3.0])]
