@@ -38,6 +38,7 @@ from pointat.maths.quaternion import enu_to_nwu
 from pointat.message import Message, floats, vector
 from pointat.node import FULL_SCALE_PARAMS, RANGE_OUTLET, Inlet, Node, Outlet, Param, full_scale
 from pointat.registry import register
+from pointat.spec import path_kind
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +71,9 @@ def read_lines(path: str | Path) -> Iterator[tuple[int, str]]:
     """The lines of a recording with their numbers, from 1 as an editor counts them (``.gz`` through
     gzip).  A file that cannot be read to its end raises :class:`Unreadable`, naming it and the line."""
     path = Path(path)
+    kind = path_kind(path)
+    if kind in ("folder", "other"):  # a device or a pipe would be read for ever, or wait for ever
+        raise Unreadable(f"{path}: not a regular file (a device, a pipe or a folder): a recording is a file")
     opener: Any = gzip.open if path.suffix == ".gz" else open
     n = 0
     try:

@@ -4,7 +4,7 @@
 #
 #   pointat run patches/evaluate_complementary.pat --set source.file=IN.csv.gz --set sink.file=OUT.csv
 
-node source replay file=../pointat/data/01_undisturbed_slow_rotation_A.csv.gz speed=0
+node source replay file=pointat:data/01_undisturbed_slow_rotation_A.csv.gz speed=0
 node gyro   gyro_integrator mode=exact rate=285.7142857142857
 node accmag accmag_matrix
 node fuse   complementary crossover=0.05 rate=285.7142857142857

@@ -6,7 +6,7 @@
 #
 # Try the paper's filter with --set fuse.mode=paper.
 
-node source replay file=../pointat/data/01_undisturbed_slow_rotation_A.csv.gz speed=0
+node source replay file=pointat:data/01_undisturbed_slow_rotation_A.csv.gz speed=0
 node fuse   tqt mode=robust rate=285.7142857142857
 node enu    reframe source=nwu target=enu
 node sink   record file=evaluate_tqt.csv columns=[qw, qx, qy, qz]

@@ -4,7 +4,7 @@
 #   pointat run patches/replay_glove.pat --set source.file=patches/take.csv --set source.loop=true
 # The reference pose is not part of a take: press again (/pointat/press/bang on port 9001) as it plays.
 
-node source replay file=../pointat/data/glove_take.csv.gz speed=1
+node source replay file=pointat:data/glove_take.csv.gz speed=1
 node nulls  offset samples=150
 node units  scaling
 node tqt    lib/tqt_fusion.pat rate=100 mode=robust

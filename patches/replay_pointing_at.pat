@@ -2,7 +2,7 @@
 # 4.0, pointat/data/README.md) replayed in real time through lib/torre_fusion.pat.
 #   pointat run patches/replay_pointing_at.pat --set source.file=OTHER.csv.gz --set source.speed=0
 
-node source replay file=../pointat/data/01_undisturbed_slow_rotation_A.csv.gz speed=1
+node source replay file=pointat:data/01_undisturbed_slow_rotation_A.csv.gz speed=1
 node torre  lib/torre_fusion.pat rate=285.7142857142857 crossover=0.05 integrator=exact
 node out    osc_out profile=pointat host=127.0.0.1 port=9000
 node both   pack 0 0 0

@@ -18,12 +18,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from . import shipped
 from .errors import PatchError, Problem, Where, did_you_mean
 from .expansion import _expand, _set_arguments
 from .node import MAX_DEPTH, Inlet, Node, Outlet, ParamError
 from .patchfile import format_value
 from .registry import Registry, default_registry
-from .spec import NodeDecl, PatchSpec, Wire, is_abstraction
+from .spec import NodeDecl, PatchSpec, Wire, is_abstraction, path_kind
 
 __all__ = ["Checked", "Resolved", "check"]
 
@@ -269,7 +270,13 @@ def _node_files(run: _Run, decl: NodeDecl, cls: type[Node], values: dict[str, An
     """The files a node reads as it starts: a missing one is a warning; with ``read_files``, read."""
     label = f"node '{decl.name}' ({decl.type})"
     files = [p.name for p in cls.params if p.reads and values.get(p.name)]
-    missing = [name for name in files if not Path(values[name]).exists()]
+    kinds = {name: path_kind(values[name]) for name in files}
+    missing = [name for name in files if kinds[name] == "missing"]
+    for name in files:
+        if kinds[name] not in ("file", "missing"):  # a folder, a device or a pipe (which would hang)...
+            what = "not a regular file" if kinds[name] in ("folder", "other") else kinds[name]
+            run.refuse(decl, f"{label}: parameter '{name}': {_short(str(values[name]))}: {what}")
+            return
     for name in missing:
         run.result.warnings.append(
             Problem(
@@ -513,15 +520,23 @@ def _going_nowhere(result: Checked) -> list[Problem]:
     return found
 
 
+def _short(text: str, most: int = 80) -> str:
+    return text if len(text) <= most else f"{text[: most // 2]}…{text[-most // 2 :]}"
+
+
 def _writable(name: str, value: str) -> None:
     """Refuse a file a node will write but could not: a folder, or a file in a folder that is not there
     (found at the desk, not when the show starts)."""
     path = Path(value)
-    if path.is_dir():
+    kind = path_kind(path)
+    if kind == "folder":
         raise ValueError(f"parameter '{name}': {value!r} is a folder: name a file in it")
+    if kind not in ("file", "missing", "other"):  # (other: /dev/null, a FIFO a reader waits on: writable)
+        raise ValueError(f"parameter '{name}': {_short(value)}: {kind}")
     folder = path.parent
-    if not folder.is_dir():
-        what = "is a file, not a folder" if folder.exists() else "does not exist"
+    kind = path_kind(folder)
+    if kind != "folder":
+        what = {"missing": "does not exist", "file": "is a file, not a folder"}.get(kind, f"cannot be: {kind}")
         raise ValueError(f"parameter '{name}': cannot write {value!r}: the folder {str(folder)!r} {what}")
 
 
@@ -529,7 +544,12 @@ def _anchor_paths(
     cls: type[Node], values: dict[str, Any], decl: NodeDecl, overridden: Mapping[str, Any]
 ) -> None:
     """Relative ``path`` parameters written in a patch are relative to that patch file (as in Pd);
-    those given on the command line (``--set``) stay relative to the working directory."""
+    those given on the command line (``--set``) stay relative to the working directory; ``pointat:...``
+    names a file the package ships (:mod:`pointat.shipped`)."""
+    for p in cls.params:  # pointat:data/... is the package's, from anywhere (pointat.shipped)
+        v = values.get(p.name)
+        if p.type == "path" and isinstance(v, str) and v.startswith(shipped.PREFIX):
+            values[p.name] = shipped.resolve(v)
     if decl.where is None or decl.where.file.startswith("<"):
         return
     base = Path(decl.where.file).parent

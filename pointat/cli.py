@@ -13,7 +13,7 @@ import sys
 import threading
 from pathlib import Path
 
-from . import __version__
+from . import __version__, shipped
 from .checking import check
 from .errors import PatchError, PointatError, did_you_mean
 from .expansion import read_spec
@@ -71,7 +71,11 @@ def _milliseconds(text: str) -> float:
 
 
 def _add_patch_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("patch", help="a patch file (.pat native, or .pd Pure Data)")
+    p.add_argument(
+        "patch",
+        help="a patch file (.pat native, or .pd Pure Data), or a shipped patch by name: glove_tqt, "
+        "pointing_at, replay_glove... (`pointat patches` lists them)",
+    )
     p.add_argument(
         "--set",
         metavar="NODE.PARAM=VALUE",
@@ -133,6 +137,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="dot file to write (default: standard output)")
 
     sub.add_parser("nodes", help="list the node types")
+    sub.add_parser("patches", help="list the patches pointat ships (run one by name: pointat run glove_tqt)")
     p = sub.add_parser("help", help="show a node type's inlets, outlets, parameters and an example")
     p.add_argument("node", help="node type name")
 
@@ -171,6 +176,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         ap.print_help()
         return 2
+    if getattr(args, "patch", None):
+        args.patch = _patch_path(args.patch)
     try:
         registry = _registry(args.plugins)
         return COMMANDS[args.command](args, registry)
@@ -185,6 +192,15 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except BrokenPipeError:
         return 0
+
+
+def _patch_path(name: str) -> str:
+    """The patch a user named: the file, when there is one; else a shipped patch of that name
+    (``pointat run glove_tqt`` from any folder, installed or in a checkout)."""
+    if os.path.exists(name):
+        return name
+    found = shipped.find_patch(name)
+    return str(found) if found is not None else name
 
 
 def _checked(args: argparse.Namespace, registry: Registry, read_files: bool = False):
@@ -313,6 +329,14 @@ def cmd_nodes(args: argparse.Namespace, registry: Registry) -> int:
     return 0
 
 
+def cmd_patches(args: argparse.Namespace, registry: Registry) -> int:
+    for name in shipped.patch_names():
+        path = shipped.find_patch(name)
+        first = next((line[1:].strip() for line in path.read_text().splitlines() if line.startswith("#")), "")
+        print(f"{name:<24} {first}")
+    return 0
+
+
 def cmd_help(args: argparse.Namespace, registry: Registry) -> int:
     cls = registry.get(args.node)
     if cls is None:
@@ -333,7 +357,8 @@ def cmd_convert(args: argparse.Namespace, registry: Registry) -> int:
     target = Path(args.target)
     check(spec, registry)  # never convert a broken patch
     if is_pd_file(target):
-        from .pdfile import flatten, write_pd, write_stubs
+        from .expansion import flatten
+        from .pdfile import write_pd, write_stubs
 
         spec = flatten(spec)  # its header says which abstractions
         if target.stem in {d.type for d in spec.nodes}:  # Pd looks beside a patch first: itself
@@ -428,6 +453,7 @@ COMMANDS = {
     "check": cmd_check,
     "graph": cmd_graph,
     "nodes": cmd_nodes,
+    "patches": cmd_patches,
     "help": cmd_help,
     "convert": cmd_convert,
     "stubs": cmd_stubs,

@@ -14,25 +14,36 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from . import patchfile, pdfile
 from .errors import PatchError, Problem, Where, closest
-from .patchfile import parse_value, read_patch
+from .patchfile import parse_patch, parse_value
 from .registry import Registry
-from .spec import NodeDecl, PatchSpec, PortDecl, Wire, is_abstraction, is_pd_file
+from .shipped import PREFIX
+from .spec import (
+    NodeDecl,
+    PatchSpec,
+    PortDecl,
+    Wire,
+    is_abstraction,
+    is_pd_file,
+    is_pd_text,
+    path_kind,
+    read_patch_bytes,
+)
 
-__all__ = ["expand", "read_spec", "rebase_paths"]
+__all__ = ["expand", "flatten", "read_spec", "rebase_paths"]
 
 _DOLLAR = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*|0)")
 
 
 def read_spec(path: str | Path) -> PatchSpec:
-    """Read a patch file of either format, by its extension (``.pd`` is Pure Data, the rest native; a
-    native file whose text is Pd's is read as Pd)."""
-    path = Path(path)
-    if is_pd_file(path):
-        from .pdfile import read_pd
-
-        return read_pd(path)
-    return read_patch(path)
+    """Read a patch file of either format: Pure Data's by its extension (``.pd``) or its text (a Pd file
+    saved as ``my.pat``, a download), else native.  Either way a regular file of at most
+    :data:`~pointat.spec.MAX_PATCH_BYTES`."""
+    raw = read_patch_bytes(path)
+    if is_pd_file(path) or is_pd_text(raw):
+        return pdfile.parse_pd(pdfile.decode(raw), str(path))
+    return parse_patch(patchfile.decode(raw, str(path)), str(path))
 
 
 # --------------------------------------------------------------------------- abstractions
@@ -165,6 +176,10 @@ def _expand(
     return out
 
 
+def _short(text: str, most: int = 80) -> str:
+    return text if len(text) <= most else f"{text[: most // 2]}…{text[-most // 2 :]}"
+
+
 def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
     """The file of an abstraction instance: its type, relative to the patch that holds it."""
     return (Path(parent.path).parent / decl.type).resolve()
@@ -177,13 +192,14 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], oute
             f"abstraction name {decl.type!r} holds a NUL character: no file is named so", decl.where
         )
     path = _abstraction_path(parent, decl)
-    if path.is_dir():
+    kind = path_kind(path)
+    if kind == "folder":
         raise PatchError(f"abstraction '{decl.type}' is a folder ({path}), not a patch file", decl.where)
-    if path.exists() and not path.is_file():  # a device (/dev/zero), a FIFO: no end to read to, or none
+    if kind == "other":  # a device (/dev/zero), a FIFO: no end to read to, or none
         raise PatchError(
             f"abstraction '{decl.type}' is not a regular file ({path}): a patch is a text file", decl.where
         )
-    if not path.exists():
+    if kind == "missing":
         near = [str(f.relative_to(base)) for f in (*base.glob("*.pat"), *base.glob("*/*.pat"))]
         hint = closest(decl.type, near)
         raise PatchError(
@@ -191,6 +207,8 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], oute
             + (f"; did you mean '{hint}'?" if hint else ""),
             decl.where,
         )
+    if kind != "file":  # a name too long, no permission...
+        raise PatchError(f"abstraction '{_short(decl.type)}': {kind}", decl.where)
     if str(path) in stack:
         loop = [Path(p).name for p in stack[stack.index(str(path)) :]] + [path.name]
         raise PatchError(
@@ -198,7 +216,15 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], oute
             + (f": {' -> '.join(loop)}" if len(loop) > 2 else ""),
             decl.where,
         )
-    sub = read_spec(path)
+    try:
+        sub = read_spec(path)
+    except PatchError as exc:  # a file that cannot be read (unlike one with errors at its lines) is
+        # the instance's problem, at the instance's line
+        if any(p.where is not None and p.where.line for p in exc.problems):
+            raise
+        raise PatchError(
+            f"abstraction '{_short(decl.type)}': " + "; ".join(p.message for p in exc.problems), decl.where
+        ) from None
     if decl.args:
         raise PatchError(
             f"abstraction '{decl.type}' takes named arguments ({', '.join(sub.args) or 'none'}), "
@@ -263,7 +289,10 @@ def _set_arguments(
             continue
         decl = instances[node]
         path = _abstraction_path(spec, decl)
-        known = read_spec(path).args if path.is_file() else None  # a missing one is reported by expand
+        try:  # a missing or unreadable one is reported by expand
+            known = read_spec(path).args if path_kind(path) == "file" else None
+        except PatchError:
+            known = None
         if known is not None and arg not in known:
             problems.append(
                 Problem(
@@ -287,7 +316,7 @@ def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) ->
     relative to the file it was written in: an expanded abstraction's nodes to the abstraction's folder."""
 
     def moved(value: str, decl: NodeDecl) -> str:
-        if Path(value).is_absolute():
+        if Path(value).is_absolute() or value.startswith(PREFIX):  # (the package's file, from anywhere)
             return value
         written = (
             decl.where.file if decl.where is not None and not decl.where.file.startswith("<") else spec.path
@@ -305,3 +334,15 @@ def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) ->
             p = cls.param(name)
             if p is not None and p.type == "path" and isinstance(value, str) and value:
                 decl.params[name] = moved(value, decl)
+
+
+def flatten(spec: PatchSpec) -> PatchSpec:
+    """``spec`` with its abstraction instances expanded into their nodes (named ``INSTANCE/NODE``), as a
+    Pd file holds them, and a line of its header naming the instances; ``spec`` itself when it has none."""
+    instances = [f"{n.name} ({n.type})" for n in spec.nodes if is_abstraction(n.type)]
+    if not instances:
+        return spec
+    flat = expand(spec)
+    note = f"Abstractions flattened, each into nodes named INSTANCE/NODE: {', '.join(instances)}."
+    flat.doc = "\n".join([spec.doc, note]).strip("\n")
+    return flat

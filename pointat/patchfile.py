@@ -29,19 +29,23 @@ next one.
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 from typing import Any
 
 from .errors import PatchError, Problem, Where
-from .spec import NodeDecl, PatchSpec, PortDecl, Wire
+from .spec import NodeDecl, PatchSpec, PortDecl, Wire, read_patch_bytes
 
-__all__ = ["format_value", "parse_patch", "parse_value", "read_patch", "write_patch"]
+__all__ = ["format_value", "parse_int", "parse_patch", "parse_value", "read_patch", "write_patch"]
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 #: Node names may have path parts: ``left/fuse`` (a node inside an abstraction or a Pd subpatch).
 _NODE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*\Z")
 #: How deep lists may nest in a value (``[[[1]]]`` is 3).
 MAX_NESTING = 100
+#: The most digits an integer may have: a float holds none longer (nodes compute with floats), and
+#: ``int()`` refuses more than 4300 (Python's guard against slow conversions).
+MAX_DIGITS = 309
 _INT = re.compile(r"[+-]?\d+\Z")
 _FLOAT = re.compile(r"[+-]?(\d+\.\d*|\.\d+|\d+)([eE][+-]?\d+)?\Z")
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
@@ -51,25 +55,21 @@ _BARE = re.compile(r"(?!.*(?:->|<-))[A-Za-z_$/.][^\s\[\]\"#=,;]*(?<!\\)\Z")
 
 
 def read_patch(path: str | Path) -> PatchSpec:
-    """Read a native patch file; :class:`PatchError` lists every syntax problem with its line."""
-    path = Path(path)
+    """Read a native patch file; :class:`PatchError` lists every syntax problem with its line.  (A file
+    whose text is Pd's, whatever its name: :func:`pointat.expansion.read_spec` reads either.)"""
+    return parse_patch(decode(read_patch_bytes(path), str(path)), str(path))
+
+
+def decode(raw: bytes, path: str) -> str:
+    """A native patch's text: UTF-8, a byte-order mark (Windows editors) dropped; a located error else."""
     try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise PatchError(f"cannot read patch: {exc.strerror or exc}", Where(str(path))) from exc
-    try:
-        text = raw.decode("utf-8-sig")  # a byte-order mark (Windows editors) is not part of the text
+        return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         line = raw.count(b"\n", 0, exc.start) + 1
         raise PatchError(
             f"not UTF-8 text: byte 0x{raw[exc.start]:02x} cannot be read; save the patch as UTF-8",
-            Where(str(path), line),
+            Where(path, line),
         ) from None
-    if text.lstrip().startswith("#N canvas"):  # a Pd patch under another name (my.pat, a download)
-        from .pdfile import parse_pd
-
-        return parse_pd(text, str(path))
-    return parse_patch(text, str(path))
 
 
 def _logical_lines(text: str) -> list[tuple[int, str]]:
@@ -191,7 +191,7 @@ def parse_value(token: str) -> Any:
             items.append(parse_value("".join(cur)))
         return items
     if _INT.match(token):
-        return int(token)
+        return parse_int(token)
     if _FLOAT.match(token):
         return float(token)
     if token in ("true", "false"):
@@ -201,13 +201,31 @@ def parse_value(token: str) -> Any:
     return token
 
 
+def parse_int(token: str) -> int:
+    """A whole number's text -> int; :class:`ValueError` when it is too large for a float to hold.
+
+    >>> parse_int("-42"), parse_int("9" * 308) > 0
+    (-42, True)
+    >>> parse_int("9" * 400)
+    Traceback (most recent call last):
+    ValueError: number too large: 999999999999...999999999999 (400 digits); at most 1.8e+308
+    """
+    digits = len(token.lstrip("+-").lstrip("0"))
+    if digits <= MAX_DIGITS:
+        number = int(token)
+        if abs(number) <= sys.float_info.max:
+            return number
+    shown = token if len(token) <= 30 else f"{token[:12]}...{token[-12:]} ({digits} digits)"
+    raise ValueError(f"number too large: {shown}; at most {sys.float_info.max:.2g}")
+
+
 def _endpoint(token: str, default: int) -> tuple[str, str | int]:
     name, dot, port = token.partition(".")
     if not _NODE.match(name):
         raise ValueError(f"bad node name {name!r} in {token!r}")
     if not dot:
         return name, default
-    if port.isdigit():
+    if port.isascii() and port.isdigit():  # (not '²', which is a digit to isdigit() but not to int())
         return name, int(port)
     if not _NAME.match(port):
         raise ValueError(f"bad port {port!r} in {token!r}")

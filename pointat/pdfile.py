@@ -73,11 +73,11 @@ from typing import Any
 
 from .errors import PatchError, PointatError, Problem, Where
 from .node import REQUIRED, Inlet, Node, Outlet
-from .patchfile import format_value, parse_value
+from .patchfile import format_value, parse_int, parse_value
 from .registry import Registry, default_registry
-from .spec import NodeDecl, PatchSpec, Wire, is_abstraction
+from .spec import NodeDecl, PatchSpec, Wire, is_abstraction, read_patch_bytes
 
-__all__ = ["STUB_FOLDER", "VANILLA", "flatten", "parse_pd", "read_pd", "write_pd", "write_stubs"]
+__all__ = ["STUB_FOLDER", "VANILLA", "parse_pd", "read_pd", "write_pd", "write_stubs"]
 
 log = logging.getLogger("pointat.pdfile")
 
@@ -89,8 +89,14 @@ VANILLA = frozenset(
 STUB_FOLDER = "pointat-stubs"
 NAME_TAG = "@name"
 
+#: How many connections splicing out subpatch inlets and outlets may follow, in all: a fan-out in one
+#: subpatch multiplies the fan-outs after it, and a file of a few kilobytes could make a billion wires.
+MAX_SPLICES = 100_000
+
 _INT = re.compile(r"-?\d+\Z")
-_NUMBER = re.compile(r"-?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
+# (not "\d+\.?\d*": without its '.', a long run of digits splits between its two \d in as many ways
+# as it is long, and a non-match tries them all)
+_NUMBER = re.compile(r"-?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?\Z")
 _KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)=(.*)\Z", re.S)
 _INNER_ESCAPE = re.compile(r"\\([,;$\s\\])")
 _NOT_NAME = re.compile(r"[^A-Za-z0-9_]+")
@@ -130,35 +136,43 @@ class _Escaped(str):
 
 
 def _atom(text: str, escaped: bool, keyable: bool) -> Any:
-    """A token -> int, float or str.  Escaped tokens are symbols; a lone escaped ``,``/``;`` is that atom."""
+    """A token -> int, float or str.  Escaped tokens are symbols; a lone escaped ``,``/``;`` is that atom.
+    :class:`ValueError` for a whole number too large for a float (:func:`~pointat.patchfile.parse_int`)."""
     if escaped:
         # Pd 0.53 keeps the backslash of an escape inside a symbol and saves it as "\\\,": drop it too
         sym = _Escaped(_INNER_ESCAPE.sub(r"\1", text))
         sym.keyable = keyable
         return sym
     if _NUMBER.match(text):
-        return int(text) if _INT.match(text) else float(text)
+        return parse_int(text) if _INT.match(text) else float(text)
     return text
 
 
 def _records(text: str, path: str) -> list[_Record]:
-    """Split Pd text into records, with the line on which each starts."""
+    """Split Pd text into records, with the line on which each starts; :class:`PatchError` lists every
+    number too large and a last record not ended."""
     records: list[_Record] = []
+    problems: list[Problem] = []
     messages: list[list[Any]] = []
     atoms: list[Any] = []
     words: list[str] = []
     buf: list[str] = []
     escaped = False
     key: bool | None = None  # whether the token's first '=' was unescaped
-    line, start = 1, 0
+    line, start, at = 1, 0, 0  # the line now, the record's first line, the token's
     i, n = 0, len(text)
 
     def flush() -> None:
         nonlocal escaped, key
         if buf:
-            atoms.append(_atom("".join(buf), escaped, bool(key)))
+            word = "".join(buf)
+            try:
+                atoms.append(_atom(word, escaped, bool(key)))
+            except ValueError as exc:
+                problems.append(Problem(Where(path, at), str(exc)))
+                atoms.append(word)
             if not messages:
-                words.append("".join(buf))
+                words.append(word)
             buf.clear()
         escaped, key = False, None
 
@@ -166,6 +180,8 @@ def _records(text: str, path: str) -> list[_Record]:
         c = text[i]
         if not (buf or atoms or messages) and not c.isspace():
             start = line
+        if not buf:
+            at = line
         if c == "\\" and i + 1 < n:
             nxt = text[i + 1]
             buf.append(nxt)
@@ -196,9 +212,13 @@ def _records(text: str, path: str) -> list[_Record]:
                 key = True
     flush()
     if atoms or messages:
-        raise PatchError(
-            f"record not ended by ';' (starts with {_show(atoms or messages[0])})", Where(path, start)
+        problems.append(
+            Problem(
+                Where(path, start), f"record not ended by ';' (starts with {_show(atoms or messages[0])})"
+            )
         )
+    if problems:
+        raise PatchError(problems)
     return records
 
 
@@ -255,11 +275,15 @@ class _Canvas:
     dead: bool = False  # an array's graph: its content makes no nodes and no wires
 
     def kill(self) -> None:
-        self.dead = True
-        for b in self.boxes:
-            b.dead = True
-            if b.sub is not None:
-                b.sub.kill()
+        """Mark this canvas and every box in it, subpatches and theirs too, as no node (an array's graph)."""
+        todo = [self]  # (not by recursion: subpatches may nest deeper than Python's stack)
+        while todo:
+            canvas = todo.pop()
+            canvas.dead = True
+            for b in canvas.boxes:
+                b.dead = True
+                if b.sub is not None:
+                    todo.append(b.sub)
 
     def ports(self, kind: str) -> list[_Box]:
         """The canvas' inlets or outlets, ordered by x position (then box order), as Pd orders them."""
@@ -287,6 +311,7 @@ class _Reader:
         self.boxes: list[_Box] = []  # every box, in file order
         self.connects: list[_Connect] = []
         self.comments: list[tuple[float, float, str]] = []  # the top canvas' comments: y, x, text
+        self.splices = MAX_SPLICES  # connections through [inlet]/[outlet] objects still to follow
 
     # ------------------------------------------------------------------ records
     def problem(self, line: int, message: str, box: int | None = None) -> None:
@@ -308,7 +333,8 @@ class _Reader:
             except ValueError as exc:
                 self.problem(rec.line, str(exc))
         if self.root is None:
-            raise PatchError(f"not a Pd file: no '#N canvas' record in {self.path}", Where(self.path))
+            # (at line 1, where a Pd file's first record, its canvas, is)
+            raise PatchError(f"not a Pd file: no '#N canvas' record in {self.path}", Where(self.path, 1))
         while len(self.stack) > 1:
             inner = self.stack.pop()
             self.problem(inner.line, "subpatch never closed by '#X restore'")
@@ -441,17 +467,20 @@ class _Reader:
         canvas.labels.clear()
 
     # ------------------------------------------------------------------ naming and wiring
-    def name(self, canvas: _Canvas, prefix: str, used: set[str]) -> None:
-        named = [b for b in canvas.boxes if b.role in ("node", "sub")]
-        for b in named:
-            if b.label or b.sub_name:
-                b.name = _unique(prefix + _sanitize_name(b.label or b.sub_name), used)
-        for b in named:
-            if not (b.label or b.sub_name):
-                b.name = _unique(f"{prefix}{_sanitize(b.type)}_{b.index}", used)
-        for b in named:
-            if b.sub is not None:
-                self.name(b.sub, b.name + "/", used)
+    def name(self, root: _Canvas, used: set[str]) -> None:
+        """Name the boxes of ``root`` and of its subpatches, a canvas's named boxes first, then each
+        subpatch's (in box order, depth first: not by recursion, subpatches may nest deep)."""
+        todo = [(root, "")]
+        while todo:
+            canvas, prefix = todo.pop()
+            named = [b for b in canvas.boxes if b.role in ("node", "sub")]
+            for b in named:
+                if b.label or b.sub_name:
+                    b.name = _unique(prefix + _sanitize_name(b.label or b.sub_name), used)
+            for b in named:
+                if not (b.label or b.sub_name):
+                    b.name = _unique(f"{prefix}{_sanitize(b.type)}_{b.index}", used)
+            todo += [(b.sub, b.name + "/") for b in reversed(named) if b.sub is not None]
 
     def endpoint(self, con: _Connect, out: bool) -> tuple[_Box, int] | None:
         """The box and port a connect record's source (``out``) or destination refers to.
@@ -487,7 +516,7 @@ class _Reader:
     def finish(self) -> PatchSpec:
         assert self.root is not None
         used: set[str] = set()
-        self.name(self.root, "", used)
+        self.name(self.root, used)
         spec = PatchSpec(path=self.path, doc="\n".join(text for _y, _x, text in sorted(self.comments)))
         for b in self.boxes:
             if b.role == "node" and not b.dead:
@@ -508,28 +537,46 @@ class _Reader:
             else:
                 ends.append((con, src, dst))
         for con, (sbox, outlet), dst in ends:
-            for dbox, inlet in self.expand(dst, through, con.line, ()):
+            for dbox, inlet in self.expand(dst, through, con.line):
                 spec.wires.append(Wire(sbox.name, outlet, dbox.name, inlet, Where(self.path, con.line)))
         if self.problems:
             raise PatchError(self.problems)
         return spec
 
     def expand(
-        self,
-        end: tuple[_Box, int],
-        through: dict[int, list[tuple[_Box, int]]],
-        line: int,
-        seen: tuple[int, ...],
+        self, end: tuple[_Box, int], through: dict[int, list[tuple[_Box, int]]], line: int
     ) -> list[tuple[_Box, int]]:
-        box = end[0]
-        if box.role != "port":
-            return [end]
-        if box.uid in seen:
-            self.problem(line, "a loop made only of subpatch inlets and outlets")
-            return []
+        """The node inlets that a wire into ``end`` reaches: ``end`` itself, or, for an ``[inlet]`` or
+        ``[outlet]`` object, what it leads to, depth first in connect order (as Pd sends).  Not by
+        recursion: a chain of subpatches may be longer than Python's stack is deep.  Nothing once
+        :data:`MAX_SPLICES` connections have been followed (the first to go past it says so)."""
         out: list[tuple[_Box, int]] = []
-        for nxt in through.get(box.uid, []):
-            out += self.expand(nxt, through, line, (*seen, box.uid))
+        passing: set[int] = set()  # the ports on the way to the end now followed
+        todo: list[tuple[_Box, int] | int] = [end]  # ends to follow, and ports to leave (their uid)
+        while todo:
+            item = todo.pop()
+            if isinstance(item, int):
+                passing.discard(item)
+                continue
+            box = item[0]
+            if box.role != "port":
+                out.append(item)
+            elif box.uid in passing:
+                self.problem(line, "a loop made only of subpatch inlets and outlets")
+            else:
+                nxt = through.get(box.uid, [])
+                self.splices -= len(nxt)
+                if self.splices < 0:
+                    if self.splices + len(nxt) >= 0:
+                        self.problem(
+                            line,
+                            f"the wires through subpatch inlets and outlets branch into more than "
+                            f"{MAX_SPLICES:,} (each fan-out in a subpatch multiplies those after it)",
+                        )
+                    return []
+                passing.add(box.uid)
+                todo.append(box.uid)
+                todo += reversed(nxt)
         return out
 
 
@@ -558,16 +605,15 @@ def parse_pd(text: str, path: str = "<pd>") -> PatchSpec:
 
 def read_pd(path: str | Path) -> PatchSpec:
     """Read a Pure Data file into a flat :class:`PatchSpec` (subpatches flattened, names kept)."""
-    path = Path(path)
+    return parse_pd(decode(read_patch_bytes(path)), str(path))
+
+
+def decode(raw: bytes) -> str:
+    """A Pd file's text: UTF-8 with or without a byte-order mark, else Latin-1 (old Pd files often are)."""
     try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise PatchError(f"cannot read patch: {exc.strerror or exc}", Where(str(path))) from exc
-    try:
-        text = raw.decode("utf-8-sig")  # with or without a byte-order mark
-    except UnicodeDecodeError:  # old Pd files are often Latin-1
-        text = raw.decode("latin-1")
-    return parse_pd(text, str(path))
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")
 
 
 # =========================================================================== writing
@@ -830,27 +876,19 @@ def _place(outs: list[_Out], edges: list[tuple[int, int]]) -> None:
             outs[k].column, outs[k].row = col, row
 
 
-def flatten(spec: PatchSpec) -> PatchSpec:
-    """``spec`` with its abstraction instances expanded into their nodes (named ``INSTANCE/NODE``), as a
-    Pd file holds them, and a line of its header naming the instances; ``spec`` itself when it has none."""
-    instances = [f"{n.name} ({n.type})" for n in spec.nodes if is_abstraction(n.type)]
-    if not instances:
-        return spec
-    from .loader import expand
-
-    flat = expand(spec)
-    note = f"Abstractions flattened, each into nodes named INSTANCE/NODE: {', '.join(instances)}."
-    flat.doc = "\n".join([spec.doc, note]).strip("\n")
-    return flat
-
-
 def write_pd(spec: PatchSpec, registry: Registry | None = None) -> str:
-    """Pd file text for a patch (abstraction instances are expanded first, and the header says which);
-    see the module docstring.
+    """Pd file text for a flat patch (abstraction instances expanded first:
+    :func:`pointat.expansion.flatten`, whose header note says which); see the module docstring.
 
     Every node is preceded by an ``@name`` comment so that :func:`read_pd` gives back the same names.
     """
-    spec = flatten(spec)
+    instances = [n for n in spec.nodes if is_abstraction(n.type)]
+    if instances:
+        raise PatchError(
+            f"abstraction instance '{instances[0].name}' ({instances[0].type}): a Pd file holds the nodes "
+            "(pointat.expansion.flatten first, as pointat convert does)",
+            instances[0].where,
+        )
     registry = registry or default_registry.load_builtins()
     outs = [_box(decl, registry) for decl in spec.nodes]
     index = {o.decl.name: k for k, o in enumerate(outs)}

@@ -6,13 +6,26 @@ A :class:`PatchSpec` is pure data: it knows nothing of node classes.  The loader
 
 from __future__ import annotations
 
+import os
+import stat
 from dataclasses import dataclass, field
 from pathlib import PurePath
 from typing import Any
 
-from .errors import Where
+from .errors import PatchError, Where
 
-__all__ = ["NodeDecl", "PatchSpec", "PortDecl", "Wire", "is_abstraction", "is_pd_file"]
+__all__ = [
+    "MAX_PATCH_BYTES",
+    "NodeDecl",
+    "PatchSpec",
+    "PortDecl",
+    "Wire",
+    "is_abstraction",
+    "is_pd_file",
+    "is_pd_text",
+    "path_kind",
+    "read_patch_bytes",
+]
 
 #: What a patch file's name ends with (in any case): native, Pure Data.
 PATCH_SUFFIXES = (".pat", ".pd")
@@ -22,6 +35,62 @@ def is_abstraction(type_name: str) -> bool:
     """Whether a node's type names a patch file (an abstraction) rather than a node class: it ends in
     ``.pat`` or ``.pd``, or has a folder in it."""
     return type_name.lower().endswith(PATCH_SUFFIXES) or "/" in type_name
+
+
+#: The largest patch file read (bytes): a thousand-node patch is ~50 KB; a file beyond this is no patch.
+MAX_PATCH_BYTES = 4 * 1024 * 1024
+
+
+def read_patch_bytes(path: str | PurePath) -> bytes:
+    """A patch file's bytes: a regular file (not a device, a pipe or a folder) of at most
+    :data:`MAX_PATCH_BYTES`; :class:`PatchError` at the file otherwise."""
+    where = Where(str(path))
+    try:
+        # non-blocking: opening a FIFO must not wait for a writer (it is refused just below)
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except (OSError, ValueError) as exc:  # no such file, no permission, a name too long, a NUL in it
+        raise PatchError(f"cannot read patch: {getattr(exc, 'strerror', None) or exc}", where) from None
+    with os.fdopen(fd, "rb") as fh:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise PatchError(
+                "not a regular file (a device, a pipe or a folder): a patch is a text file", where
+            )
+        if info.st_size > MAX_PATCH_BYTES:
+            raise PatchError(
+                f"{info.st_size / 1e6:.1f} MB: larger than a patch ({MAX_PATCH_BYTES // 2**20} MB at most)",
+                where,
+            )
+        try:
+            raw = fh.read(MAX_PATCH_BYTES + 1)
+        except OSError as exc:
+            raise PatchError(f"cannot read patch: {exc.strerror or exc}", where) from None
+    if len(raw) > MAX_PATCH_BYTES:  # (grew while read)
+        raise PatchError(f"larger than a patch ({MAX_PATCH_BYTES // 2**20} MB at most)", where)
+    return raw
+
+
+def path_kind(path: str | PurePath) -> str:
+    """What is at ``path``: ``file``, ``folder``, ``other`` (a device, a pipe, a socket), ``missing``, or
+    why no file can be there (``name too long``...): never an exception, for a name a user typed.
+
+    >>> path_kind("/"), path_kind("/no/such/file"), path_kind("x" * 300), path_kind("a" + chr(0))
+    ('folder', 'missing', 'File name too long', 'a NUL character in the name')
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return "missing"
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    except ValueError:
+        return "a NUL character in the name"
+    return "file" if stat.S_ISREG(mode) else "folder" if stat.S_ISDIR(mode) else "other"
+
+
+def is_pd_text(raw: bytes) -> bool:
+    """Whether a file's bytes are a Pure Data patch (``#N canvas`` first), whatever its name."""
+    return raw.lstrip().startswith(b"#N canvas")
 
 
 def is_pd_file(path: str | PurePath) -> bool:

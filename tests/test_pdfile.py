@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from pointat.errors import PatchError
+from pointat.expansion import flatten
 from pointat.loader import build, check, expand
 from pointat.patchfile import format_value, parse_patch, read_patch, write_patch
 from pointat.pdfile import STUB_FOLDER, VANILLA, parse_pd, read_pd, write_pd, write_stubs
@@ -22,6 +23,13 @@ from pointat.spec import PatchSpec
 DATA = Path(__file__).parent / "data" / "pd"
 PATCHES = Path(__file__).parent.parent / "patches"
 REG = default_registry.load_builtins()
+
+
+def to_pd(spec, registry=None):
+    """Pd text of a patch, its abstractions flattened first (as pointat convert does)."""
+    return write_pd(flatten(spec), registry)
+
+
 HEAD = "#N canvas 0 50 450 300 12;\n"
 
 
@@ -133,7 +141,7 @@ def test_a_print_prefix_of_words_is_written_as_words_and_reads_back_the_same(pre
         f"node lb loadbang\nnode p print prefix={format_value(prefix)} time={str(time).lower()}\nlb -> p",
         "x.pat",
     )
-    text = write_pd(spec, REG)
+    text = to_pd(spec, REG)
     assert f" {box};" in text
     back = parse_pd(text, "x.pd")
     assert REG.get("print").resolve_params(back.node("p").args, back.node("p").params) == {
@@ -302,7 +310,7 @@ def test_names_survive_a_box_retyped_or_moved_in_pds_editor():
         "node m1 metro 100\nnode m2 metro 200\nnode p1 print one\nnode p2 print two\nm1 -> p1\nm2 -> p2\n",
         "e.pat",
     )
-    text = write_pd(spec, REG)
+    text = to_pd(spec, REG)
     retyped = _retyped(text, 2)  # [metro 100]: the box after the declare and its @name comment
     assert retyped != text and graph(parse_pd(retyped, "e.pd")) == graph(spec)
     # moved by hand: the box leaves its @name comment behind, and is still the next box after it
@@ -350,7 +358,7 @@ def test_round_trip_native_to_pd_to_native_keeps_the_graph(name, tmp_path):
         spec = read_patch(DATA / "exported.pat")
     else:
         spec = read_patch(PATCHES / name)
-    text = write_pd(spec, REG)
+    text = to_pd(spec, REG)
     back = parse_pd(text, str(tmp_path / "back.pd"))
     assert graph(back) == graph(spec)
     assert check(back, REG).wires == check(spec, REG).wires  # written in the same order
@@ -383,7 +391,7 @@ def as_pd_shows(doc: str) -> str:
 
 def test_header_lines_are_drawn_above_the_boxes_a_semicolon_taking_a_line_more():
     spec = parse_patch("# one; two\n# three\nnode a loadbang\n", "h.pat")
-    text = write_pd(spec, REG)
+    text = to_pd(spec, REG)
     boxes = [line.split(" ", 4) for line in text.splitlines() if line.startswith(("#X text", "#X obj"))]
     ys = {words[4]: int(words[3]) for words in boxes}
     assert ys["one \\; two, f 20;"] + 36 == ys["three, f 20;"]  # Pd shows 'one;' and 'two' on two lines
@@ -408,7 +416,7 @@ def test_top_level_comments_become_the_header_top_to_bottom_and_others_do_not():
 
 def test_writing_uses_positional_atoms_for_pd_types_and_named_ones_for_pointat_types(caplog):
     with caplog.at_level(logging.WARNING, logger="pointat.pdfile"):
-        text = write_pd(parse_patch(HAND + "node slow metro 33.333333333333336\n", "h.pat"), REG)
+        text = to_pd(parse_patch(HAND + "node slow metro 33.333333333333336\n", "h.pat"), REG)
     boxes = dict(re.findall(r"#X text \d+ \d+ @name (\S+);\n#X \w+ \d+ \d+ ([^\n]*);", text))
     assert boxes["tr"] == "trigger b f b" and boxes["pk"] == "pack 0 0 s" and boxes["rt"] == "route 1 3 a"
     assert boxes["m"] == r"1 2 \, 3 \$1 \; bus 0.5 \; other two words"
@@ -423,7 +431,7 @@ def test_writing_uses_positional_atoms_for_pd_types_and_named_ones_for_pointat_t
     ]
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="pointat.pdfile"):  # whole numbers lose digits too
-        write_pd(parse_patch("node d delay 1234567\nnode m msg 16777217 100000 inf\n", "n.pat"), REG)
+        to_pd(parse_patch("node d delay 1234567\nnode m msg 16777217 100000 inf\n", "n.pat"), REG)
     assert [r.message for r in caplog.records] == [
         "node 'd' (delay): Pd keeps 6 significant digits of 1234567.0: it becomes 1.23457e+06 if Pd saves the file",
         "node 'm' (msg): Pd keeps 6 significant digits of 16777217: it becomes 1.67772e+07 if Pd saves the file",
@@ -438,7 +446,7 @@ def test_writing_uses_positional_atoms_for_pd_types_and_named_ones_for_pointat_t
 
 def test_a_node_with_more_ports_than_its_stub_is_a_warning(caplog):
     with caplog.at_level(logging.WARNING, logger="pointat.pdfile"):
-        write_pd(parse_patch("node base mote ids=[1, 2]\nnode show print\nbase.m2 -> show\n", "m.pat"), REG)
+        to_pd(parse_patch("node base mote ids=[1, 2]\nnode show print\nbase.m2 -> show\n", "m.pat"), REG)
     [record] = caplog.records
     assert (
         "node 'base' (mote) has 1 inlets and 3 outlets, its Pd stub (default parameters) 1 and 2"
@@ -451,7 +459,7 @@ def test_symbols_that_read_as_numbers_or_key_value_stay_symbols():
         'node a print prefix="x=1"\nnode b route "5" 5 "k=v"\nnode c msg "7" "a=b"\nnode d record file="my file.csv"\n',
         "s.pat",
     )
-    text = write_pd(spec, REG)
+    text = to_pd(spec, REG)
     assert r"print x\=1;" in text and r"route \5 5 k\=v;" in text and r" \7 a\=b;" in text
     back = parse_pd(text, "s.pd")
     assert [(n.args, n.params) for n in back.nodes] == [
@@ -468,7 +476,7 @@ def test_layout_columns_follow_depth_and_rows_stack():
         "a -> b -> c\nb -> d\nb -> e -> b\n",
         "l.pat",
     )
-    text = write_pd(spec, REG)
+    text = to_pd(spec, REG)
     place = {name: (int(x), int(y)) for x, y, name in re.findall(r"#X text (\d+) (\d+) @name (\w+);", text)}
     box = {
         name: tuple(map(int, xy))
@@ -494,7 +502,7 @@ def test_abstraction_instances_are_expanded_before_writing(tmp_path):
     )
     main = tmp_path / "main.pat"
     main.write_text("node go loadbang\nnode one blink.pat every=25\ngo -> one.go\n")
-    back = parse_pd(write_pd(read_patch(main), REG), str(tmp_path / "main.pd"))
+    back = parse_pd(to_pd(read_patch(main), REG), str(tmp_path / "main.pd"))
     assert [(n.name, n.args) for n in back.nodes] == [("go", []), ("one/m", [25]), ("one/p", [])]
     assert [str(w) for w in back.wires] == ["one/m.0 -> one/p.0", "go.0 -> one/m.0"]
     assert back.doc == "Abstractions flattened, each into nodes named INSTANCE/NODE: one (blink.pat)."
@@ -535,7 +543,7 @@ def test_pd_opens_exported_patches_with_their_stubs_and_saves_the_same_graph(tmp
     write_stubs(tmp_path / STUB_FOLDER, REG)
     args, sends = [], []
     for name, spec in specs.items():
-        (tmp_path / f"{name}.pd").write_text(write_pd(spec, REG))
+        (tmp_path / f"{name}.pd").write_text(to_pd(spec, REG))
         args += ["-open", str(tmp_path / f"{name}.pd")]
         sends.append(f"pd-{name}.pd menusave")
     done = subprocess.run(
@@ -558,7 +566,7 @@ def test_pd_opens_exported_patches_with_their_stubs_and_saves_the_same_graph(tmp
 def test_pd_prints_an_exported_print_box_with_the_prefix_pointat_prints(tmp_path, require_tool):
     require_tool(shutil.which("pd") is not None, "Pure Data (pd) is not installed")
     spec = parse_patch('node lb loadbang\nnode p print "gyro nulls (hold still)"\nlb -> p', "x.pat")
-    (tmp_path / "x.pd").write_text(write_pd(spec, REG))
+    (tmp_path / "x.pd").write_text(to_pd(spec, REG))
     done = subprocess.run(
         [
             "pd",

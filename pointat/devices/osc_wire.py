@@ -38,6 +38,7 @@ NTP_UNIX_OFFSET = 2208988800
 #: OSC's special time tag "immediately".
 IMMEDIATELY = b"\x00\x00\x00\x00\x00\x00\x00\x01"
 
+
 # --------------------------------------------------------------------------- encoding
 def _osc_string(s: str) -> bytes:
     """An OSC string: UTF-8, NUL-terminated, padded to a multiple of 4 bytes."""
@@ -271,7 +272,6 @@ def bundle_time(data: bytes) -> float | None:
 
 
 _NTP = struct.Struct(">II")
-
 
 
 def udp_port(value: Any, what: str = "port") -> int:

@@ -505,3 +505,52 @@ def test_a_chain_of_thousands_of_nodes_is_checked_without_recursion_and_its_dept
         check(parse_patch(loop, "deep.pat"), REG)
     short = "node a loadbang\nnode b t b\nnode p print\na -> b -> p\n"
     assert not check(parse_patch(short, "s.pat"), REG).warnings
+
+
+def test_names_and_files_no_patch_can_be_are_located_errors_never_a_hang(tmp_path):
+    """Names longer than the system takes, devices, pipes and huge files, where a patch names an
+    abstraction, a file a node reads or one it writes, or as the patch itself."""
+    import os
+    import subprocess
+    import sys
+
+    long = "x" * 300
+    fifo = tmp_path / "take.csv"
+    os.mkfifo(fifo)
+    cases = {
+        f"node a {long}.pat\n": "abstraction 'xxx",
+        f"node r replay file={long}.csv\n": "parameter 'file': ",
+        f"node t record file={long}.csv\n": "parameter 'file': ",
+        f"node r replay file={fifo}\n": "take.csv: not a regular file",
+        "node r replay file=/dev/zero\n": "/dev/zero: not a regular file",
+        "node a /dev/zero\n": "abstraction '/dev/zero' is not a regular file",
+    }
+    for text, said in cases.items():
+        with pytest.raises(PatchError) as info:
+            check(parse_patch(text, str(tmp_path / "p.pat")), REG, read_files=True)
+        [problem] = info.value.problems
+        assert problem.where.line == 1 and said in problem.message, (text[:40], problem)
+    if os.path.exists("/proc/self/mem"):  # a file that is there and cannot be read: at the instance
+        with pytest.raises(PatchError) as info:
+            check(parse_patch("node a /proc/self/mem\n", str(tmp_path / "p.pat")), REG)
+        [problem] = info.value.problems
+        assert (
+            problem.where.line == 1 and "abstraction '/proc/self/mem': cannot read patch" in problem.message
+        )
+    # the patch itself: a pipe nobody writes to, a device without end, a file far larger than a patch
+    pipe = tmp_path / "pipe.pat"
+    os.mkfifo(pipe)
+    big = tmp_path / "big.pat"
+    big.write_text("# " + "x" * (5 * 2**20) + "\n")
+    for path, said in (
+        (pipe, "not a regular file"),
+        ("/dev/zero", "not a regular file"),
+        (big, "larger than a patch"),
+    ):
+        out = subprocess.run(
+            [sys.executable, "-m", "pointat.cli", "check", str(path)],
+            capture_output=True,
+            text=True,
+            timeout=20,
+        )
+        assert out.returncode == 2 and f"{path}: error: " in out.stderr and said in out.stderr, out.stderr

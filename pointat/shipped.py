@@ -1,0 +1,74 @@
+"""What pointat ships beside its code: the patches, the examples and the sample data.
+
+An installed wheel holds them inside the package (``pointat/patches``, ``pointat/examples``,
+``pointat/data``: pyproject's ``package-dir`` maps the repository's top-level folders there); a source
+checkout keeps ``patches/`` and ``examples/`` at the top of the repository, beside ``pointat/``.  The same
+names find them either way:
+
+* ``pointat run glove_tqt`` (a name that is no file here) runs ``patches/glove_tqt.pat``, from any folder;
+* a path parameter written ``pointat:data/glove_take.csv.gz`` is the file of that name in the package,
+  so a shipped patch names its sample take the same way installed or not.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["PREFIX", "find_patch", "folder", "patch_names", "resolve"]
+
+#: The package's own folder.
+PACKAGE = Path(__file__).resolve().parent
+#: A path parameter that starts with this names a file in :data:`PACKAGE`.
+PREFIX = "pointat:"
+#: The folders of shipped patches, searched in this order.
+PATCH_FOLDERS = ("patches", "examples")
+
+
+def folder(name: str) -> Path:
+    """``patches``, ``examples`` or ``data``: inside the package when installed, else the checkout's.
+
+    >>> folder("data").name, (folder("patches") / "glove_tqt.pat").is_file()
+    ('data', True)
+    """
+    inside = PACKAGE / name
+    return inside if inside.is_dir() else PACKAGE.parent / name
+
+
+def resolve(value: str) -> str:
+    """``pointat:REST`` -> the path of REST in the package; anything else unchanged.
+
+    >>> Path(resolve("pointat:data/glove_take.csv.gz")).is_file(), resolve("take.csv")
+    (True, 'take.csv')
+    """
+    if not value.startswith(PREFIX):
+        return value
+    rest = value[len(PREFIX) :].lstrip("/")
+    top, _, below = rest.partition("/")
+    return str(folder(top) / below) if top in (*PATCH_FOLDERS, "data") and below else str(PACKAGE / rest)
+
+
+def find_patch(name: str) -> Path | None:
+    """A shipped patch by name (``glove_tqt``, ``glove_tqt.pat``, ``pd/glove_to_pd_vbap``), or None.
+
+    >>> find_patch("glove_tqt").name, find_patch("no_such_patch")
+    ('glove_tqt.pat', None)
+    """
+    if not name or "\0" in name or Path(name).is_absolute() or ".." in Path(name).parts:
+        return None
+    for top in PATCH_FOLDERS:
+        for candidate in (name, name + ".pat", name + ".pd"):
+            path = folder(top) / candidate
+            if path.is_file():
+                return path
+    return None
+
+
+def patch_names() -> list[str]:
+    """Every shipped patch's name, as ``pointat run NAME`` takes it (patches first, then examples)."""
+    names = []
+    for top in PATCH_FOLDERS:
+        base = folder(top)
+        names += sorted(
+            str(p.relative_to(base).with_suffix("")) for p in base.rglob("*.pat") if "lib" not in p.parts
+        )
+    return names
