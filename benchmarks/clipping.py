@@ -2,7 +2,7 @@
 
 ``python -m benchmarks.clipping [--data DIR] [--out benchmarks/CLIPPING.md]``
 
-The rules for a sensor at its full scale (``acc_range``, ``gyro_range``; :mod:`pointat.maths.tqt_step`)
+The rules for a sensor at its full scale (``acc_range``, ``gyro_range``; :mod:`pointat.maths.tqt.step`)
 were designed on the simulated glove's strokes.  Here every BROAD trial (real hands, optical truth) is
 clipped as a sensor of a smaller range would clip it, accelerometer at ±2, 3 and 4 g (the glove's is 4 g),
 gyro at ±300 and 500 °/s, and run three ways: the filter told the full scale (``known``), not told

@@ -493,7 +493,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     A = np.repeat(a[:nb, None, :], k15, 1)
     M = np.repeat(m[:nb, None, :], k15, 1)
 
-    from pointat.maths import tqt_compiled
+    from pointat.maths.tqt import compiled as tqt_compiled
 
     backends = ["numba", "python"] if tqt_compiled.available() else ["python"]
     if not tqt_compiled.available():
@@ -541,7 +541,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
                 node = rt.add(TQTBankNode("bank", {**TQTBankNode.resolve_params(named={"sensors": k15})}))
                 for j in range(k15):
                     rt.connect(node, 2 + j, sink, 0)  # quatJ
-                feeds = [(node.receive, 3 * j) for j in range(k15)]
+                feeds = [(node.receive, 1 + 3 * j) for j in range(k15)]  # (inlet 0: range)
             else:
                 feeds = []
                 for j in range(k15):

@@ -1,4 +1,8 @@
-"""TQT filter: McGhee's Table 1, the Gauss-Newton pieces, the filter's behaviour, bad data, the bank."""
+"""TQT filter: McGhee's Table 1, the Gauss-Newton pieces, the filter's behaviour, bad data, the bank.
+
+The Gauss-Newton pieces are the numpy reference of ``mcghee_reference.py``; that every implementation of
+the filter's update gives the same bits is ``test_tqt_implementations.py``.
+"""
 
 import math
 
@@ -18,12 +22,15 @@ from pointat.maths.scalar import MAX_RATE
 from pointat.maths.tqt import (
     ACC_LIMIT,
     ACC_RELEARN,
-    GRAVITY_REF,
     TQTBank,
     TQTFilter,
     TQTFlags,
     crossover_from_gain,
     gain_from_crossover,
+    step,
+)
+from tests.maths.mcghee_reference import (
+    GRAVITY_REF,
     gauss_newton,
     gauss_newton_step,
     jacobian_full,
@@ -636,56 +643,6 @@ def test_invalid_parameters():
 # --------------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize(
-    "params",
-    [
-        {"mode": "robust", "backend": "python"},
-        {"mode": "robust", "backend": "numba"},
-        {"mode": "paper"},
-        {"mode": "paper", "iterations": 3, "rho": 1.5},
-        {"mode": "robust", "dip": DIP, "use_gyro": False, "backend": "python"},
-        {"mode": "robust", "dip": DIP, "use_gyro": False, "backend": "numba"},
-    ],
-)
-def test_bank_equals_independent_filters(params, require_tool):
-    """Five sensors, each its own motion, with dropped / zeroed channels and a late start."""
-    from pointat.maths import tqt_compiled
-
-    if params.get("backend") == "numba":
-        require_tool(tqt_compiled.available(), "numba is not installed (the 'fast' extra)")
-    backend = params.pop("backend", "auto")
-    n = 5
-    rng = np.random.default_rng(12)
-    runs = [
-        synthetic(seed=s, seconds=15.0, rest=2.0 + s, noise=True, bias=rng.normal(0, 0.01, 3))
-        for s in range(n)
-    ]
-    dt = runs[0][0]
-    gyro, acc, mag = (np.stack([r[k] for r in runs], axis=1) for k in (2, 3, 4))
-    for arr in (gyro, acc, mag):
-        for fill in (np.nan, 0.0):
-            idx, who = rng.integers(0, len(arr), 100), rng.integers(0, n, 100)
-            arr[idx, who] = fill
-    idx, who = rng.integers(0, len(gyro), 50), rng.integers(0, n, 50)
-    gyro[idx, who] = 1e30  # glitches beyond MAX_RATE: refused by every sensor's filter alike
-    idx, who = rng.integers(100, len(acc), 50), rng.integers(0, n, 50)
-    acc[idx, who] *= rng.choice([5.0, 1e3, 1e30], 50)[:, None]  # beyond ACC_LIMIT x the first: refused alike
-    acc[0, 3] *= 0.01  # a first reading far too small: gravity refused, then the limit learned again
-    acc[:30, 2] = np.nan  # sensor 2 starts late
-    bank = TQTBank(n, backend=backend, **params)
-    assert bank.backend == ("python" if params["mode"] == "paper" else backend)
-    filters = [TQTFilter(**params) for _ in range(n)]
-    worst = 0.0
-    for i in range(len(gyro)):
-        qb = bank.update(gyro[i], acc[i], mag[i], dt)
-        qs = np.array([f.update(gyro[i, j], acc[i, j], mag[i, j], dt) for j, f in enumerate(filters)])
-        worst = max(worst, float(np.abs(qb - qs).max()))
-        assert bank.flags.tolist() == [int(f.flags) for f in filters]
-    assert worst == 0.0  # the same step, compiled or not: the same bits
-    np.testing.assert_array_equal(bank.bias, [f.bias for f in filters])
-    assert not np.isnan(bank.q).any()
-
-
 @pytest.mark.parametrize("backend", ["python", "auto"])
 def test_bank_reset_and_bad_dt(backend):
     bank = TQTBank(3, backend=backend)
@@ -700,31 +657,14 @@ def test_bank_reset_and_bad_dt(backend):
 
 
 def test_bank_backend_is_checked():
-    from pointat.maths import tqt_compiled
+    from pointat.maths.tqt import compiled
 
     with pytest.raises(ValueError, match="backend must be"):
         TQTBank(2, backend="fortran")
     with pytest.raises(ValueError, match="needs numba"):
         TQTBank(2, mode="paper", backend="numba")
-    assert TQTBank(2, backend="auto").backend == ("numba" if tqt_compiled.available() else "python")
-
-
-def test_bank_backends_agree_from_a_known_start(require_tool):
-    from pointat.maths import tqt_compiled
-
-    require_tool(tqt_compiled.available(), "numba is not installed (the 'fast' extra)")
-    q0 = quat_from_axis_angle([0.3, -0.2, 0.9], 0.7)
-    banks = [TQTBank(4, backend=b) for b in ("python", "numba")]
-    for bank in banks:
-        bank.reset(q0)
-    rng = np.random.default_rng(3)
-    for _ in range(300):
-        g = rng.normal(0.0, 0.3, (4, 3))
-        a = np.tile([0.0, 0.0, G], (4, 1)) + rng.normal(0.0, 0.2, (4, 3))
-        m = np.tile(FIELD, (4, 1)) + rng.normal(0.0, 0.02, (4, 3))
-        q_python, q_numba = (bank.update(g, a, m, 0.01) for bank in banks)
-        np.testing.assert_array_equal(q_numba, q_python)
-        assert banks[0].flags.tolist() == banks[1].flags.tolist()
+    assert TQTBank(2, backend="auto").backend == ("numba" if compiled.available() else "python")
+    assert TQTBank(2, mode="paper").backend == "python"  # numba compiles robust mode only
 
 
 @pytest.mark.parametrize("backend", ["python", "auto"])
@@ -764,11 +704,8 @@ def test_retune_refuses_what_the_constructor_refuses():
 
 
 def test_the_steps_triad_is_accmag_quat():
-    """tqt_step._triad is accmag_quat on floats (numba compiles it; accmag_quat it cannot): held equal here,
+    """step._triad is accmag_quat on floats (numba compiles it; accmag_quat it cannot): held equal here,
     degenerate pairs included."""
-    from pointat.maths import tqt_step
-    from pointat.maths.fusion import accmag_quat
-
     rng = np.random.default_rng(5)
     pairs = [(rng.normal(0, 10, 3), rng.normal(0, 1, 3)) for _ in range(500)]
     pairs += [
@@ -777,7 +714,7 @@ def test_the_steps_triad_is_accmag_quat():
         ((0.0, 0.0, G), (math.nan, 0.0, 0.0)),
     ]
     for acc, mag in pairs:
-        ok, *q = tqt_step._triad(*(float(c) for c in acc), *(float(c) for c in mag))
+        ok, *q = step._triad(*(float(c) for c in acc), *(float(c) for c in mag))
         ref = accmag_quat(acc, mag)
         assert ok == (ref is not None)
         if ok:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pointat.errors import PatchError
-from pointat.maths import tqt_compiled
+from pointat.maths.tqt import compiled as tqt_compiled
 from pointat.message import floats, method
 from pointat.testing import patch
 

@@ -1,12 +1,14 @@
 r""":class:`~pointat.maths.tqt.TQTBank`'s robust update compiled by numba: one loop over the sensors.
 
-Not a second copy of the filter: :func:`robust_bank` runs :func:`pointat.maths.tqt_step.robust_step`
+Not a second copy of the filter: :func:`robust_bank` runs :func:`pointat.maths.tqt.step.robust_step`
 itself, the very source :class:`~pointat.maths.tqt.TQTFilter` runs, compiled with its helpers.  When numba
 is installed (``pip install "pointat[fast]"``) a bank takes this path; without it, or in paper mode, the
 bank loops over its sensors in Python (the same step, a few microseconds each).
 
-The kernel is compiled at the first bank of a process (a few seconds; numba caches the machine code beside
-this file when it may write there).
+The kernel is compiled at the first bank of a process (a few seconds; numba caches the machine code in
+``pointat/maths/tqt/__pycache__`` when it may write there, keyed by the source file of the step,
+:mod:`pointat.maths.tqt.step`, which is why the loop lives there and not here).  Nothing imports this
+module (and numba, a quarter of a second and ~50 MB) until a bank is built.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import types
 from collections.abc import Callable
 from typing import Any
 
-from pointat.maths import tqt_step
+from pointat.maths.tqt import step
 
 __all__ = ["available", "compiled", "robust_bank"]
 
@@ -31,15 +33,15 @@ def available() -> bool:
 
 
 def _compile() -> Callable[..., Any] | None:
-    """numba functions call only numba functions: every function of :mod:`pointat.maths.tqt_step` is
+    """numba functions call only numba functions: every function of :mod:`pointat.maths.tqt.step` is
     compiled into a namespace of its own (the module keeps its Python functions for
-    :class:`~pointat.maths.tqt.TQTFilter`); :func:`~pointat.maths.tqt_step.robust_bank` is the loop."""
+    :class:`~pointat.maths.tqt.TQTFilter`); :func:`~pointat.maths.tqt.step.robust_bank` is the loop."""
     if njit is None:
         return None
     jit = njit(cache=True, nogil=True)
-    space = dict(vars(tqt_step))
-    for name, value in vars(tqt_step).items():
-        if isinstance(value, types.FunctionType) and value.__module__ == tqt_step.__name__:
+    space = dict(vars(step))
+    for name, value in vars(step).items():
+        if isinstance(value, types.FunctionType) and value.__module__ == step.__name__:
             space[name] = jit(types.FunctionType(value.__code__, space, name, value.__defaults__))
     return space["robust_bank"]  # type: ignore[no-any-return]
 
@@ -54,7 +56,8 @@ def compiled() -> bool:
 
 
 def robust_bank(*args: Any) -> None:
-    """:func:`pointat.maths.tqt_step.robust_bank`, compiled on the first call (numba must be installed: see :func:`available`)."""
+    """:func:`pointat.maths.tqt.step.robust_bank`, compiled on the first call (numba must be installed: see
+    :func:`available`)."""
     global _compiled
     if _compiled is None:
         _compiled = _compile()

@@ -2,10 +2,12 @@ r"""One sample of the TQT filter for one sensor, written once for every way it r
 
 :class:`~pointat.maths.tqt.TQTFilter` (one sensor, plain Python floats) and
 :class:`~pointat.maths.tqt.TQTBank` (many sensors: a Python loop, or this same source compiled by numba in
-:mod:`pointat.maths.tqt_compiled`) all call :func:`robust_step` or :func:`paper_step` on a flat state
-vector ``s`` (a list, or one row of an array: :data:`STATE_SIZE` floats laid out by the ``S_*``
-indices) and a parameter vector ``p`` (:data:`PARAM_SIZE` floats, ``P_*``; :func:`params` makes it).
-There is no second copy of the algorithm to keep equal: the compiled bank is this code.
+:mod:`pointat.maths.tqt.compiled`) all call :func:`robust_step` or
+:func:`~pointat.maths.tqt.paper.paper_step` on a flat state vector ``s`` (a list, or one row of an array:
+:data:`STATE_SIZE` floats laid out by the ``S_*`` indices) and a parameter vector ``p`` (:data:`PARAM_SIZE`
+floats, ``P_*``; :func:`params` makes it).  There is no second copy of the algorithm to keep equal: the
+compiled bank is this code (``tests/maths/test_tqt_implementations.py`` holds every way it runs equal to
+the bit).
 
 The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equations' sources are in
 :mod:`pointat.maths.tqt`.  What robust mode does with accelerations no gravity estimate should swallow:
@@ -498,7 +500,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
 def robust_bank(g, a, m, dt, here, state, p, flags):  # type: ignore[no-untyped-def]
     """:func:`robust_step` for every sensor present: ``g``, ``a``, ``m`` of shape (n, 3), ``here`` (n,)
     bool; ``state`` (n, :data:`STATE_SIZE`) and ``flags`` (n,) change in place.  Compiled by
-    :mod:`pointat.maths.tqt_compiled` (it lives here so that numba's cache, keyed by this file, is
+    :mod:`pointat.maths.tqt.compiled` (it lives here so that numba's cache, keyed by this file, is
     renewed with any change to the step it inlines)."""
     for i in range(g.shape[0]):
         if here[i]:
