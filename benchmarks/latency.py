@@ -903,7 +903,7 @@ class _Lateness(Node):
 def _metro_lateness(rate: float, seconds: float) -> np.ndarray:
     """A ``metro`` at ``rate`` Hz on the real-time runtime, ``seconds`` long: µs each tick ran after it
     was due (the first ticks left out)."""
-    from nodes.control import Loadbang, Metro
+    from pointat.nodes.control import Loadbang, Metro
 
     rt = Runtime(realtime=True)
     start = rt.add(Loadbang("lb"))

@@ -38,8 +38,6 @@ from pathlib import Path
 
 import numpy as np
 
-from nodes.orientation import TQT as TQTNode
-from nodes.orientation import TQTBankNode
 from pointat.devices.glove_sim import GloveSimulator
 from pointat.loader import load
 from pointat.maths.evaluation import BROAD_RATE
@@ -47,6 +45,8 @@ from pointat.maths.fusion import ComplementaryFilter
 from pointat.maths.tqt import TQTBank, TQTFilter
 from pointat.message import Message, floats, vector
 from pointat.node import Inlet, Node
+from pointat.nodes.orientation import TQT as TQTNode
+from pointat.nodes.orientation import TQTBankNode
 from pointat.runtime import Runtime
 
 from .latency import free_udp_port, stop_process, udp_hole

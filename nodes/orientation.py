@@ -534,8 +534,8 @@ class TQTBankNode(Node):
     :class:`pointat.maths.tqt.TQTBank`, one compiled loop over the sensors with numba (``pip install
     "pointat[fast]"``, robust mode); each ``quatI`` sends its sensor's orientation, right to left, then
     ``quats`` all of them as one vector (4N numbers, sensor 1 first, a sensor not yet initialised as the
-    identity).  Each sensor follows the filter of its own ``tqt`` node with the same settings, to
-    rounding, at a fraction of the cost per sample.
+    identity).  Each sensor follows the filter of its own ``tqt`` node with the same settings, to the
+    bit (``tests/maths/test_tqt_implementations.py``), at a fraction of the cost per sample.
 
     A tick is one sample from every sensor; it starts with the lowest-numbered sensor that is heard (as
     a base station that sends its motes in turn delivers them) and is complete with the last.  The time

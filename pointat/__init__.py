@@ -32,6 +32,11 @@ names below are loaded on first use.
 from __future__ import annotations
 
 import importlib
+import importlib.abc
+import importlib.machinery
+import importlib.util
+import sys
+from pathlib import Path
 from typing import Any
 
 __version__ = "0.1.0"
@@ -61,6 +66,45 @@ _EXPORTS = {
 }
 
 __all__ = ["__version__", *sorted(_EXPORTS)]
+
+
+#: Subpackages kept at the top of the repository (as the project is laid out) that install inside this
+#: package (pyproject's package-dir): in a checkout they are found there.
+_CHECKOUT_FOLDERS = ("nodes", "osc_bridge")
+
+
+class _CheckoutFolders(importlib.abc.MetaPathFinder):
+    """``pointat.nodes`` and ``pointat.osc_bridge`` from a source checkout's ``nodes/`` and
+    ``osc_bridge/``, where no installed copy is inside the package (a wheel has them inside; an
+    editable install maps them itself).  Only those two names: nothing else of the checkout becomes
+    part of the package."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+
+    def find_spec(
+        self, fullname: str, path: Any = None, target: Any = None
+    ) -> importlib.machinery.ModuleSpec | None:
+        prefix, _, name = fullname.partition(".")
+        if prefix != __name__ or name not in _CHECKOUT_FOLDERS:
+            return None
+        folder = self.root / name
+        return importlib.util.spec_from_file_location(
+            fullname, folder / "__init__.py", submodule_search_locations=[str(folder)]
+        )
+
+
+def _checkout() -> None:
+    here = Path(__file__).resolve().parent
+    root = here.parent
+    if (here / "nodes").is_dir() or not (root / "pyproject.toml").is_file():
+        return  # installed: the subpackages are inside
+    if all((root / name / "__init__.py").is_file() for name in _CHECKOUT_FOLDERS):
+        if not any(isinstance(f, _CheckoutFolders) for f in sys.meta_path):
+            sys.meta_path.insert(0, _CheckoutFolders(root))
+
+
+_checkout()
 
 
 def __getattr__(name: str) -> Any:

@@ -536,7 +536,9 @@ def _writable(name: str, value: str) -> None:
     folder = path.parent
     kind = path_kind(folder)
     if kind != "folder":
-        what = {"missing": "does not exist", "file": "is a file, not a folder"}.get(kind, f"cannot be: {kind}")
+        what = {"missing": "does not exist", "file": "is a file, not a folder"}.get(
+            kind, f"cannot be: {kind}"
+        )
         raise ValueError(f"parameter '{name}': cannot write {value!r}: the folder {str(folder)!r} {what}")
 
 

@@ -2,10 +2,11 @@
 
 Node types arrive from three places, all through :func:`register`:
 
-1. the built-in packages (``nodes``, ``osc_bridge``);
-2. third-party distributions, through the entry-point group ``pointat.nodes`` (each entry point names a
-   module to import, or a :class:`~pointat.node.Node` subclass);
-3. ``--plugins DIR``: every ``*.py`` file in a folder.
+1. entry points of the group ``pointat.nodes``: pointat's own (its built-in modules,
+   :mod:`pointat.nodes` and :mod:`pointat.osc_bridge`, declared in its ``pyproject.toml``) and those of
+   third-party distributions, through the same door (each entry point names a module to import, or a
+   :class:`~pointat.node.Node` subclass); one that cannot be loaded is an error naming it;
+2. ``--plugins DIR``: every ``*.py`` file in a folder.
 
 A name (or alias) registered twice by two different classes is an error that names both origins.
 """
@@ -25,7 +26,6 @@ from .errors import PointatError, closest
 from .node import PARAM_TYPES, Node
 
 __all__ = [
-    "BUILTIN_MODULES",
     "ENTRY_POINT_GROUP",
     "Registry",
     "RegistryError",
@@ -36,17 +36,8 @@ __all__ = [
 log = logging.getLogger("pointat.registry")
 
 ENTRY_POINT_GROUP = "pointat.nodes"
-BUILTIN_MODULES = (
-    "nodes.control",
-    "nodes.mapping",
-    "nodes.sensors",
-    "nodes.recording",
-    "nodes.calibration",
-    "nodes.orientation",
-    "nodes.spatial",
-    "osc_bridge.nodes",
-    "osc_bridge.midi",
-)
+#: The distribution whose entry points are the built-in node types.
+DISTRIBUTION = "pointat"
 
 
 class RegistryError(PointatError):
@@ -127,23 +118,34 @@ class Registry:
 
     # loading ------------------------------------------------------------------------
     def load_builtins(self) -> Registry:
-        """Import the built-in node modules (their ``@register`` decorators fill the default registry)."""
+        """Load pointat's own node types: the ``pointat.nodes`` entry points of its distribution."""
         if not self._loaded_builtins:
             self._loaded_builtins = True
-            for mod in BUILTIN_MODULES:
-                self._import(mod, "built-in")
+            own = [ep for ep in _entry_points() if ep.dist is not None and ep.dist.name == DISTRIBUTION]
+            if not own:
+                raise RegistryError(
+                    "pointat's built-in node types come through its entry points, and none were found: "
+                    "install it (pip install -e . in a checkout)"
+                )
+            for ep in own:
+                self._load(ep, f"built-in ({ep.value})")
         return self
 
     def load_entry_points(self) -> Registry:
         """Load third-party node types from the ``pointat.nodes`` entry-point group."""
-        for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-            origin = f"entry point '{ep.name}' of {ep.dist.name if ep.dist else 'an unknown distribution'}"
-            try:
-                obj = ep.load()
-            except Exception as exc:
-                raise RegistryError(f"cannot load {origin} ({ep.value}): {exc}") from exc
-            self._adopt(obj, origin)
+        for ep in _entry_points():
+            if ep.dist is None or ep.dist.name != DISTRIBUTION:
+                self._load(
+                    ep, f"entry point '{ep.name}' of {ep.dist.name if ep.dist else 'an unknown distribution'}"
+                )
         return self
+
+    def _load(self, ep: importlib.metadata.EntryPoint, origin: str) -> None:
+        try:
+            obj = ep.load()
+        except Exception as exc:  # a module missing or broken: said, never skipped
+            raise RegistryError(f"cannot load {origin} ({ep.value}): {exc}") from exc
+        self._adopt(obj, origin)
 
     def load_plugins(self, folder: str | Path) -> Registry:
         """Import every ``*.py`` in ``folder``; their node classes are registered."""
@@ -166,16 +168,6 @@ class Registry:
             self._adopt(module, f"plugin file {path}")
         return self
 
-    def _import(self, modname: str, origin: str) -> None:
-        try:
-            module = importlib.import_module(modname)
-        except ModuleNotFoundError as exc:
-            if exc.name == modname:  # a built-in module not written yet
-                log.debug("no module %s", modname)
-                return
-            raise
-        self._adopt(module, origin)
-
     def _adopt(self, obj: object, origin: str) -> None:
         """Register a class, or every registered class defined in a module."""
         if inspect.isclass(obj):
@@ -189,6 +181,15 @@ class Registry:
                 and value.__module__ == getattr(obj, "__name__", None)
             ):
                 self.add(value, origin)
+
+
+def _entry_points() -> list[importlib.metadata.EntryPoint]:
+    """The ``pointat.nodes`` entry points, each once (an editable install beside a built one lists a
+    distribution twice)."""
+    seen: dict[tuple[str, str], importlib.metadata.EntryPoint] = {}
+    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        seen.setdefault((ep.name, ep.value), ep)
+    return list(seen.values())
 
 
 default_registry = Registry()

@@ -163,8 +163,8 @@ def seeds(root: Path = ROOT) -> dict[str, bytes]:
     for pattern in SEED_GLOBS:
         for path in sorted(root.glob(pattern)):
             out[path.relative_to(root).as_posix()] = path.read_bytes()
-    from pointat.loader import check, read_spec, rebase_paths
     from pointat.expansion import flatten
+    from pointat.loader import check, read_spec, rebase_paths
     from pointat.pdfile import write_pd
     from pointat.registry import default_registry
 

@@ -2,7 +2,7 @@ r"""Gesture mapping: range scaling with curves, smoothing filters, a Schmitt tri
 
 The table stakes of every gesture-mapping tool (Glover, libmapper, OSCulator, Max's ``scale`` and
 ``slide``, Pd's ``threshold~``) as plain functions and small stateful classes on floats and numpy
-arrays.  Nothing here imports the engine; the nodes in :mod:`nodes.mapping` are thin wrappers.
+arrays.  Nothing here imports the engine; the nodes in :mod:`pointat.nodes.mapping` are thin wrappers.
 
 Conventions
 -----------

@@ -15,8 +15,59 @@ def test_math_and_devices_do_not_load_the_engine():
     code = (
         "import sys, pointat.maths.tqt, pointat.maths.vbap, pointat.maths.smoothing, pointat.devices.glove_sim;"
         "print(sorted(m for m in sys.modules if m in ('pointat.node', 'pointat.runtime', 'pointat.loader',"
-        " 'pointat.registry', 'nodes', 'osc_bridge')))"
+        " 'pointat.registry', 'pointat.nodes', 'pointat.osc_bridge')))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path):
+    """pip install . puts exactly one top-level package, pointat, into site-packages, with the node
+    packages, the shipped patches, the examples and the sample data inside it."""
+    import zipfile
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "-q",
+            "-w",
+            str(tmp_path),
+            str(root),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode == 0, out.stderr
+    [wheel] = tmp_path.glob("pointat-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    assert {n.split("/")[0] for n in names} == {
+        "pointat",
+        f"{wheel.name.split('-')[0]}-{wheel.name.split('-')[1]}.dist-info",
+    }
+    for path in (
+        "pointat/nodes/orientation.py",
+        "pointat/nodes/midi.py",
+        "pointat/osc_bridge/nodes.py",
+        "pointat/devices/osc_wire.py",
+        "pointat/maths/tqt/step.py",
+        "pointat/patches/glove_tqt.pat",
+        "pointat/patches/lib/tqt_fusion.pat",
+        "pointat/examples/adm.pat",
+        "pointat/examples/pd/vbap_receiver.pd",
+        "pointat/data/glove_take.csv.gz",
+    ):
+        assert path in names, path
+    shipped = {p.relative_to(root).as_posix() for p in (root / "patches").rglob("*.pat")}
+    assert {f"pointat/{p}" for p in shipped} <= set(names)
+    entry_points = (
+        zipfile.ZipFile(wheel).read(next(n for n in names if n.endswith("entry_points.txt"))).decode()
+    )
+    assert "[pointat.nodes]" in entry_points and "orientation = pointat.nodes.orientation" in entry_points

@@ -27,8 +27,8 @@ from pathlib import Path
 
 import pytest
 
-from osc_bridge.profiles import PROFILES
 from pointat.message import make
+from pointat.osc_bridge.profiles import PROFILES
 from pointat.testing import beside, patch
 
 ROOT = Path(__file__).resolve().parents[2]

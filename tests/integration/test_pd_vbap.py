@@ -26,7 +26,7 @@ import pytest
 from pythonosc.osc_message import OscMessage
 from pythonosc.osc_message_builder import OscMessageBuilder
 
-import nodes.spatial  # noqa: F401  (registers the vbap node; not yet in BUILTIN_MODULES)
+import pointat.nodes.spatial  # noqa: F401  (registers the vbap node)
 from pointat.maths.vbap import make_layout, pd_messages, vbap_gains
 from pointat.message import make
 from pointat.testing import patch

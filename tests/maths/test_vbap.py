@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-import nodes.spatial  # noqa: F401  (registers the vbap node; not yet in BUILTIN_MODULES)
+import pointat.nodes.spatial  # noqa: F401  (registers the vbap node)
 from pointat.maths.vbap import (
     Panner,
     direction_vector,

@@ -17,10 +17,10 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from nodes.calibration import _load
 from pointat.errors import PatchError
 from pointat.maths.calibration import Calibration
 from pointat.message import vector
+from pointat.nodes.calibration import _load
 from pointat.testing import patch
 
 SETTINGS = settings(

@@ -15,12 +15,12 @@ import mido.ports
 import numpy as np
 import pytest
 
-from osc_bridge import midi
-from osc_bridge.midi import MidiFileWriter, MidiSender, MidiUnavailable, scale_to_int
 from pointat.errors import PatchError
 from pointat.maths.quaternion import azimuth_elevation, pointing_direction
 from pointat.maths.scalar import fold_front
 from pointat.message import bang, make, method
+from pointat.nodes import midi
+from pointat.nodes.midi import MidiFileWriter, MidiSender, MidiUnavailable, scale_to_int
 from pointat.testing import patch, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]

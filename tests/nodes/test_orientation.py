@@ -69,7 +69,7 @@ def test_leave_above_enter_is_refused_at_load_and_live():
 
 
 def test_an_orientation_in_is_a_unit_quaternion_and_nan_or_infinity_is_refused():
-    from nodes.orientation import _as_quat
+    from pointat.nodes.orientation import _as_quat
 
     unit = (0.5, 0.5, -0.5, 0.5)
     assert _as_quat(floats(unit)) is unit  # a unit quaternion (what the nodes send) passes as it is

@@ -17,10 +17,10 @@ from pythonosc.osc_bundle_builder import IMMEDIATELY as PY_IMMEDIATELY
 from pythonosc.osc_bundle_builder import OscBundleBuilder
 from pythonosc.osc_message_builder import OscMessageBuilder
 
-from osc_bridge.profiles import PROFILES
 from pointat.errors import PatchError
 from pointat.loader import load
 from pointat.message import make, method
+from pointat.osc_bridge.profiles import PROFILES
 from pointat.testing import patch
 
 IMMEDIATELY = b"\x00" * 7 + b"\x01"
@@ -502,7 +502,7 @@ def test_a_receiver_host_that_refuses_once_a_second_is_not_taken_for_back(starte
 
 
 def test_the_log_says_when_a_receiver_is_back_and_of_each_outage(started, receivers, caplog, monkeypatch):
-    from osc_bridge.nodes import _Destination
+    from pointat.osc_bridge.nodes import _Destination
 
     monkeypatch.setattr(_Destination, "BACK_QUIET", 0.0)  # loopback refuses at once: no need to wait
     probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -824,7 +824,7 @@ def test_timetags_stamp_a_burst_with_the_senders_spacing(started):
 
 @pytest.mark.parametrize("ppm", [80, -80])
 def test_tag_clock_follows_a_drifting_sender_and_one_set_back(ppm):
-    from osc_bridge.nodes import TagClock
+    from pointat.osc_bridge.nodes import TagClock
 
     rng = np.random.default_rng(3)
     clock = TagClock()
@@ -997,9 +997,9 @@ def test_our_encoder_writes_what_python_osc_writes():
 
 @pytest.mark.parametrize("profile", sorted(PROFILES))
 def test_the_compiled_update_encoder_writes_what_render_and_encode_message_write(profile):
-    from osc_bridge.nodes import UpdateEncoder
     from pointat.devices.osc_wire import encode_message
-    from osc_bridge.profiles import Source
+    from pointat.osc_bridge.nodes import UpdateEncoder
+    from pointat.osc_bridge.profiles import Source
 
     prof = PROFILES[profile]
     messages = prof.messages or (("/g/{n}/x", ("n", "az", "el", "dist01", "spread", 7, 0.25, "pan")),)
@@ -1136,7 +1136,7 @@ def test_a_char_among_sensor_numbers_is_refused_not_read_shifted(started):
 
 
 def test_the_field_clamps_are_min_max_including_nan():
-    from osc_bridge.profiles import FIELDS, Source
+    from pointat.osc_bridge.profiles import FIELDS, Source
 
     for v in (-1e9, -200.0, -90.0, -0.5, 0.0, 45.0, 90.0, 99.0, 100.0, 1e9, math.nan):
         s = Source(1, 0.0, v, v, v)

@@ -21,8 +21,8 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from osc_bridge.profiles import SENSOR_OUTLETS, G, parse_rule
 from pointat.node import ParamError
+from pointat.osc_bridge.profiles import SENSOR_OUTLETS, G, parse_rule
 from pointat.testing import patch
 
 SETTINGS = settings(

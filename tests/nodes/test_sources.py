@@ -16,7 +16,7 @@ from pointat.testing import patch, wait_until
 
 @pytest.mark.parametrize("in_thread", [False, True], ids=["scheduler-reads", "reader-thread"])
 def test_mote_reads_a_pty_separates_motes_and_reports_lost_packets(tmp_path, monkeypatch, in_thread, caplog):
-    from nodes.sensors import Mote
+    from pointat.nodes.sensors import Mote
 
     monkeypatch.setattr(Mote, "READ_IN_THREAD", in_thread)  # the thread is what Windows uses
     master, slave = os.openpty()
@@ -99,7 +99,7 @@ def test_a_mote_restarted_with_its_counter_past_32767_is_a_restart_not_thousands
 
 
 def test_a_mote_opened_anew_starts_a_new_time_line_and_counts_packets_by_its_counter():
-    from nodes.sensors import _MoteClock
+    from pointat.nodes.sensors import _MoteClock
 
     clock = _MoteClock(100.0)
     assert clock.time(Frame(1, 10, (0,) * 9), 5.0) == 5.0
@@ -237,7 +237,7 @@ base.events -> ev
 
 @pytest.mark.parametrize("in_thread", [False, True], ids=["scheduler-reads", "reader-thread"])
 def test_a_mote_does_not_reopen_a_pty_named_by_its_number(monkeypatch, caplog, in_thread):
-    from nodes.sensors import Mote
+    from pointat.nodes.sensors import Mote
 
     monkeypatch.setattr(Mote, "READ_IN_THREAD", in_thread)
     master, slave = os.openpty()
@@ -311,7 +311,7 @@ def test_a_bang_first_does_not_make_a_header_of_no_columns(tmp_path):
 
 
 def test_a_take_deleted_while_recording_is_written_anew_and_the_log_says_so(tmp_path, monkeypatch, caplog):
-    from nodes.recording import Record
+    from pointat.nodes.recording import Record
 
     monkeypatch.setattr(Record, "CHECK_EVERY", 0.0)
     take = tmp_path / "take.csv"
@@ -442,7 +442,7 @@ def test_record_refuses_a_gz_name_it_would_not_compress():
 @pytest.mark.parametrize("in_thread", [False, True], ids=["scheduler-reads", "reader-thread"])
 def test_mote_tells_the_log_of_a_silence_and_sums_up_lost_and_damaged_frames(monkeypatch, caplog, in_thread):
     # the shipped patches leave the events outlet unwired: the log is where a performer sees the link
-    from nodes.sensors import Mote
+    from pointat.nodes.sensors import Mote
 
     monkeypatch.setattr(Mote, "READ_IN_THREAD", in_thread)  # the thread is what Windows uses
     monkeypatch.setattr(Mote, "SILENT", 1.0)

@@ -292,7 +292,7 @@ def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path, require_
 
 
 def test_the_help_gives_the_tick_counts_the_node_uses():
-    from nodes.orientation import TQTBankNode
+    from pointat.nodes.orientation import TQTBankNode
 
     doc = " ".join(TQTBankNode.__doc__.split())
     assert f"misses {TQTBankNode.MISSES} ticks in a row (``MISSES``)" in doc
