@@ -23,6 +23,7 @@ from pointat.maths.calibration import (
     ellipsoid_fit,
     gyro_null,
     gyro_scale,
+    implausible,
     minmax_magnetometer,
     six_position_accel,
 )
@@ -276,35 +277,10 @@ class Scaling(Node):
     PLAUSIBLE = 4.0
 
     def _plausible(self, cal: Calibration, factor: list[float]) -> None:
-        """Refuse a file whose numbers would make the output garbage or silence: a scale far off the
-        sensor's nominal resolution (a resolution written where counts per unit go), scales without nulls,
-        a soft-iron matrix that flattens the field."""
-        problems = []
+        """Refuse a file whose numbers would make the output garbage or silence
+        (:func:`~pointat.maths.calibration.implausible`)."""
         resolution = {"gyro": math.radians(self.p.gyro), "acc": self.p.accel}
-        for i, sensor in enumerate(("gyro", "acc", "mag")):
-            scale, null = getattr(cal, f"{sensor}_scale"), getattr(cal, f"{sensor}_null")
-            worst = 0.0
-            for a in range(3):
-                f = factor[3 * i + a]
-                if not math.isfinite(f) or f == 0.0:
-                    worst = math.inf
-                elif sensor in resolution and scale[a] != 1.0:
-                    f = abs(f)  # an axis flipped by hand is no less off
-                    worst = max(worst, f / resolution[sensor], resolution[sensor] / f)
-            if worst > self.PLAUSIBLE:
-                values = " ".join(f"{v:g}" for v in scale)
-                problems.append(
-                    f"{sensor}.scale [{values}] makes no number of a count"
-                    if sensor not in resolution
-                    else f"{sensor}.scale [{values}] (counts per unit) is up to {worst:.3g} times off the nominal"
-                    f" {1.0 / resolution[sensor]:.4g} (a resolution written where counts per unit go?)"
-                )
-            if np.any(scale != 1.0) and not np.any(null != 0.0) and sensor != "gyro":
-                problems.append(f"{sensor} has scales but no nulls (null 0 is no 12-bit count's middle)")
-        if cal.mag_soft_iron is not None:
-            W = np.asarray(cal.mag_soft_iron, dtype=float)
-            if abs(np.linalg.det(W)) <= 1e-9 * max(np.abs(W).max(), 1e-300) ** 3:  # (finite: Calibration)
-                problems.append("mag.soft_iron is singular: it would flatten the field")
+        problems = implausible(cal, factor, resolution, self.PLAUSIBLE)
         if problems:
             raise ValueError(f"calibration file {self.p.calibration}: " + "; ".join(problems))
 

@@ -19,7 +19,7 @@ from .errors import PatchError, PointatError, did_you_mean
 from .expansion import read_spec
 from .loader import build, parse_overrides
 from .registry import Registry, default_registry
-from .runtime import CPU_DMA_LATENCY, keep_cpus_awake, realtime_priority
+from .scheduling import CPU_DMA_LATENCY, keep_cpus_awake, realtime_priority
 from .spec import is_pd_file
 from .terminal import LineHandler, LineWriter
 

@@ -25,6 +25,7 @@ import json
 import math
 import os
 import shutil
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
@@ -35,6 +36,7 @@ __all__ = [
     "STANDARD_GRAVITY",
     "six_position_accel",
     "minmax_magnetometer",
+    "implausible",
     "gyro_null",
     "gyro_scale",
     "ellipsoid_fit",
@@ -520,3 +522,46 @@ class Calibration:
         with open(path, encoding="utf-8-sig") as fh:  # a byte-order mark from a Windows editor is fine
             text = fh.read()
         return cls.from_json(text, source=f"calibration file {os.fspath(path)}")
+
+
+def implausible(
+    cal: Calibration, factor: Sequence[float], resolution: Mapping[str, float], plausible: float = 4.0
+) -> list[str]:
+    """What makes a calibration's numbers garbage or silence for ``scaling``: a gyro or accelerometer
+    scale more than ``plausible`` times off the sensor's nominal ``resolution`` (units per count, by
+    ``gyro`` and ``acc``: a resolution written where counts per unit go), a factor that is 0 or not
+    finite, scales without nulls, a soft-iron matrix that flattens the field.  ``factor``: the nine
+    units per count ``scaling`` would use (gyro, accelerometer, magnetometer x y z).
+
+    >>> cal = Calibration(acc_null=np.array([2048.0] * 3), acc_scale=np.array([4.0, 4.0, 4.0]))
+    >>> implausible(cal, [1e-3] * 3 + [0.25] * 3 + [1.0] * 3, {"gyro": 1e-3, "acc": 0.0196})
+    ['acc.scale [4 4 4] (counts per unit) is up to 12.8 times off the nominal 51.02 (a resolution written where counts per unit go?)']
+    """
+    problems = []
+    for i, sensor in enumerate(("gyro", "acc", "mag")):
+        scale, null = getattr(cal, f"{sensor}_scale"), getattr(cal, f"{sensor}_null")
+        worst = 0.0
+        for a in range(3):
+            f = factor[3 * i + a]
+            if not math.isfinite(f) or f == 0.0:
+                worst = math.inf
+            elif sensor in resolution and scale[a] != 1.0:
+                f = abs(f)  # an axis flipped by hand is no less off
+                worst = max(worst, f / resolution[sensor], resolution[sensor] / f)
+        if worst > plausible:
+            values = " ".join(f"{v:g}" for v in scale)
+            problems.append(
+                f"{sensor}.scale [{values}] makes no number of a count"
+                if sensor not in resolution
+                else f"{sensor}.scale [{values}] (counts per unit) is up to {worst:.3g} times off the nominal"
+                f" {1.0 / resolution[sensor]:.4g} (a resolution written where counts per unit go?)"
+            )
+        if np.any(scale != 1.0) and not np.any(null != 0.0) and sensor != "gyro":
+            problems.append(f"{sensor} has scales but no nulls (null 0 is no 12-bit count's middle)")
+    if cal.mag_soft_iron is not None:
+        W = np.asarray(cal.mag_soft_iron, dtype=float)
+        with np.errstate(over="ignore"):  # (absurd values: the determinant overflows, and is refused)
+            det = np.linalg.det(W)
+        if not abs(det) > 1e-9 * max(np.abs(W).max(), 1e-300) ** 3:  # (finite: Calibration)
+            problems.append("mag.soft_iron is singular: it would flatten the field")
+    return problems

@@ -65,6 +65,13 @@ def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path)
         "pointat/data/glove_take.csv.gz",
     ):
         assert path in names, path
+    code = {f"pointat/{p.relative_to(root / 'pointat').as_posix()}" for p in (root / "pointat").rglob("*.py")}
+    code |= {
+        f"pointat/{p.relative_to(root).as_posix()}"
+        for d in ("nodes", "osc_bridge")
+        for p in (root / d).glob("*.py")
+    }
+    assert code <= set(names), sorted(code - set(names))  # every module (a package missing from pyproject)
     shipped = {p.relative_to(root).as_posix() for p in (root / "patches").rglob("*.pat")}
     assert {f"pointat/{p}" for p in shipped} <= set(names)
     entry_points = (

@@ -778,14 +778,14 @@ def test_keeping_the_cpus_awake_writes_the_request_or_says_why_not(monkeypatch, 
     import os
     import struct
 
-    from pointat import runtime
+    from pointat import scheduling
 
-    monkeypatch.setattr(runtime, "CPU_DMA_LATENCY", str(tmp_path / "absent"))
-    assert runtime.keep_cpus_awake() == (None, f"not available on this system (no {tmp_path / 'absent'})")
+    monkeypatch.setattr(scheduling, "CPU_DMA_LATENCY", str(tmp_path / "absent"))
+    assert scheduling.keep_cpus_awake() == (None, f"not available on this system (no {tmp_path / 'absent'})")
     stand_in = tmp_path / "cpu_dma_latency"
     stand_in.write_bytes(b"")
-    monkeypatch.setattr(runtime, "CPU_DMA_LATENCY", str(stand_in))
-    fd, why = runtime.keep_cpus_awake(5)
+    monkeypatch.setattr(scheduling, "CPU_DMA_LATENCY", str(stand_in))
+    fd, why = scheduling.keep_cpus_awake(5)
     assert why is None and fd is not None
     os.close(fd)
     assert stand_in.read_bytes() == struct.pack("=i", 5)
@@ -793,8 +793,8 @@ def test_keeping_the_cpus_awake_writes_the_request_or_says_why_not(monkeypatch, 
     def refused(*args, **kwargs):
         raise PermissionError(13, "Permission denied")
 
-    monkeypatch.setattr(runtime.os, "open", refused)
-    fd, why = runtime.keep_cpus_awake()
+    monkeypatch.setattr(scheduling.os, "open", refused)
+    fd, why = scheduling.keep_cpus_awake()
     assert fd is None and why.startswith("not permitted: run as root, or give write access to")
 
 
