@@ -47,7 +47,7 @@ from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
     from .errors import Where
-    from .runtime import Runtime, Timer
+    from .scheduling import Scheduler, Timer
 
 __all__ = ["REQUIRED", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError"]
 
@@ -415,7 +415,7 @@ class Node:
         self._targets: list[list[tuple[Node, int]]] = [[] for _ in self.out_specs]
         self.cold: dict[str, Message] = {}
         self.time = 0.0
-        self.rt: Runtime | None = None
+        self.rt: Scheduler | None = None  # the runtime, once the node is in one
         self.active = False
         #: Set by a source whose material is over (a take played to its end, a duration run out), as
         #: against one closed by a message: the patch's end (:meth:`Runtime._finished`).
@@ -637,7 +637,7 @@ class Node:
         """Start a thread for blocking I/O; the runtime joins it at shutdown."""
         return self._runtime().spawn(self, target, what)
 
-    def _runtime(self) -> Runtime:
+    def _runtime(self) -> Scheduler:
         if self.rt is None:
             raise RuntimeError(f"node '{self.name}' is not part of a running patch")
         return self.rt

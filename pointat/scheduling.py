@@ -13,12 +13,13 @@ import threading
 import time
 import weakref
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 __all__ = [
     "CPU_DMA_LATENCY",
     "ManualClock",
     "RealClock",
+    "Scheduler",
     "Timer",
     "keep_cpus_awake",
     "quiet_thread",
@@ -250,3 +251,31 @@ class _Descriptors:
         self._data.clear()
         self._objs.clear()
         self._fds.clear()
+
+
+class Scheduler(Protocol):
+    """What a node may ask of the runtime it runs in (:class:`pointat.runtime.Runtime` is the one): so
+    that the node model names the runtime's surface without importing the runtime."""
+
+    nodes: dict[str, Any]  # name -> node
+    bus: dict[str, list[Any]]  # send/receive buses: name -> receive nodes
+    clock: RealClock | ManualClock
+    depth: int  # nested synchronous dispatch (Node.out)
+    running: bool
+    stopping: threading.Event
+    console: Callable[[str], None]
+
+    def call_at(self, when: float, node: Any, fn: Callable, *args: Any) -> Timer: ...
+
+    def at_pass_end(self, node: Any, fn: Callable[[], Any]) -> None: ...
+
+    def post(self, node: Any, fn: Callable, *args: Any, block: bool = True) -> bool: ...
+
+    def add_reader(self, fileobj: Any, callback: Callable[[], Any], node: Any = None) -> None: ...
+
+    def remove_reader(self, fileobj: Any) -> None: ...
+
+    def spawn(self, node: Any, target: Callable[[], Any], what: str = "") -> threading.Thread: ...
+
+    @staticmethod
+    def message(selector: str | Any, *args: Any) -> Any: ...

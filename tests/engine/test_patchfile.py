@@ -524,6 +524,7 @@ def test_names_and_files_no_patch_can_be_are_located_errors_never_a_hang(tmp_pat
         f"node r replay file={fifo}\n": "take.csv: not a regular file",
         "node r replay file=/dev/zero\n": "/dev/zero: not a regular file",
         "node a /dev/zero\n": "abstraction '/dev/zero' is not a regular file",
+        "node a a\x00b.pat\n": "holds a NUL character: no file is named so",
     }
     for text, said in cases.items():
         with pytest.raises(PatchError) as info:
