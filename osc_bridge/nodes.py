@@ -182,9 +182,157 @@ class _Destination:
         return f"{self.host}:{self.port}"
 
 
+class UdpSender(Node):
+    """What ``osc_out`` and ``osc_body`` share: one non-blocking UDP socket for each destination, names
+    resolved off the scheduler thread, datagrams sent when the pass ends, refusals and losses counted and
+    said once.  A subclass sets ``dests`` (:class:`_Destination`), ``_outbox`` (``[]``), ``_timer``
+    (``None``) and the counters ``sent``, ``failed``, ``refused`` in its ``setup``."""
+
+    _timer: Timer | None = None
+
+    def start(self) -> None:
+        unresolved = []
+        for d in self.dests:
+            d.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            d.sock.setblocking(False)
+            d.sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+            if not _is_ip(d.host) or not self._connect(d):
+                unresolved.append(d)
+        if unresolved:  # name lookups can block for seconds: never on the scheduler thread
+            self.spawn(lambda: self._retry(unresolved), "resolve")
+
+    def _connect(self, d: _Destination) -> bool:
+        """Resolve and connect (the system then reports ECONNREFUSED when nobody listens on loopback)."""
+        try:
+            info = socket.getaddrinfo(d.host, d.port, socket.AF_INET, socket.SOCK_DGRAM)
+            if d.sock is None:
+                return False
+            d.sock.connect(info[0][4])
+        except OSError as exc:
+            if not d.warned:
+                d.warned = True
+                log.warning(
+                    "%s '%s': cannot reach %s (%s); retrying every 2 s",
+                    self.type_name,
+                    self.name,
+                    d.label,
+                    exc,
+                )
+            return False
+        d.connected = True
+        if d.warned:
+            log.warning("%s '%s': %s reachable now", self.type_name, self.name, d.label)
+        return True
+
+    def _retry(self, pending: list[_Destination]) -> None:
+        stopping = self._runtime().stopping
+        while True:
+            pending = [d for d in pending if d.sock is not None and not self._connect(d)]
+            if not pending or stopping.wait(2.0):
+                return
+
+    # inlets ------------------------------------------------------------------
+    def send(self, datagrams: list[bytes]) -> None:
+        """Send encoded OSC messages, as they are or as one bundle, to every destination.
+
+        They leave when the scheduler's pass is done (:meth:`Runtime.at_pass_end
+        <pointat.runtime.Runtime.at_pass_end>`): right after this sample's chain when one sensor woke
+        the scheduler, together with the other sensors' when a base station delivered several frames at
+        once (a receiver they share is woken once, not once per sensor).  One update waits at most: a
+        second one in the same pass (a backlog being worked off) sends both at once, so a long pass
+        never piles datagrams up into one burst that would overflow the receiver's buffer.
+        """
+        if self.p.bundle:
+            delay = getattr(self.p, "delay", 0.0)  # (osc_body has none)
+            when = time.time() + delay / 1000.0 if delay > 0 else None
+            datagrams = [encode_bundle(datagrams, when)]
+        rt = self.rt
+        if self._outbox or rt is None:
+            self._outbox += datagrams
+            self._send_queued()
+        else:
+            self._outbox = list(datagrams)
+            rt.at_pass_end(self, self._send_queued)
+
+    def _send_queued(self) -> None:
+        datagrams, self._outbox = self._outbox, []
+        for d in self.dests:
+            for dgram in datagrams:
+                self._send_one(d, dgram)
+
+    def _send_one(self, d: _Destination, dgram: bytes) -> None:
+        if d.sock is None:
+            raise RuntimeError(f"{self.type_name} is not running")
+        if not d.connected:  # not resolved (yet): never look a name up on the scheduler thread
+            self.failed += 1
+            d.failed += 1
+            return
+        refused = False
+        for _attempt in range(2):
+            try:
+                d.sock.send(dgram)
+                self.sent += 1
+                if d.outage and not refused:
+                    d.clean += 1
+                    if d.clean >= d.BACK_AFTER and time.monotonic() - d.last_refused >= d.BACK_QUIET:
+                        log.warning(
+                            "%s '%s': %s is listening again (%d datagram%s refused meanwhile)",
+                            self.type_name,
+                            self.name,
+                            d.label,
+                            d.outage,
+                            "s" if d.outage > 1 else "",
+                        )
+                        d.outage = d.clean = 0
+                return
+            except ConnectionRefusedError:
+                # an earlier datagram found nobody listening; the error is now cleared: try this one again
+                refused = True
+                self.refused += 1
+                d.refused += 1
+                d.outage += 1
+                d.clean, d.last_refused = 0, time.monotonic()
+                if worth_reporting(d.outage, first=1):
+                    log.warning(
+                        "%s '%s': nobody listening at %s (%d datagram%s refused); sending on",
+                        self.type_name,
+                        self.name,
+                        d.label,
+                        d.outage,
+                        "s" if d.outage > 1 else "",
+                    )
+            except OSError as exc:  # buffer full (EAGAIN), no route: drop, count, go on
+                self.failed += 1
+                d.failed += 1
+                if worth_reporting(d.failed, first=1):
+                    log.warning(
+                        "%s '%s': cannot send to %s (%s); %d datagrams dropped so far",
+                        self.type_name,
+                        self.name,
+                        d.label,
+                        errno.errorcode.get(exc.errno or 0, "") or exc,
+                        d.failed,
+                    )
+                return
+        self.failed += 1
+        d.failed += 1
+
+    def close(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        if self._outbox and all(d.sock is not None for d in self.dests):
+            self._send_queued()  # a pass cut short: what was encoded still goes
+        for d in self.dests:
+            if d.sock is not None:
+                d.sock.close()
+                d.sock = None
+                d.connected = False
+
+
 # --------------------------------------------------------------------------- osc_out
 @register("osc_out")
-class OscOut(Node):
+class OscOut(UdpSender):
     """Send a source's direction over OSC (UDP) in the convention of the chosen receiver ``profile``.
 
     Profiles (``osc_bridge.profiles``): ``pointat`` (/pointat/N/aed: az el and distance 0..1, 1 far, 0
@@ -312,42 +460,6 @@ dir.azimuth -> out.azimuth
         self.failed = 0
         self.refused = 0
 
-    def start(self) -> None:
-        unresolved = []
-        for d in self.dests:
-            d.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            d.sock.setblocking(False)
-            d.sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
-            if not _is_ip(d.host) or not self._connect(d):
-                unresolved.append(d)
-        if unresolved:  # name lookups can block for seconds: never on the scheduler thread
-            self.spawn(lambda: self._retry(unresolved), "resolve")
-
-    def _connect(self, d: _Destination) -> bool:
-        """Resolve and connect (the system then reports ECONNREFUSED when nobody listens on loopback)."""
-        try:
-            info = socket.getaddrinfo(d.host, d.port, socket.AF_INET, socket.SOCK_DGRAM)
-            if d.sock is None:
-                return False
-            d.sock.connect(info[0][4])
-        except OSError as exc:
-            if not d.warned:
-                d.warned = True
-                log.warning("osc_out '%s': cannot reach %s (%s); retrying every 2 s", self.name, d.label, exc)
-            return False
-        d.connected = True
-        if d.warned:
-            log.warning("osc_out '%s': %s reachable now", self.name, d.label)
-        return True
-
-    def _retry(self, pending: list[_Destination]) -> None:
-        stopping = self._runtime().stopping
-        while True:
-            pending = [d for d in pending if d.sock is not None and not self._connect(d)]
-            if not pending or stopping.wait(2.0):
-                return
-
-    # inlets ------------------------------------------------------------------
     def on_elevation(self, msg: Message) -> None:
         v = msg.value if msg.kind == "float" else as_float(msg)  # (per sample: a call less)
         if v - v != 0.0:  # NaN or infinity; the last good value stays
@@ -434,98 +546,6 @@ dir.azimuth -> out.azimuth
         self._encoder = UpdateEncoder(self.profile, self.p.source or self.profile.first, self.messages)
 
     # sending -------------------------------------------------------------------
-    def send(self, datagrams: list[bytes]) -> None:
-        """Send encoded OSC messages, as they are or as one bundle, to every destination.
-
-        They leave when the scheduler's pass is done (:meth:`Runtime.at_pass_end
-        <pointat.runtime.Runtime.at_pass_end>`): right after this sample's chain when one sensor woke
-        the scheduler, together with the other sensors' when a base station delivered several frames at
-        once (a receiver they share is woken once, not once per sensor).  One update waits at most: a
-        second one in the same pass (a backlog being worked off) sends both at once, so a long pass
-        never piles datagrams up into one burst that would overflow the receiver's buffer.
-        """
-        if self.p.bundle:
-            when = time.time() + self.p.delay / 1000.0 if self.p.delay > 0 else None
-            datagrams = [encode_bundle(datagrams, when)]
-        rt = self.rt
-        if self._outbox or rt is None:
-            self._outbox += datagrams
-            self._send_queued()
-        else:
-            self._outbox = list(datagrams)
-            rt.at_pass_end(self, self._send_queued)
-
-    def _send_queued(self) -> None:
-        datagrams, self._outbox = self._outbox, []
-        for d in self.dests:
-            for dgram in datagrams:
-                self._send_one(d, dgram)
-
-    def _send_one(self, d: _Destination, dgram: bytes) -> None:
-        if d.sock is None:
-            raise RuntimeError("osc_out is not running")
-        if not d.connected:  # not resolved (yet): never look a name up on the scheduler thread
-            self.failed += 1
-            d.failed += 1
-            return
-        refused = False
-        for _attempt in range(2):
-            try:
-                d.sock.send(dgram)
-                self.sent += 1
-                if d.outage and not refused:
-                    d.clean += 1
-                    if d.clean >= d.BACK_AFTER and time.monotonic() - d.last_refused >= d.BACK_QUIET:
-                        log.warning(
-                            "osc_out '%s': %s is listening again (%d datagram%s refused meanwhile)",
-                            self.name,
-                            d.label,
-                            d.outage,
-                            "s" if d.outage > 1 else "",
-                        )
-                        d.outage = d.clean = 0
-                return
-            except ConnectionRefusedError:
-                # an earlier datagram found nobody listening; the error is now cleared: try this one again
-                refused = True
-                self.refused += 1
-                d.refused += 1
-                d.outage += 1
-                d.clean, d.last_refused = 0, time.monotonic()
-                if worth_reporting(d.outage, first=1):
-                    log.warning(
-                        "osc_out '%s': nobody listening at %s (%d datagram%s refused); sending on",
-                        self.name,
-                        d.label,
-                        d.outage,
-                        "s" if d.outage > 1 else "",
-                    )
-            except OSError as exc:  # buffer full (EAGAIN), no route: drop, count, go on
-                self.failed += 1
-                d.failed += 1
-                if worth_reporting(d.failed, first=1):
-                    log.warning(
-                        "osc_out '%s': cannot send to %s (%s); %d datagrams dropped so far",
-                        self.name,
-                        d.label,
-                        errno.errorcode.get(exc.errno or 0, "") or exc,
-                        d.failed,
-                    )
-                return
-        self.failed += 1
-        d.failed += 1
-
-    def close(self) -> None:
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
-        if self._outbox and all(d.sock is not None for d in self.dests):
-            self._send_queued()  # a pass cut short: what was encoded still goes
-        for d in self.dests:
-            if d.sock is not None:
-                d.sock.close()
-                d.sock = None
-                d.connected = False
 
 
 def _refuse(what: str, value: float) -> None:

@@ -1,0 +1,238 @@
+"""Body posture: segments from many sensors, joints in the room, and pointing with the whole arm.
+
+After Bachmann et al. (VRST 2001; US 7,089,148): one sensor per limb segment, each through its own
+filter (``tqt_bank``), each segment's orientation its sensor's turned by an offset taken in a
+calibration pose, and positions down the body's kinematic chain.  The maths is
+:mod:`pointat.maths.skeleton`; these nodes are its doors into a patch.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from pointat import shipped
+from pointat.maths import skeleton as sk
+from pointat.message import Message, as_floats, floats, make
+from pointat.node import Inlet, Node, Outlet, Param
+from pointat.registry import register
+
+__all__ = ["PointRay", "SkeletonNode"]
+
+#: The skeleton a ``skeleton`` node uses when none is named: the right arm of pointat/data/arm.json.
+ARM = "pointat:data/arm.json"
+
+
+def _load(path: str) -> sk.Skeleton:
+    return sk.Skeleton.load(shipped.resolve(path))
+
+
+@register("skeleton")
+class SkeletonNode(Node):
+    """Many sensors -> the body's segments and joints (Bachmann's posture tracking).
+
+    ``file`` describes the body (JSON: segments, each with its parent, length, the sensor on it and its
+    orientation in the calibration pose; :class:`pointat.maths.skeleton.Skeleton`; the default is a
+    right arm of 0.63 m, ``pointat:data/arm.json``).  The ``quats`` inlet takes every sensor's orientation
+    at once, as ``tqt_bank``'s ``quats`` outlet sends them (4N numbers, sensor 1 first).
+
+    **Calibration pose.**  Stand in the pose the file gives (the arm: straight ahead, level, palm down)
+    and send ``calibrate`` (``/pointat/body/calibrate``): each sensor's offset to its segment is taken
+    from that sample, and the direction the body faced becomes the front (x; y to the left, z up).  With
+    ``auto=S`` the pose is taken by itself S seconds after the first sample (a simulation, a performer
+    who starts in the pose).  Until then nothing is sent and ``status`` says ``waiting for the pose``.
+
+    Out, right to left, each update: ``ends`` (each segment's far end), ``joints`` (each segment's
+    proximal joint: shoulder, elbow, wrist...), metres in the body frame with the root at ``root``, and
+    ``segments`` (each segment's orientation in the body frame), in the file's order.
+    """
+
+    pure = True
+
+    inlets = (
+        Inlet("quats", ("vector", "list"), "every sensor's orientation, 4N numbers (tqt_bank's quats)"),
+        Inlet("root", ("vector", "list"), "where the root joint is, metres (x y z)", hot=False),
+    )
+    outlets = (
+        Outlet("segments", "vector", "each segment's orientation (w x y z), body frame, 4M numbers"),
+        Outlet("joints", "vector", "each segment's proximal joint, metres, 3M numbers"),
+        Outlet("ends", "vector", "each segment's far end, metres, 3M numbers"),
+        Outlet("status", "list", "waiting for the pose, calibrated"),
+    )
+    params = (
+        Param("file", "path", ARM, "the skeleton (JSON); pointat:data/arm.json is a right arm", reads=True),
+        Param(
+            "auto",
+            "float",
+            0.0,
+            "take the calibration pose by itself this long after the first sample; 0: wait for calibrate",
+            unit="s",
+            minimum=0.0,
+        ),
+    )
+    example = """
+node glove simulate_body
+node bank  tqt_bank sensors=3
+node body  skeleton auto=3
+glove.mag1 -> bank.mag1
+...
+bank.quats -> body
+"""
+
+    @classmethod
+    def check_files(cls, values: Mapping[str, Any]) -> None:
+        _load(values["file"])
+
+    def setup(self) -> None:
+        self.body = _load(self.p.file)
+        self._n = self.body.sensors
+        self._front: sk.Quat | None = None
+        self._offsets: list[sk.Quat] = []
+        self._root = self.body.root
+        self._want = False
+        self._first: float | None = None
+        self._told = False
+
+    def do_calibrate(self) -> None:
+        """Take the next sample as the calibration pose."""
+        self._want = True
+
+    def on_root(self, msg: Message) -> None:
+        self._root = tuple(as_floats(msg, 3))  # type: ignore[assignment]
+
+    def on_quats(self, msg: Message) -> None:
+        v = as_floats(msg, 4 * self._n) if len(msg.value) == 4 * self._n else None
+        if v is None:
+            raise ValueError(
+                f"expected {4 * self._n} numbers (4 for each of {self._n} sensors), got {len(msg.value)}"
+            )
+        q = [tuple(v[4 * i : 4 * i + 4]) for i in range(self._n)]
+        if self._first is None:
+            self._first = msg.time
+        if self.p.auto and self._front is None and msg.time - self._first >= self.p.auto:
+            self._want = True
+        if self._want:
+            self._want = False
+            self._front, self._offsets = sk.offsets(self.body, q)  # type: ignore[arg-type]
+            self.out(3, make(("calibrated",), msg.time))
+        if self._front is None:
+            if not self._told:
+                self._told = True
+                self.out(3, make(("waiting for the pose",), msg.time))
+            return
+        segs = sk.segment_orientations(self.body, q, self._front, self._offsets)  # type: ignore[arg-type]
+        joints, ends = sk.forward(self.body, segs, self._root)
+        t = msg.time
+        self.out(2, floats(tuple(c for p in ends for c in p), t))
+        self.out(1, floats(tuple(c for p in joints for c in p), t))
+        self.out(0, floats(tuple(c for q_ in segs for c in q_), t))
+
+
+@register("point_ray")
+class PointRay(Node):
+    """Point with the whole arm: the ray from one joint through another meets the room.
+
+    ``start`` and ``through`` name points of the skeleton (``file``, as the ``skeleton`` node's): a
+    segment's name is its proximal joint (``upper_arm``: the shoulder), ``NAME.end`` its far end
+    (``hand.end``: the fingertips).  The ray meets ``target=sphere`` (the loudspeaker sphere: ``radius``
+    around ``centre``, the listening position) or ``target=floor`` (the plane z = ``floor``).  Out, right
+    to left: ``xyz`` (where, metres), ``distance`` (from ``centre``, metres), ``elevation`` and
+    ``azimuth`` (degrees, ADM-OSC: 0 front, + left, + up, seen from ``centre``).  A ray that meets nothing
+    (pointing at the ceiling with ``target=floor``) sends nothing, and ``xyz`` holds.
+    """
+
+    pure = True
+
+    inlets = (
+        Inlet("joints", ("vector", "list"), "the skeleton's joints (3M numbers)"),
+        Inlet("ends", ("vector", "list"), "the skeleton's ends (3M numbers)", hot=False),
+    )
+    outlets = (
+        Outlet("azimuth", "float", "degrees, + left, seen from centre"),
+        Outlet("elevation", "float", "degrees, + up"),
+        Outlet("distance", "float", "metres from centre"),
+        Outlet("xyz", "vector", "where the ray meets the target, metres"),
+    )
+    params = (
+        Param("file", "path", ARM, "the skeleton (JSON), as the skeleton node's", reads=True),
+        Param("start", "symbol", "upper_arm", "where the ray starts: a segment (its joint) or SEGMENT.end"),
+        Param("through", "symbol", "hand.end", "the point it goes through"),
+        Param(
+            "target",
+            "symbol",
+            "sphere",
+            "sphere (the loudspeakers) or floor",
+            choices=("sphere", "floor"),
+            live=True,
+        ),
+        Param("radius", "float", 3.0, "the sphere's radius", unit="m", above=0.0, live=True),
+        Param(
+            "centre",
+            "vector",
+            (0.0, 0.0, 1.2),
+            "the listening position (the sphere's centre)",
+            size=3,
+            live=True,
+        ),
+        Param("floor", "float", 0.0, "the floor's height", unit="m", live=True),
+    )
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        body = _load(values["file"]) if values.get("file") else None
+        if body is not None:
+            for name in ("start", "through"):
+                _point_index(body, values[name], name)
+            if values["start"] == values["through"]:
+                raise ValueError(f"start and through are the same point ({values['start']}): no ray")
+
+    @classmethod
+    def check_files(cls, values: Mapping[str, Any]) -> None:
+        _load(values["file"])
+
+    def setup(self) -> None:
+        body = _load(self.p.file)
+        self._a = _point_index(body, self.p.start, "start")
+        self._b = _point_index(body, self.p.through, "through")
+        self._ends: tuple[float, ...] | None = None
+
+    def on_ends(self, msg: Message) -> None:
+        self._ends = as_floats(msg)
+
+    def on_joints(self, msg: Message) -> None:
+        joints = as_floats(msg)
+        a, b = self._point(joints, self._a), self._point(joints, self._b)
+        if a is None or b is None:
+            return
+        if self.p.target == "sphere":
+            hit = sk.ray_sphere(a, b, tuple(self.p.centre), self.p.radius)
+        else:
+            hit = sk.ray_floor(a, b, self.p.floor)
+        if hit is None:
+            return
+        az, el, dist = sk.pointing(hit, tuple(self.p.centre))
+        t = msg.time
+        self.out(3, floats(hit, t))
+        self.out(2, dist)
+        self.out(1, el)
+        self.out(0, az)
+
+    def _point(self, joints: tuple[float, ...], where: tuple[int, bool]) -> sk.Vec3 | None:
+        k, end = where
+        source = self._ends if end else joints
+        if source is None or len(source) < 3 * k + 3:
+            return None
+        p = source[3 * k : 3 * k + 3]
+        return p if all(math.isfinite(c) for c in p) else None  # type: ignore[return-value]
+
+
+def _point_index(body: sk.Skeleton, name: str, what: str) -> tuple[int, bool]:
+    """``SEGMENT`` -> (its index, False: the joint); ``SEGMENT.end`` -> (index, True)."""
+    segment, dot, part = str(name).partition(".")
+    if dot and part != "end":
+        raise ValueError(f"{what}: {name!r}: a segment's name, or NAME.end")
+    try:
+        return body.index(segment), bool(dot)
+    except KeyError as exc:
+        raise ValueError(f"{what}: {exc.args[0]}") from None
