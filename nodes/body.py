@@ -72,12 +72,17 @@ class SkeletonNode(Node):
         ),
     )
     example = """
-node glove simulate_body
-node bank  tqt_bank sensors=3
-node body  skeleton auto=3
-glove.mag1 -> bank.mag1
-...
-bank.quats -> body
+node phones osc_in port=9002 map=["/1/gyro=gyro", "/1/acc=accel", "/1/mag=mag"]
+node suit   tqt_bank sensors=3
+node body   skeleton file=pointat:data/arm.json
+node out    osc_body port=9000
+phones.mag -> suit.mag1
+phones.accel -> suit.accel1
+phones.gyro -> suit.gyro1
+suit.quats -> body
+body.ends -> out.ends
+body.joints -> out.joints
+body.segments -> out.segments
 """
 
     @classmethod

@@ -56,7 +56,10 @@ class OscBody(UdpSender):
         Param("bundle", "bool", True, "one bundle an update (false: the messages one by one)"),
     )
     example = """
-node out osc_body port=9000
+node suit tqt_bank sensors=3
+node body skeleton
+node out  osc_body port=9000
+suit.quats -> body
 body.ends -> out.ends
 body.joints -> out.joints
 body.segments -> out.segments
