@@ -45,6 +45,7 @@ from pointat.maths.fusion import ComplementaryFilter
 from pointat.maths.tqt import TQTBank, TQTFilter
 from pointat.message import Message, floats, vector
 from pointat.node import Inlet, Node
+from pointat.nodes.body import SkeletonNode
 from pointat.nodes.orientation import TQT as TQTNode
 from pointat.nodes.orientation import TQTBankNode
 from pointat.runtime import Runtime
@@ -52,6 +53,9 @@ from pointat.runtime import Runtime
 from .latency import free_udp_port, stop_process, udp_hole
 
 log = logging.getLogger("benchmarks.throughput")
+
+#: The 15-segment body the body row measures.
+BODY15 = "pointat:data/body15.json"
 
 REPO = Path(__file__).resolve().parents[1]
 PATCHES = Path(__file__).resolve().parent / "patches"
@@ -558,6 +562,45 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
 
         best, med = _rounds(nodes, nb * k15, rounds)
         out.append(FilterCost(label, "pointat", best, med, note))
+
+    # a whole body (issue 33): 15 sensors through one tqt_bank into a 15-segment skeleton (offsets from
+    # the calibration pose, forward kinematics), per frame of all 15, beside one glove's tqt node per sample
+    def body(with_skeleton: bool = True) -> None:
+        rt = Runtime(realtime=False)
+        sink = rt.add(_Null("sink"))
+        bank = rt.add(TQTBankNode("bank", {**TQTBankNode.resolve_params(named={"sensors": k15})}))
+        if with_skeleton:
+            skel = rt.add(
+                SkeletonNode("body", SkeletonNode.resolve_params(named={"file": BODY15, "auto": 0.05}))
+            )
+            rt.connect(bank, 0, skel, 0)  # quats
+            for o in range(3):
+                rt.connect(skel, o, sink, 0)
+        else:
+            rt.connect(bank, 0, sink, 0)
+        feeds = [(bank.receive, 1 + 3 * j) for j in range(k15)]
+        rt.start()
+        for i in range(nb):
+            for (receive, gyro), (mm, am, gm) in zip(feeds, msgs[i], strict=True):
+                receive(gyro + 2, mm)
+                receive(gyro + 1, am)
+                receive(gyro, gm)
+        rt.shutdown()
+
+    best, med = _rounds(body, nb, rounds)
+    out.append(
+        FilterCost(
+            "body: tqt_bank 15 + skeleton 15 segments",
+            "pointat",
+            best,
+            med,
+            "per frame of 15 sensors, in a patch",
+        )
+    )
+    best, med = _rounds(lambda: body(False), nb, rounds)
+    out.append(
+        FilterCost("body: tqt_bank 15 alone", "pointat", best, med, "per frame of 15 sensors, in a patch")
+    )
 
     try:
         import ahrs

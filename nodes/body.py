@@ -13,12 +13,13 @@ from collections.abc import Mapping
 from typing import Any
 
 from pointat import shipped
+from pointat.devices.bvh import BvhJoint, BvhWriter, local_rotations
 from pointat.maths import skeleton as sk
 from pointat.message import Message, as_floats, floats, make
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
 
-__all__ = ["PointRay", "SkeletonNode"]
+__all__ = ["BvhRecord", "PointRay", "SkeletonNode"]
 
 #: The skeleton a ``skeleton`` node uses when none is named: the right arm of pointat/data/arm.json.
 ARM = "pointat:data/arm.json"
@@ -241,3 +242,78 @@ def _point_index(body: sk.Skeleton, name: str, what: str) -> tuple[int, bool]:
         return body.index(segment), bool(dot)
     except KeyError as exc:
         raise ValueError(f"{what}: {exc.args[0]}") from None
+
+
+@register("bvh_record")
+class BvhRecord(Node):
+    """Record the body as a BVH motion-capture take (Blender, MotionBuilder and most mocap tools read it).
+
+    Wire a ``skeleton`` node's ``joints`` and ``segments`` outlets to the inlets of the same names.  The
+    hierarchy is the skeleton's (``file``, the same one): each segment a joint at its ``at`` in its
+    parent, a last segment's ``length`` an End Site; every frame the root joint's position and each segment's rotation
+    relative to its parent.  BVH's world is Y up: x front, y left, z up become Z, X, Y
+    (:mod:`pointat.devices.bvh`).  ``rate`` is the frame rate the file declares (the skeleton's updates,
+    one frame each).  The file is written as the take goes (an hour at 100 Hz with 15 segments is about
+    260 MB) and its frame count is set when the patch stops; a take cut short still reads.
+    """
+
+    needs_input = True
+
+    inlets = (
+        Inlet("segments", ("vector", "list"), "each segment's orientation, 4M numbers (skeleton.segments)"),
+        Inlet("joints", ("vector", "list"), "each segment's joint, 3M numbers (skeleton.joints)", hot=False),
+    )
+    params = (
+        Param("file", "path", doc="the take to write (.bvh)", writes=True),
+        Param("skeleton", "path", ARM, "the skeleton (JSON), the skeleton node's", reads=True),
+        Param("rate", "float", 100.0, "frames per second the file declares", unit="Hz", above=0.0),
+        Param("units", "symbol", "cm", "cm (most tools) or m", choices=("cm", "m")),
+    )
+    example = """
+node suit tqt_bank sensors=3
+node body skeleton auto=3
+node take bvh_record file=take.bvh
+suit.quats -> body
+body.joints -> take.joints
+body.segments -> take.segments
+"""
+
+    @classmethod
+    def check_files(cls, values: Mapping[str, Any]) -> None:
+        _load(values["skeleton"])
+
+    def setup(self) -> None:
+        self.body = _load(self.p.skeleton)
+        parents = self.body.parents
+        leaves = set(range(len(parents))) - set(parents)
+        self._joints_spec = [  # (BVH gives a leaf only its End Site: the others' ends are their children)
+            BvhJoint(
+                s.name,
+                parents[k],
+                (0.0, 0.0, 0.0) if parents[k] is None else s.at,
+                s.length if k in leaves else None,
+            )
+            for k, s in enumerate(self.body.segments)
+        ]
+        self._writer: BvhWriter | None = None
+        self._root: tuple[float, ...] = self.body.root
+        self.frames = 0
+
+    def start(self) -> None:
+        self._writer = BvhWriter(self.p.file, self._joints_spec, self.p.rate, units=self.p.units)
+
+    def on_joints(self, msg: Message) -> None:
+        self._root = as_floats(msg, 3 * len(self.body.segments))[:3]
+
+    def on_segments(self, msg: Message) -> None:
+        v = as_floats(msg, 4 * len(self.body.segments))
+        q = [v[4 * k : 4 * k + 4] for k in range(len(self.body.segments))]
+        if self._writer is None or not all(math.isfinite(c) for c in v):
+            return
+        self._writer.frame(self._root, local_rotations(q, self.body.parents))
+        self.frames += 1
+
+    def close(self) -> None:
+        writer, self._writer = self._writer, None
+        if writer is not None:
+            writer.close()
