@@ -19,13 +19,17 @@ import numpy as np
 from pointat.devices.mote_frame import ADC_MAX, ADC_NULL, DEFAULT_RESOLUTION, MoteSpec, adc_full_scale
 from pointat.errors import worth_reporting
 from pointat.maths.calibration import (
+    MISALIGNMENT_LIMIT,
     Calibration,
     ellipsoid_fit,
+    gyro_misalignment,
     gyro_null,
     gyro_scale,
     implausible,
+    is_identity,
     minmax_magnetometer,
     six_position_accel,
+    six_position_misalignment,
 )
 from pointat.message import Message, as_floats, as_vector, floats
 from pointat.node import Inlet, Node, Outlet, Param, names_path
@@ -177,19 +181,21 @@ class Offset(Node):
 class Scaling(Node):
     """Counts relative to their nulls -> gyro rad/s, accelerometer m/s², magnetometer gauss (Torre Table 1).
 
-    Per-sensor resolutions in the table's units (deg/s, m/s², gauss per count), or per-axis scales and
-    the soft-iron matrix from a ``calibration`` file; an axis the file has no scale for (a gyro axis
-    never turned) keeps its resolution, with a warning.  A calibrated magnetometer reads in units of
-    the local field (its strength is 1): the filters use its direction only.  A file whose gyro or
-    accelerometer scales are more than 4 times off the resolutions (``PLAUSIBLE``), that has scales
-    without nulls, or a singular soft-iron matrix, is refused, naming the key.  Outputs right to left:
-    mag, accel, then gyro, so a filter whose hot inlet is the gyro sees a complete sample.
+    Per-sensor resolutions in the table's units (deg/s, m/s², gauss per count), or per-axis scales, the
+    gyro's and the accelerometer's cross-axis misalignments (applied after the scales) and the soft-iron
+    matrix from a ``calibration`` file; an axis the file has no scale for (a gyro axis never turned)
+    keeps its resolution, with a warning.  A calibrated magnetometer reads in units of the local field
+    (its strength is 1): the filters use its direction only.  A file whose gyro or accelerometer scales
+    are more than 4 times off the resolutions (``PLAUSIBLE``), that has scales without nulls, a singular
+    soft-iron matrix, or a cross-axis term beyond 5 degrees, is refused, naming the key.  Outputs right
+    to left: mag, accel, then gyro, so a filter whose hot inlet is the gyro sees a complete sample.
 
     The 12-bit ADC clips: ``range`` says once, when the patch starts, how far the accelerometer and the
     gyro read before an axis sticks at its rail (m/s², rad/s; the nearer rail of the least sensitive
     axis), so that a ``tqt`` wired to it knows a saturated axis rather than guessing.  The nulls are the
     calibration file's; without them, mid-scale less 5 % of the span (``RAIL_COUNTS``), for nulls a little
-    off the middle: a rail is then said a little early, never late.
+    off the middle: a rail is then said a little early, never late.  A misalignment mixes a little of the
+    other axes into each: the range is cut by its largest row of cross-axis terms, for the same reason.
     """
 
     pure = True
@@ -221,6 +227,9 @@ class Scaling(Node):
 
     def setup(self) -> None:
         self.soft_iron: tuple[float, ...] | None = None  # row major
+        # cross-axis misalignments, row major; None for the identity (nothing to multiply)
+        self.gyro_misalignment: tuple[float, ...] | None = None
+        self.acc_misalignment: tuple[float, ...] | None = None
         factor = [math.radians(self.p.gyro)] * 3 + [self.p.accel] * 3 + [self.p.mag] * 3
         cal = None
         if self.p.calibration:
@@ -239,6 +248,10 @@ class Scaling(Node):
                         nominal.append(f"{sensor} {'xyz'[a]}")
             if cal.mag_soft_iron is not None:
                 self.soft_iron = tuple(np.ravel(cal.mag_soft_iron).tolist())
+            for sensor in ("gyro", "acc"):
+                M = getattr(cal, f"{sensor}_misalignment")
+                if not is_identity(M):
+                    setattr(self, f"{sensor}_misalignment", tuple(np.ravel(M).tolist()))
             self._plausible(cal, factor)
             if nominal:
                 log.warning(
@@ -268,7 +281,14 @@ class Scaling(Node):
             min(adc_full_scale(s, spec)) if all(self.factor[i : i + 3]) else 0.0
             for s, i in (("accel", 3), ("gyro", 0))
         )
-        return acc, gyro
+
+        def cut(M: tuple[float, ...] | None) -> float:
+            """An axis at its rail, the others at theirs against it: short by its cross-axis terms."""
+            if M is None:
+                return 1.0
+            return max(0.0, 1.0 - max(sum(abs(M[3 * i + j]) for j in range(3) if j != i) for i in range(3)))
+
+        return acc * cut(self.acc_misalignment), gyro * cut(self.gyro_misalignment)
 
     def loadbang(self) -> None:
         self.out(3, self.full_scale)
@@ -296,8 +316,20 @@ class Scaling(Node):
             )
         t = msg.time
         self.out(2, floats((mx, my, mz), t))
-        self.out(1, floats((c[3] * f[3], c[4] * f[4], c[5] * f[5]), t))
-        self.out(0, floats((c[0] * f[0], c[1] * f[1], c[2] * f[2]), t))
+        M = self.acc_misalignment  # the identity is None: the sample goes as it did (a few ns more)
+        if M is None:
+            self.out(1, floats((c[3] * f[3], c[4] * f[4], c[5] * f[5]), t))
+        else:
+            x, y, z = c[3] * f[3], c[4] * f[4], c[5] * f[5]
+            self.out(1, floats((M[0] * x + M[1] * y + M[2] * z, M[3] * x + M[4] * y + M[5] * z,
+                                M[6] * x + M[7] * y + M[8] * z), t))  # fmt: skip
+        M = self.gyro_misalignment
+        if M is None:
+            self.out(0, floats((c[0] * f[0], c[1] * f[1], c[2] * f[2]), t))
+        else:
+            x, y, z = c[0] * f[0], c[1] * f[1], c[2] * f[2]
+            self.out(0, floats((M[0] * x + M[1] * y + M[2] * z, M[3] * x + M[4] * y + M[5] * z,
+                                M[6] * x + M[7] * y + M[8] * z), t))  # fmt: skip
 
 
 def _strength_spread(samples: np.ndarray, null: np.ndarray, scale: np.ndarray, W: Any) -> float:
@@ -319,6 +351,17 @@ def _integrated(samples: np.ndarray, dt: np.ndarray, axis: int, null: np.ndarray
         return 0.0
 
 
+def _worst_cross_axis(M: np.ndarray) -> float:
+    """The largest cross-axis term of a misalignment, in absolute value (NaN: infinite)."""
+    off = np.abs(M[~np.eye(3, dtype=bool)])
+    return float(off.max()) if np.all(np.isfinite(off)) else math.inf
+
+
+def _cross_axis_terms(M: np.ndarray) -> list[float]:
+    """A misalignment's six cross-axis terms, row by row (xy, xz, yx, yz, zx, zy), for the status."""
+    return M[~np.eye(3, dtype=bool)].tolist()
+
+
 @register("calibrate")
 class Calibrate(Node):
     """Calibrate a mote by Bachmann et al.'s procedures (VRST 2001 §3.2.1), driven by messages.
@@ -329,7 +372,13 @@ class Calibrate(Node):
     * ``rest``: hold still; the next ``samples`` samples give the gyro nulls (refused, with a
       ``moved`` status, when a gyro varied by more than ``still`` counts rms).
     * ``pose``: six times, with each accelerometer axis up and then down (any order), held still:
-      accelerometer nulls and scales (Eqs. 29-30); refused, as ``rest``, when the glove moved.
+      accelerometer nulls and scales (Eqs. 29-30); refused, as ``rest``, when the glove moved.  The six
+      also give the accelerometer's cross-axis misalignment (status ``acc_misalignment`` and its six
+      cross-axis terms, before ``accel``), by a least-squares fit of nulls, scales and misalignment
+      together: taken only when the poses agree with one another to ``POSE_SPREAD`` degrees (a jig or
+      a box squared on a level table; a hand-held pose is degrees off, and its error would go into the
+      misalignment) and no term is beyond 5 degrees; else ``acc_misalignment_refused`` (the log says
+      why), and the nulls and scales of Eqs. 29-30 are taken with the misalignment the calibration had.
     * ``mag_begin`` ... turn the mote every way ... ``mag_end``: magnetometer nulls and scales from min/max,
       or a hard/soft-iron ellipsoid fit with ``mag_fit=ellipsoid`` (which needs less of the sphere).
       Refused, with a ``mag_refused`` status, when the field's strength still varies by more than 10 %
@@ -338,6 +387,10 @@ class Calibrate(Node):
       0/1/2 for x/y/z; a positive angle is counter-clockwise seen from the axis's tip): that gyro
       axis's scale (Eq. 31).  Refused when the glove turned mostly about another axis, or when the
       scale is more than 2x off the nominal ``gyro`` resolution's (the angle given is not the one turned).
+      Once the three axes are turned in one run, the three turns together give the gyro's cross-axis
+      misalignment and its scales (status ``gyro_misalignment`` and its six cross-axis terms, before
+      ``gyro_scale``): each turn must be about the board's own axis (flat against a square edge), as a
+      turn a degree off puts that degree into it; refused (``gyro_misalignment_refused``) beyond 5 degrees.
     * ``save`` (to ``file``, or ``save PATH``); ``load`` reads it back.  ``offset`` and ``scaling`` read
       the file through their ``calibration`` parameter.
 
@@ -353,6 +406,10 @@ class Calibrate(Node):
     #: How much the field's strength may still vary over the sweep once calibrated (95th percentile of
     #: its relative deviation): a full sweep leaves ~1 %, one that missed directions 30 %.
     MAG_SPREAD = 0.1
+    #: How far (degrees, rms) the six poses may disagree with one another for the accelerometer's
+    #: misalignment to be taken: it is about as far off as they disagree.  The glove's noise over 200
+    #: samples leaves ~0.01 degrees; poses held by hand, a degree or more.
+    POSE_SPREAD = 0.2
 
     inlets = (ADC,)
     outlets = (STATUS,)
@@ -394,6 +451,9 @@ class Calibrate(Node):
         self._times: list[float] = []
         self._rested = False  # gyro nulls taken in this run (a file's may be days old: the bias drifts)
         self._unread: str | None = None  # the file, when it was there but did not read at the start
+        # counts per rad/s seen on the three gyro axes in this run's turn about each axis (the columns of
+        # the gyro's sensitivity matrix), for its misalignment once all three are there
+        self._columns: dict[int, np.ndarray] = {}
 
     def loadbang(self) -> None:
         """Start from the calibration already in ``file``: a step taken again replaces its part, and
@@ -421,6 +481,7 @@ class Calibrate(Node):
         self.poses = []
         self._rested = False
         self._unread = None
+        self._columns = {}
         self.out(0, ("cleared",))
 
     def _start(self, what: str) -> None:
@@ -455,6 +516,31 @@ class Calibrate(Node):
                 len(self.poses),
             )
             return
+        try:
+            fit = six_position_misalignment(m, self.p.gravity)
+            spread, worst = math.degrees(fit.residual), _worst_cross_axis(fit.misalignment)
+            if spread > self.POSE_SPREAD:
+                raise ValueError(
+                    f"the six poses disagree by {spread:.2f} deg rms (more than {self.POSE_SPREAD:g}): they"
+                    " were not each straight up and down (a jig, or a box squared on a level table)"
+                )
+            if worst > MISALIGNMENT_LIMIT:
+                raise ValueError(
+                    f"a cross-axis term of {math.degrees(worst):.1f} deg, more than"
+                    f" {math.degrees(MISALIGNMENT_LIMIT):.0f}: the poses were not about the board axes"
+                )
+        except ValueError as exc:
+            self.out(0, ("acc_misalignment_refused",))
+            log.warning(
+                "calibrate '%s': %s: the accelerometer's misalignment is not taken (the one the calibration"
+                " had is kept); the nulls and scales are (Eqs. 29-30)",
+                self.name,
+                exc,
+            )
+        else:
+            null, scale = fit.null, fit.scale
+            self.calibration.acc_misalignment = fit.misalignment
+            self.out(0, ("acc_misalignment", *_cross_axis_terms(fit.misalignment)))
         self.calibration.acc_null, self.calibration.acc_scale = null, scale
         self.out(0, ("accel", *null.tolist(), *scale.tolist()))
 
@@ -521,7 +607,8 @@ class Calibrate(Node):
         self._need_rest("turn_end")
         dt = np.diff(self._times, prepend=self._times[0] - (self._times[1] - self._times[0]))
         null = self.calibration.gyro_null
-        turned = [abs(_integrated(samples[:, 0:3], dt, a, null)) for a in range(3)]  # count-seconds
+        integrals = [_integrated(samples[:, 0:3], dt, a, null) for a in range(3)]  # count-seconds
+        turned = [abs(x) for x in integrals]
         most = max(range(3), key=turned.__getitem__)
         if most != ax and turned[most] > 2.0 * turned[ax]:
             raise ValueError(
@@ -547,7 +634,36 @@ class Calibrate(Node):
             )
         self.calibration.gyro_scale[ax] = scale
         self._turned = False
-        self.out(0, ("gyro_scale", ax, scale))
+        self._columns[ax] = np.array(integrals) / math.radians(angle)  # (Eq. 31 on each axis)
+        if len(self._columns) == 3:
+            self._gyro_misalignment()
+        self.out(0, ("gyro_scale", ax, float(self.calibration.gyro_scale[ax])))
+
+    def _gyro_misalignment(self) -> None:
+        """The gyro's scales and misalignment from this run's three turns, when they are plausible."""
+        A = np.column_stack([self._columns[k] for k in range(3)])
+        try:
+            scale, M = gyro_misalignment(A)
+            worst = _worst_cross_axis(M)
+            if worst > MISALIGNMENT_LIMIT:
+                raise ValueError(
+                    f"a cross-axis term of {math.degrees(worst):.1f} deg, more than"
+                    f" {math.degrees(MISALIGNMENT_LIMIT):.0f}: the turns were not about the board axes"
+                    " (turn flat on a table, against a square edge)"
+                )
+            if np.any(scale <= 0.0):
+                raise ValueError(f"a negative scale {scale.tolist()}")
+        except ValueError as exc:
+            self.out(0, ("gyro_misalignment_refused",))
+            log.warning(
+                "calibrate '%s': the three turns give no gyro misalignment (%s): the one the calibration"
+                " had is kept; the scales of each turn are taken (Eq. 31)",
+                self.name,
+                exc,
+            )
+            return
+        self.calibration.gyro_scale, self.calibration.gyro_misalignment = scale, M
+        self.out(0, ("gyro_misalignment", *_cross_axis_terms(M)))
 
     @names_path
     def do_save(self, path: Any = None) -> None:
@@ -565,6 +681,7 @@ class Calibrate(Node):
         target = str(path) if path is not None else self.p.file
         self.calibration = _load(target)
         self._unread = None
+        self._columns = {}
         self.out(0, ("loaded", target))
 
     def _take(self, what: str) -> np.ndarray:

@@ -625,6 +625,20 @@ def burst_acceleration(
 # --------------------------------------------------------------------------------------------------
 
 
+def _cross_axis(given: ArrayLike | None, name: str) -> np.ndarray | None:
+    """A :class:`SensorModel` cross-axis matrix from a 3x3 matrix or six angles in degrees (or None)."""
+    if given is None:
+        return None
+    a = np.asarray(given, dtype=float)
+    if a.shape == (6,):
+        T = np.eye(3)
+        T[~np.eye(3, dtype=bool)] = np.tan(np.radians(a))  # row major: xy, xz, yx, yz, zx, zy
+        a = T / np.linalg.norm(T, axis=1, keepdims=True)
+    if a.shape != (3, 3) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be a finite 3x3 matrix or 6 angles in degrees, got {given!r}")
+    return a
+
+
 class SensorModel:
     r"""The mote's nine sensors as seen through its 12-bit ADC.
 
@@ -637,6 +651,9 @@ class SensorModel:
     * magnetometer (gauss): :math:`R(q)^T B (\cos\delta, 0, -\sin\delta) + n_m`, the Earth's field of
       strength :math:`B` pointing north and down by the dip :math:`\delta`;
 
+    the gyro's and the accelerometer's true values first seen through their cross-axis matrices, where set
+    (``gyro_misalignment``, ``acc_misalignment``: axes not orthogonal, or not along the board's; the bias
+    is added after, per axis);
     then, if ``gyro_range`` or ``acc_range`` is set, each gyro or accelerometer axis clipped to
     ±range, as a MEMS part saturates at its full scale; then counts = round(null + value /
     resolution), clipped to 0..4095 (:meth:`MoteSpec.to_counts`).  That 12-bit clip is the glove's own
@@ -667,6 +684,13 @@ class SensorModel:
         none (only the ADC clips).
     gyro_range : float, optional
         Full scale of the gyro, °/s (±, per axis, > 0), likewise.
+    gyro_misalignment, acc_misalignment : array_like, optional
+        Cross-axis errors: a 3x3 matrix :math:`T`, the sensor reading :math:`T v` of the true value
+        :math:`v` in the board frame (row *i*: axis *i*'s sensitive direction times its relative gain);
+        or six small angles, degrees, ``(xy, xz, yx, yz, zx, zy)``: sensor axis *i* tipped towards board
+        axis *j* by :math:`a_{ij}` (row *i* is :math:`e_i + \sum_j \tan a_{ij}\, e_j`, made of unit
+        length).  Default none: the sensor's axes are the board's, and the readings are as they always
+        were, to the bit.
 
     Examples
     --------
@@ -674,6 +698,11 @@ class SensorModel:
     >>> lift = [0.0, 0.0, 2 * GRAVITY]                  # 2 g up, on top of gravity: 3 g, clipped to 2 g
     >>> sensor.values([1.0, 0, 0, 0], [0.0, 0, 0], accel_earth=lift)[3:6].round(4).tolist()
     [0.0, 0.0, 19.6133]
+    >>> tipped = SensorModel.ideal(acc_misalignment=[0.0, 0.0, 0.0, 0.0, 0.5, 0.0])  # z tipped 0.5 deg to x
+    >>> tipped.values([1.0, 0, 0, 0], [0.0, 0, 0])[3:6].round(4).tolist()           # level: z feels g
+    [0.0, 0.0, 9.8063]
+    >>> tipped.acc_misalignment.round(6).tolist()[2]
+    [0.008727, 0.0, 0.999962]
     """
 
     def __init__(
@@ -691,8 +720,12 @@ class SensorModel:
         seed: int = 0,
         acc_range: float | None = None,
         gyro_range: float | None = None,
+        gyro_misalignment: ArrayLike | None = None,
+        acc_misalignment: ArrayLike | None = None,
     ) -> None:
         self.spec = spec
+        self.gyro_misalignment = _cross_axis(gyro_misalignment, "gyro_misalignment")
+        self.acc_misalignment = _cross_axis(acc_misalignment, "acc_misalignment")
         for name, r in (("acc_range", acc_range), ("gyro_range", gyro_range)):
             if r is not None and not (math.isfinite(r) and r > 0):
                 raise ValueError(f"{name} must be a finite number > 0 or None, got {r!r}")
@@ -755,9 +788,13 @@ class SensorModel:
         *,
         accel_earth: ArrayLike | None = None,
     ) -> np.ndarray:
-        """Readings with bias and (if ``rng`` is given) noise, clipped to ``gyro_range`` and
-        ``acc_range`` where set, shape (9,), physical units."""
+        """Readings through the cross-axis matrices (where set), with bias and (if ``rng`` is given)
+        noise, clipped to ``gyro_range`` and ``acc_range`` where set, shape (9,), physical units."""
         v = self.true_values(q, omega, accel_earth)
+        if self.gyro_misalignment is not None:
+            v[:3] = self.gyro_misalignment @ v[:3]
+        if self.acc_misalignment is not None:
+            v[3:6] = self.acc_misalignment @ v[3:6]
         v[:3] += self.gyro_bias_dps
         if rng is not None:
             v += rng.standard_normal(9) * self.noise_sd

@@ -12,6 +12,22 @@ accelerometer, per rad/s for the gyro, per field unit for the magnetometer.  Bac
 The magnetometer may also carry a symmetric soft-iron matrix :math:`W` from :func:`ellipsoid_fit`,
 applied after the null and scale: :math:`m = W\,(\text{raw} - \text{null}) / \text{scale}`.
 
+Cross-axis misalignment (the accelerometer and the gyro): three sensor axes that are not quite
+orthogonal, or not quite along the board's, read a little of the other two.  The classical
+12-parameter model (3 nulls, 3 scales, 6 cross-axis terms) is, per reading,
+
+.. math:: \text{physical} = M\,\operatorname{diag}(1/\text{scale})\,(\text{raw} - \text{null}),
+          \qquad M_{ii} = 1
+
+with :math:`M_{ij}` (small, dimensionless: radians, near enough) how much of axis *j*'s scaled reading
+belongs to board axis *i*.  The unit diagonal keeps the two apart: ``scale`` stays each axis's own
+sensitivity, Eqs. 29-31's number (to second order in the angles), and :math:`M` is the identity for a
+sensor without misalignment, so old files, and every rule about scales, read as before.  The
+decomposition of a general correction :math:`K = M\operatorname{diag}(1/\text{scale})` is unique:
+:math:`\text{scale}_i = 1/K_{ii}`, :math:`M_{ij} = K_{ij}\,\text{scale}_j`.  :math:`M` also holds the
+small rotation from the sensor's axes to the board's, as the poses and turns define them (the frame the
+user put the glove in): both sensors land in that one frame.
+
 >>> null, scale = six_position_accel([[2148, 2048, 2048], [1948, 2048, 2048], [2048, 2148, 2048],
 ...                                   [2048, 1948, 2048], [2048, 2048, 2148], [2048, 2048, 1948]], g=1.0)
 >>> null.tolist(), scale.tolist()
@@ -27,7 +43,7 @@ import os
 import shutil
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,16 +51,25 @@ from numpy.typing import ArrayLike
 __all__ = [
     "STANDARD_GRAVITY",
     "six_position_accel",
+    "six_position_misalignment",
+    "AccelFit",
+    "gyro_misalignment",
     "minmax_magnetometer",
     "implausible",
     "gyro_null",
     "gyro_scale",
     "ellipsoid_fit",
     "Calibration",
+    "MISALIGNMENT_LIMIT",
+    "is_identity",
 ]
 
 #: Standard gravity, m/s².
 STANDARD_GRAVITY = 9.80665
+
+#: The largest cross-axis term :func:`implausible` lets through: 5 degrees (0.087), ten times a real
+#: part's; beyond, the poses or the turns were not about the board's axes.
+MISALIGNMENT_LIMIT = math.radians(5.0)
 
 _SENSORS = ("gyro", "acc", "mag")
 
@@ -56,6 +81,25 @@ def _samples(x: ArrayLike, name: str, min_rows: int = 1) -> np.ndarray:
     if not np.all(np.isfinite(x)):
         raise ValueError(f"{name} contains NaN or infinite values")
     return x
+
+
+def _pose_rows(means: ArrayLike, order: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The six poses' means, and which row has each axis up and which down (see :func:`six_position_accel`)."""
+    m = _samples(means, "means", 6)
+    if m.shape[0] != 6:
+        raise ValueError(f"means must have shape (6, 3), got {m.shape}")
+    if order == "fixed":
+        up, down = np.array([0, 2, 4]), np.array([1, 3, 5])
+    elif order == "auto":
+        up, down = np.argmax(m, axis=0), np.argmin(m, axis=0)
+        if len(set(up.tolist()) | set(down.tolist())) != 6:
+            raise ValueError(
+                "cannot tell the six poses apart: each axis needs its own up row (largest reading) and "
+                f"down row (smallest reading); got up rows {up.tolist()}, down rows {down.tolist()}"
+            )
+    else:
+        raise ValueError(f"order must be 'auto' or 'fixed', got {order!r}")
+    return m, up, down
 
 
 def six_position_accel(
@@ -97,20 +141,7 @@ def six_position_accel(
     >>> [a.tolist() for a in six_position_accel(poses, g=1.0)]    # rows in any order
     [[20.0, 0.0, 20.0], [100.0, 100.0, 100.0]]
     """
-    m = _samples(means, "means", 6)
-    if m.shape[0] != 6:
-        raise ValueError(f"means must have shape (6, 3), got {m.shape}")
-    if order == "fixed":
-        up, down = np.array([0, 2, 4]), np.array([1, 3, 5])
-    elif order == "auto":
-        up, down = np.argmax(m, axis=0), np.argmin(m, axis=0)
-        if len(set(up.tolist()) | set(down.tolist())) != 6:
-            raise ValueError(
-                "cannot tell the six poses apart: each axis needs its own up row (largest reading) and "
-                f"down row (smallest reading); got up rows {up.tolist()}, down rows {down.tolist()}"
-            )
-    else:
-        raise ValueError(f"order must be 'auto' or 'fixed', got {order!r}")
+    m, up, down = _pose_rows(means, order)
     cols = np.arange(3)
     hi, lo = m[up, cols], m[down, cols]
     null = 0.5 * (hi + lo)
@@ -120,6 +151,148 @@ def six_position_accel(
             f"an axis reads the same up and down (scale 0): up {hi.tolist()}, down {lo.tolist()}"
         )
     return null, scale
+
+
+def _split(sensitivity: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray]:
+    r"""Scales and unit-diagonal misalignment from a sensitivity matrix :math:`A` (raw units per
+    physical unit, ``raw - null = A @ physical``): :math:`K = A^{-1}`, :math:`\text{scale}_i = 1/K_{ii}`,
+    :math:`M_{ij} = K_{ij}\,\text{scale}_j`."""
+    with np.errstate(all="ignore"):
+        cond = np.linalg.cond(sensitivity)
+    if not cond < 1e6:
+        raise ValueError(
+            f"the {what} do not tell the three axes apart (sensitivity matrix singular, condition number"
+            f" {cond:.3g}): {np.round(sensitivity, 6).tolist()}"
+        )
+    K = np.linalg.inv(sensitivity)
+    d = np.diag(K).copy()
+    if np.any(d == 0.0):
+        raise ValueError(f"the {what} give an axis no sensitivity of its own: {np.round(K, 9).tolist()}")
+    scale = 1.0 / d
+    M = K * scale[np.newaxis, :]
+    np.fill_diagonal(M, 1.0)  # (1 to the last bit: K_ii / K_ii may round)
+    return scale, M
+
+
+class AccelFit(NamedTuple):
+    """What :func:`six_position_misalignment` recovers: ``null`` and ``scale`` (shape (3,)), the
+    misalignment ``M`` (3x3, unit diagonal) and how far the poses disagree with the model, ``residual``
+    (radians, rms, per degree of freedom of the fit: an estimate of the cross-axis terms' error)."""
+
+    null: np.ndarray
+    scale: np.ndarray
+    misalignment: np.ndarray
+    residual: float
+
+
+def six_position_misalignment(
+    means: ArrayLike, g: float = STANDARD_GRAVITY, *, order: Literal["auto", "fixed"] = "auto"
+) -> AccelFit:
+    r"""Accelerometer null, scale and cross-axis misalignment from the six poses of :func:`six_position_accel`.
+
+    Each pose *k* has a board axis straight up, so the specific force it senses is :math:`g\,d_k`
+    with :math:`d_k = \pm e_i` known (the rows are told apart as :func:`six_position_accel` does).  The
+    model :math:`\text{raw}_k = \text{null} + A\,g\,d_k` is linear in the null and the full sensitivity
+    matrix :math:`A` (12 unknowns, 18 equations): a least-squares fit in counts, where the noise is.  Then
+    :math:`K = A^{-1}` splits into ``scale`` and the unit-diagonal ``M`` (module notes).  With six poses,
+    ``null`` is the mean of the six readings and column *j* of :math:`A` half the difference of axis
+    *j*'s up and down readings over :math:`g`: Eqs. 29-30 applied to all three axes of each pair.
+
+    The six residual degrees of freedom are the three pairs' nulls disagreeing: half of each pose's tilt
+    away from its axis shows there; the other half (a pair tilted alike) goes into ``M`` unseen, so
+    ``residual`` is also about how far ``M`` is off (within ~15 % for poses tilted at random).  The
+    poses define the board frame: ``M`` is only as good as they are (a jig or a squared box, not a hand).
+
+    Parameters
+    ----------
+    means : array_like, shape (6, 3)
+        Mean raw reading of each pose.
+    g : float
+        Gravity in the output unit.
+    order : {"auto", "fixed"}
+        As for :func:`six_position_accel`.
+
+    Returns
+    -------
+    AccelFit
+        ``(null, scale, misalignment, residual)``; ``physical = M @ ((raw - null) / scale)``.
+
+    Raises
+    ------
+    ValueError
+        As :func:`six_position_accel`, or axes that do not tell the poses apart (a singular matrix).
+
+    >>> M_true = np.array([[1.0, 0.01, -0.005], [0.008, 1.0, 0.012], [-0.01, 0.006, 1.0]])
+    >>> A = np.diag([100.0, 98.0, 103.0]) @ np.linalg.inv(M_true)      # counts per g
+    >>> poses = 2048.0 + np.vstack([A[:, i] * s for i in range(3) for s in (1, -1)])
+    >>> null, scale, M, residual = six_position_misalignment(poses, g=1.0)
+    >>> null.tolist(), np.round(scale, 9).tolist()
+    ([2048.0, 2048.0, 2048.0], [100.0, 98.0, 103.0])
+    >>> bool(np.allclose(M, M_true, atol=1e-12)), round(residual, 12)
+    (True, 0.0)
+    """
+    m, up, down = _pose_rows(means, order)
+    directions = np.zeros((6, 3))
+    directions[up, np.arange(3)] = 1.0
+    directions[down, np.arange(3)] = -1.0
+    # the least-squares solution, in closed form (the design's columns [1, g d] are orthogonal)
+    null = m.mean(axis=0)
+    A = (m[up] - m[down]).T / (2.0 * float(g))  # raw - null = A @ (g d)
+    scale, M = _split(A, "six poses")
+    residual = m - null - float(g) * directions @ A.T  # counts; as an angle: over g and the sensitivity
+    angle = residual / (float(g) * np.abs(np.diag(A)))
+    return AccelFit(null, scale, M, float(np.sqrt(np.sum(angle**2) / (18 - 12))))
+
+
+def gyro_misalignment(sensitivity: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    r"""Gyro scales and cross-axis misalignment from three known turns, one about each board axis.
+
+    A turn by :math:`\theta_k` about board axis *k*, integrated on all three gyro axes from their nulls,
+    gives :math:`\int(\text{raw} - \text{null})\,dt = A\,\theta_k e_k`: column *k* of the sensitivity
+    matrix :math:`A` times the angle (Eq. 31 on every axis at once; :func:`gyro_scale` of each axis,
+    ``gyro_scale(samples, dt, theta_k, axis=i, null=null)`` is :math:`A_{ik}`).  Then :math:`K = A^{-1}`
+    splits into ``scale`` and the unit-diagonal ``M`` (module notes).  Nine equations, nine unknowns: a
+    turn about an axis a degree off the board's puts that degree into ``M``, unseen (turn flat on a table
+    against a square edge).
+
+    Parameters
+    ----------
+    sensitivity : array_like, shape (3, 3)
+        Raw units per rad/s; column *k* from the turn about axis *k*.
+
+    Returns
+    -------
+    scale : numpy.ndarray, shape (3,)
+        Raw units per rad/s (Eq. 31's, to second order in the cross-axis terms).
+    misalignment : numpy.ndarray, shape (3, 3)
+        Unit diagonal: ``rate = M @ ((raw - null) / scale)``.
+
+    Raises
+    ------
+    ValueError
+        Not a finite 3x3 matrix, a turn that showed more on another axis than on its own (the turns
+        mislabelled), or a singular matrix.
+
+    >>> A = [[573.0, 5.0, -3.0], [-4.0, 560.0, 6.0], [2.0, -7.0, 580.0]]   # counts per rad/s
+    >>> scale, M = gyro_misalignment(A)
+    >>> np.round(scale, 3).tolist()                 # Eq. 31 alone: the diagonal, 573, 560, 580
+    [573.046, 560.107, 580.085]
+    >>> np.round(np.degrees(M - np.eye(3)), 3).tolist()     # the cross-axis terms, in degrees
+    [[0.0, -0.496, 0.305], [0.411, 0.0, -0.612], [-0.193, 0.693, 0.0]]
+    >>> bool(np.allclose(M @ np.diag(1 / scale) @ A, np.eye(3)))   # rates come out whole
+    True
+    """
+    A = np.asarray(sensitivity, dtype=float)
+    if A.shape != (3, 3) or not np.all(np.isfinite(A)):
+        raise ValueError(f"sensitivity must be a finite 3x3 matrix, got {np.asarray(sensitivity).tolist()}")
+    for k in range(3):
+        column = np.abs(A[:, k])
+        if column.argmax() != k or column[k] == 0.0:
+            raise ValueError(
+                f"the turn about {'xyz'[k]} showed most on gyro {'xyz'[int(column.argmax())]}"
+                f" ({A[:, k].tolist()} counts per rad/s): the turns are mislabelled, or one was not made"
+            )
+    return _split(A, "three turns")
 
 
 def minmax_magnetometer(samples: ArrayLike, field: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
@@ -305,29 +478,52 @@ def _ones() -> np.ndarray:
     return np.ones(3)
 
 
+def _eye() -> np.ndarray:
+    return np.eye(3)
+
+
+def is_identity(matrix: ArrayLike) -> bool:
+    """Whether a misalignment is the identity to the last bit (nothing to apply).
+
+    >>> is_identity(np.eye(3)), is_identity([[1, 0, 0], [0, 1, 1e-17], [0, 0, 1]])
+    (True, False)
+    """
+    return bool(np.array_equal(np.asarray(matrix, dtype=float), np.eye(3)))
+
+
+#: The sensors that carry a cross-axis misalignment.
+_ALIGNED = ("gyro", "acc")
+
+
 @dataclass(eq=False)
 class Calibration:
-    r"""Null points, scales and an optional magnetometer soft-iron matrix, with a JSON file format.
+    r"""Null points, scales, cross-axis misalignments and an optional magnetometer soft-iron matrix, with a
+    JSON file format.
 
-    .. math:: \text{physical} = (\text{raw} - \text{null}) / \text{scale}, \qquad
+    .. math:: \text{physical} = M\,(\text{raw} - \text{null}) / \text{scale}, \qquad
               m = W\,(\text{raw}_m - \text{null}_m) / \text{scale}_m
 
     Units: ``scale`` is raw units per rad/s (gyro), per m/s² (acc), per field unit (mag); see the module
-    notes.  The defaults (null 0, scale 1, no soft iron) pass readings through unchanged.
+    notes, which also say why the misalignment :math:`M` (gyro and acc, unit diagonal) is kept apart from
+    the scales.  The defaults (null 0, scale 1, identity misalignment, no soft iron) pass readings
+    through unchanged.
 
     Attributes
     ----------
     gyro_null, gyro_scale, acc_null, acc_scale, mag_null, mag_scale : numpy.ndarray, shape (3,)
     mag_soft_iron : numpy.ndarray, shape (3, 3), or None
+    gyro_misalignment, acc_misalignment : numpy.ndarray, shape (3, 3)
+        1 on the diagonal (None given: the identity).
 
     File format (JSON, floats at full precision)::
 
         {"format": "pointat-calibration", "version": 1,
-         "gyro": {"null": [x, y, z], "scale": [x, y, z]},
-         "acc":  {"null": [...], "scale": [...]},
+         "gyro": {"null": [x, y, z], "scale": [x, y, z], "misalignment": [[1, ., .], [., 1, .], [., ., 1]]},
+         "acc":  {"null": [...], "scale": [...], "misalignment": [[...], [...], [...]]},
          "mag":  {"null": [...], "scale": [...], "soft_iron": [[...], [...], [...]] or null}}
 
-    A missing sensor section means "uncalibrated" (defaults); unknown keys are an error.
+    A missing sensor section means "uncalibrated" (defaults); a missing (or null) ``misalignment`` the
+    identity, as in the files written before it was modelled; unknown keys are an error.
 
     >>> cal = Calibration(acc_null=[2048.0] * 3, acc_scale=[100.0] * 3)
     >>> cal.apply("acc", [2048.0, 2148.0, 1948.0]).tolist()
@@ -343,6 +539,8 @@ class Calibration:
     mag_null: np.ndarray = field(default_factory=_zeros)
     mag_scale: np.ndarray = field(default_factory=_ones)
     mag_soft_iron: np.ndarray | None = None
+    gyro_misalignment: np.ndarray = field(default_factory=_eye)
+    acc_misalignment: np.ndarray = field(default_factory=_eye)
 
     FORMAT: ClassVar[str] = "pointat-calibration"
     VERSION: ClassVar[int] = 1
@@ -362,6 +560,17 @@ class Calibration:
             if W.shape != (3, 3) or not np.all(np.isfinite(W)):
                 raise ValueError(f"mag_soft_iron must be a finite 3x3 matrix, got {self.mag_soft_iron!r}")
             self.mag_soft_iron = W
+        for sensor in _ALIGNED:
+            name = f"{sensor}_misalignment"
+            given = getattr(self, name)
+            M = np.eye(3) if given is None else np.array(given, dtype=float)
+            if M.shape != (3, 3) or not np.all(np.isfinite(M)):
+                raise ValueError(f"{name} must be a finite 3x3 matrix, got {given!r}")
+            if np.any(np.diag(M) != 1.0):
+                raise ValueError(
+                    f"{name} must have 1 on its diagonal (the scales hold the rest), got {given!r}"
+                )
+            setattr(self, name, M)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Calibration):
@@ -370,6 +579,9 @@ class Calibration:
             np.array_equal(getattr(self, f"{s}_{p}"), getattr(other, f"{s}_{p}"))
             for s in _SENSORS
             for p in ("null", "scale")
+        ) and all(
+            np.array_equal(getattr(self, f"{s}_misalignment"), getattr(other, f"{s}_misalignment"))
+            for s in _ALIGNED
         )
         if self.mag_soft_iron is None or other.mag_soft_iron is None:
             return same and self.mag_soft_iron is None and other.mag_soft_iron is None
@@ -378,7 +590,7 @@ class Calibration:
     __hash__ = None  # type: ignore[assignment]  # mutable
 
     def apply(self, sensor: Literal["gyro", "acc", "mag"], raw: ArrayLike) -> np.ndarray:
-        r"""Convert raw readings of one sensor to physical units: :math:`(\text{raw} - \text{null}) / \text{scale}`.
+        r"""Convert raw readings of one sensor to physical units: :math:`M\,(\text{raw} - \text{null}) / \text{scale}`.
 
         Parameters
         ----------
@@ -389,7 +601,8 @@ class Calibration:
         Returns
         -------
         numpy.ndarray, shape (..., 3)
-            rad/s (gyro), m/s² (acc), field units (mag, soft iron applied if set).
+            rad/s (gyro), m/s² (acc), field units (mag, soft iron applied if set); the misalignment
+            applied (gyro, acc) unless it is the identity.
         """
         if sensor not in _SENSORS:
             raise ValueError(f"sensor must be one of {_SENSORS}, got {sensor!r}")
@@ -399,6 +612,8 @@ class Calibration:
         out = (raw - getattr(self, f"{sensor}_null")) / getattr(self, f"{sensor}_scale")
         if sensor == "mag" and self.mag_soft_iron is not None:
             out = out @ self.mag_soft_iron.T
+        elif sensor != "mag" and not is_identity(M := getattr(self, f"{sensor}_misalignment")):
+            out = out @ M.T
         return out
 
     def apply_all(
@@ -415,6 +630,8 @@ class Calibration:
                 "null": getattr(self, f"{sensor}_null").tolist(),
                 "scale": getattr(self, f"{sensor}_scale").tolist(),
             }
+        for sensor in _ALIGNED:
+            d[sensor]["misalignment"] = getattr(self, f"{sensor}_misalignment").tolist()
         d["mag"]["soft_iron"] = None if self.mag_soft_iron is None else self.mag_soft_iron.tolist()
         return d
 
@@ -463,7 +680,7 @@ class Calibration:
             section = data[sensor]
             if not isinstance(section, dict):
                 raise bad(sensor, "an object with 'null' and 'scale'", section)
-            allowed_keys = {"null", "scale", "soft_iron"} if sensor == "mag" else {"null", "scale"}
+            allowed_keys = {"null", "scale", "soft_iron" if sensor == "mag" else "misalignment"}
             for key in section:
                 if key not in allowed_keys:
                     raise bad(f"{sensor}.{key}", f"one of {sorted(allowed_keys)}", "an unknown key")
@@ -476,6 +693,14 @@ class Calibration:
                 if not (isinstance(rows, list) and len(rows) == 3):
                     raise bad("mag.soft_iron", "a 3x3 list of finite numbers or null", rows)
                 kwargs["mag_soft_iron"] = [numbers(f"mag.soft_iron[{i}]", r) for i, r in enumerate(rows)]
+            if section.get("misalignment") is not None:
+                key, rows = f"{sensor}.misalignment", section["misalignment"]
+                if not (isinstance(rows, list) and len(rows) == 3):
+                    raise bad(key, "a 3x3 list of finite numbers, 1 on the diagonal, or null", rows)
+                M = [numbers(f"{key}[{i}]", r) for i, r in enumerate(rows)]
+                if any(M[i][i] != 1.0 for i in range(3)):
+                    raise bad(key, "1 on the diagonal (the scales hold the rest)", rows)
+                kwargs[f"{sensor}_misalignment"] = M
         return cls(**kwargs)
 
     @classmethod
@@ -530,12 +755,16 @@ def implausible(
     """What makes a calibration's numbers garbage or silence for ``scaling``: a gyro or accelerometer
     scale more than ``plausible`` times off the sensor's nominal ``resolution`` (units per count, by
     ``gyro`` and ``acc``: a resolution written where counts per unit go), a factor that is 0 or not
-    finite, scales without nulls, a soft-iron matrix that flattens the field.  ``factor``: the nine
+    finite, scales without nulls, a soft-iron matrix that flattens the field, a misalignment with a
+    cross-axis term beyond :data:`MISALIGNMENT_LIMIT` (5 degrees) or not finite.  ``factor``: the nine
     units per count ``scaling`` would use (gyro, accelerometer, magnetometer x y z).
 
     >>> cal = Calibration(acc_null=np.array([2048.0] * 3), acc_scale=np.array([4.0, 4.0, 4.0]))
     >>> implausible(cal, [1e-3] * 3 + [0.25] * 3 + [1.0] * 3, {"gyro": 1e-3, "acc": 0.0196})
     ['acc.scale [4 4 4] (counts per unit) is up to 12.8 times off the nominal 51.02 (a resolution written where counts per unit go?)']
+    >>> cal = Calibration(gyro_misalignment=[[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> implausible(cal, [1e-3] * 9, {})
+    ['gyro.misalignment has a cross-axis term of 0.1 (5.7 deg, x from y), more than 0.0873 (5 deg): the turns were not about the board axes']
     """
     problems = []
     for i, sensor in enumerate(("gyro", "acc", "mag")):
@@ -564,4 +793,18 @@ def implausible(
             det = np.linalg.det(W)
         if not abs(det) > 1e-9 * max(np.abs(W).max(), 1e-300) ** 3:  # (finite: Calibration)
             problems.append("mag.soft_iron is singular: it would flatten the field")
+    for sensor in _ALIGNED:
+        M = np.asarray(getattr(cal, f"{sensor}_misalignment"), dtype=float)
+        if not np.all(np.isfinite(M)):
+            problems.append(f"{sensor}.misalignment is not finite: {M.tolist()}")
+            continue
+        off = np.abs(M - np.diag(np.diag(M)))
+        i, j = np.unravel_index(int(off.argmax()), off.shape)
+        if off[i, j] > MISALIGNMENT_LIMIT:
+            problems.append(
+                f"{sensor}.misalignment has a cross-axis term of {M[i, j]:.3g}"
+                f" ({math.degrees(off[i, j]):.2g} deg, {'xyz'[i]} from {'xyz'[j]}), more than"
+                f" {MISALIGNMENT_LIMIT:.3g} ({math.degrees(MISALIGNMENT_LIMIT):.0f} deg): the"
+                f" {'turns' if sensor == 'gyro' else 'poses'} were not about the board axes"
+            )
     return problems

@@ -148,7 +148,9 @@ def test_a_skeleton_file_that_cannot_be_names_the_file_and_the_segment(tmp_path)
 def test_bvh_record_writes_a_take_that_an_independent_parser_reads_back(tmp_path):
     bvh = pytest.importorskip("bvh")
     take = tmp_path / "take.bvh"
-    rt = body_patch(f"node rec bvh_record file={take}\nbody.joints -> rec.joints\nbody.segments -> rec.segments\n")
+    rt = body_patch(
+        f"node rec bvh_record file={take}\nbody.joints -> rec.joints\nbody.segments -> rec.segments\n"
+    )
     body = rt.nodes["body"]
     body.receive(0, method("calibrate"))
     for k in range(50):
@@ -158,7 +160,9 @@ def test_bvh_record_writes_a_take_that_an_independent_parser_reads_back(tmp_path
     read = bvh.Bvh(take.read_text())
     assert read.nframes == 50 and len(read.frames) == 50
     assert read.get_joints_names() == ["upper_arm", "forearm", "hand"]
-    assert [float(v) for v in read.joint_offset("forearm")] == pytest.approx([0.0, 0.0, 30.0])  # 0.3 m ahead: +Z
+    assert [float(v) for v in read.joint_offset("forearm")] == pytest.approx(
+        [0.0, 0.0, 30.0]
+    )  # 0.3 m ahead: +Z
     # the upper arm pitched up 49 deg at the last frame: about BVH's X (the body's left)
     assert float(read.frame_joint_channel(49, "upper_arm", "Xrotation")) == pytest.approx(-49.0, abs=1e-6)
     assert float(read.frame_joint_channel(49, "forearm", "Xrotation")) == pytest.approx(0.0, abs=1e-6)
