@@ -13,13 +13,15 @@ from collections.abc import Mapping
 from typing import Any
 
 from pointat import shipped
+from pointat.devices.body_sim import BodySimulator
 from pointat.devices.bvh import BvhJoint, BvhWriter, local_rotations
 from pointat.maths import skeleton as sk
 from pointat.message import Message, as_floats, floats, make
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.registry import register
+from pointat.scheduling import Timer
 
-__all__ = ["BvhRecord", "PointRay", "SkeletonNode"]
+__all__ = ["BvhRecord", "PointRay", "SimulateBody", "SkeletonNode"]
 
 #: The skeleton a ``skeleton`` node uses when none is named: the right arm of pointat/data/arm.json.
 ARM = "pointat:data/arm.json"
@@ -40,7 +42,10 @@ class SkeletonNode(Node):
 
     **Calibration pose.**  Stand in the pose the file gives (the arm: straight ahead, level, palm down)
     and send ``calibrate`` (``/pointat/body/calibrate``): each sensor's offset to its segment is taken
-    from that sample, and the direction the body faced becomes the front (x; y to the left, z up).  With
+    from that sample, and the direction the body faced becomes the front (x; y to the left, z up).  That
+    direction is the mean of the sensors' headings (each off by its strap's yaw) unless ``front`` gives
+    it: a wrong front does not turn the body as a whole but skews every segment that leaves its pose
+    (up to twice the error), so give it when you know it (``pointat.maths.skeleton``).  With
     ``auto=S`` the pose is taken by itself S seconds after the first sample (a simulation, a performer
     who starts in the pose).  Until then nothing is sent and ``status`` says ``waiting for the pose``.
 
@@ -59,7 +64,7 @@ class SkeletonNode(Node):
         Outlet("segments", "vector", "each segment's orientation (w x y z), body frame, 4M numbers"),
         Outlet("joints", "vector", "each segment's proximal joint, metres, 3M numbers"),
         Outlet("ends", "vector", "each segment's far end, metres, 3M numbers"),
-        Outlet("status", "list", "waiting for the pose, calibrated"),
+        Outlet("status", "symbol", "waiting for the pose, calibrated"),
     )
     params = (
         Param("file", "path", ARM, "the skeleton (JSON); pointat:data/arm.json is a right arm", reads=True),
@@ -70,6 +75,13 @@ class SkeletonNode(Node):
             "take the calibration pose by itself this long after the first sample; 0: wait for calibrate",
             unit="s",
             minimum=0.0,
+        ),
+        Param(
+            "front",
+            "float",
+            float("nan"),
+            "the heading the body faces in the pose, from north (+ west); NaN: the mean of the sensors' headings",
+            unit="deg",
         ),
     )
     example = """
@@ -93,8 +105,7 @@ body.segments -> out.segments
     def setup(self) -> None:
         self.body = _load(self.p.file)
         self._n = self.body.sensors
-        self._front: sk.Quat | None = None
-        self._offsets: list[sk.Quat] = []
+        self._cal: sk.BodyCalibration | None = None
         self._root = self.body.root
         self._want = False
         self._first: float | None = None
@@ -116,18 +127,22 @@ body.segments -> out.segments
         q = [tuple(v[4 * i : 4 * i + 4]) for i in range(self._n)]
         if self._first is None:
             self._first = msg.time
-        if self.p.auto and self._front is None and msg.time - self._first >= self.p.auto:
+        if self.p.auto and self._cal is None and msg.time - self._first >= self.p.auto:
             self._want = True
         if self._want:
             self._want = False
-            self._front, self._offsets = sk.offsets(self.body, q)  # type: ignore[arg-type]
-            self.out(3, make(("calibrated",), msg.time))
-        if self._front is None:
+            front = None
+            if not math.isnan(self.p.front):
+                half = math.radians(self.p.front) / 2.0
+                front = (math.cos(half), 0.0, 0.0, math.sin(half))
+            self._cal = sk.calibrate(self.body, q, front)  # type: ignore[arg-type]
+            self.out(3, make("calibrated", msg.time))
+        if self._cal is None:
             if not self._told:
                 self._told = True
-                self.out(3, make(("waiting for the pose",), msg.time))
+                self.out(3, make("waiting for the pose", msg.time))
             return
-        segs = sk.segment_orientations(self.body, q, self._front, self._offsets)  # type: ignore[arg-type]
+        segs = sk.segment_orientations(self.body, q, self._cal)  # type: ignore[arg-type]
         joints, ends = sk.forward(self.body, segs, self._root)
         t = msg.time
         self.out(2, floats(tuple(c for p in ends for c in p), t))
@@ -317,3 +332,123 @@ body.segments -> take.segments
         writer, self._writer = self._writer, None
         if writer is not None:
             writer.close()
+
+
+@register("simulate_body")
+class SimulateBody(Node):
+    """A virtual body: a skeleton's sensors moving with known truth (arm or whole body).
+
+    The body (``file``; the arm by default, ``pointat:data/body15.json`` a whole body) first holds the
+    calibration pose for ``pose`` seconds, then performs: the arm swings, rises and bends (up to
+    ~4 rad/s at the hand), the body walks in place, turns and swings its arms
+    (:class:`pointat.devices.body_sim.BodySimulator`).  Each sensor, strapped on ``mounting`` degrees
+    off its segment at random, reads its segment's turn (gyro, rad/s, with noise and a constant bias of
+    up to ``bias`` °/s), the acceleration of its place on the segment plus gravity (m/s²) and the Earth's
+    field with dip (gauss), sent from ``gyroI``, ``accelI`` and ``magI`` as ``tqt_bank``'s inlets take
+    them (mag, accel, then the hot gyro).  ``truth`` is every segment's true orientation in the body
+    frame (4M numbers), to compare.  ``heading``: where the body faces (degrees from north, + to the west,
+    left); ``duration`` ends it (0: never).  ``gyro=mean`` (the default) samples the rate as body-suit
+    IMUs deliver it, integrated over each period on the sensor (strapdown increments: Xsens MTw's SDI);
+    ``gyro=instant`` as a plain MEMS gyro read at the sample's instant, which puts a filter stepping by
+    whole samples half a sample ahead (0.5 deg at the hand at 3 rad/s and 100 Hz).
+    """
+
+    outlets = (Outlet("truth", "vector", "every segment's true orientation, body frame, 4M numbers"),)
+    params = (
+        Param("file", "path", ARM, "the skeleton (JSON)", reads=True),
+        Param("rate", "float", 100.0, "sample rate", unit="Hz", above=0.0),
+        Param("seed", "int", 0, "mountings, biases and noise (the same seed, the same data)", minimum=0),
+        Param("noise", "bool", True, "false: ideal sensors (no noise, no bias)"),
+        Param(
+            "mounting",
+            "float",
+            3.0,
+            "largest angle a sensor is strapped off its segment",
+            unit="deg",
+            minimum=0.0,
+        ),
+        Param("bias", "float", 1.0, "largest gyro bias per axis", unit="deg/s", minimum=0.0),
+        Param("heading", "float", 0.0, "where the body faces, from north (+ west)", unit="deg"),
+        Param("pose", "float", 5.0, "seconds in the calibration pose before moving", unit="s", minimum=0.0),
+        Param(
+            "gyro",
+            "symbol",
+            "mean",
+            "mean (each sample the mean rate over its period, as a mocap IMU's strapdown increments) or instant",
+            choices=("mean", "instant"),
+        ),
+        Param(
+            "duration",
+            "float",
+            0.0,
+            "stop after this long; 0: run until the patch stops",
+            unit="s",
+            minimum=0.0,
+        ),
+    )
+
+    #: Samples computed at once (the simulator is vectorised; one block a second at 100 Hz).
+    BLOCK = 100
+
+    @classmethod
+    def layout(cls, values: Mapping[str, Any]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
+        n = _load(values.get("file") or ARM).sensors
+        outs = [cls.outlets[0]]
+        for i in range(1, n + 1):
+            outs += [
+                Outlet(f"gyro{i}", "vector", f"sensor {i}: angular rate, rad/s"),
+                Outlet(f"accel{i}", "vector", f"sensor {i}: specific force, m/s²"),
+                Outlet(f"mag{i}", "vector", f"sensor {i}: magnetic field, gauss"),
+            ]
+        return (), tuple(outs)
+
+    @classmethod
+    def check_files(cls, values: Mapping[str, Any]) -> None:
+        _load(values["file"])
+
+    def setup(self) -> None:
+        self.sim = BodySimulator(
+            _load(self.p.file),
+            rate_hz=self.p.rate,
+            seed=self.p.seed,
+            noise=self.p.noise,
+            mounting_deg=self.p.mounting,
+            heading_deg=self.p.heading,
+            pose_seconds=self.p.pose,
+            gyro_bias_dps=self.p.bias,
+            gyro_sampling=self.p.gyro,
+        )
+        self._n = self.sim.skeleton.sensors
+        self._k = 0
+        self._block: Any = None
+        self._timer: Timer | None = None
+
+    def start(self) -> None:
+        self.active = True
+        self._timer = self.call_at(0.0, self._tick)
+
+    def _tick(self) -> None:
+        k = self._k
+        t = k / self.p.rate
+        if self.p.duration and t >= self.p.duration:
+            self.ended = True
+            self.close()
+            return
+        self._k += 1
+        self._timer = self.call_at((k + 1) / self.p.rate, self._tick)
+        j = k % self.BLOCK
+        if j == 0:
+            self._block = self.sim.take(self.BLOCK, k)
+        b = self._block
+        gyro, acc, mag = b.gyro[j].tolist(), b.acc[j].tolist(), b.mag[j].tolist()
+        for i in range(self._n):  # each sensor's mag, accel, then the hot gyro
+            self.out(3 + 3 * i, floats(tuple(mag[i]), t))
+            self.out(2 + 3 * i, floats(tuple(acc[i]), t))
+            self.out(1 + 3 * i, floats(tuple(gyro[i]), t))
+        self.out(0, floats(tuple(b.q_body[j].ravel().tolist()), t))
+
+    def close(self) -> None:
+        self.active = False
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None

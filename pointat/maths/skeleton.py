@@ -11,11 +11,15 @@ translation, :math:`p_{trans}`).  Here:
   calibration pose (``pose``).  A JSON file holds it (:meth:`Skeleton.load`).
 * **Offsets.**  A sensor is strapped on at some angle to its segment.  Standing in the calibration pose,
   each segment's orientation is known (its ``pose``), so the sensor-to-segment offset is
-  :math:`q_{off} = q_{sensor}^{-1} \otimes q_{pose}` and from then on :math:`q_{segment} = q_{sensor} \otimes
-  q_{off}` (:func:`offsets`, :func:`segment_orientations`).  The pose is in the *body frame*: x where the
-  body faced in the pose, y to its left, z up.  The body's heading in the pose is taken from the root
-  segment's sensor (:func:`heading`), so a performer may calibrate facing anywhere; its yaw mounting error
-  turns the whole body by as much, which a press of ``reference`` (the front loudspeaker) takes out.
+  :math:`q_{off} = q_{sensor}^{-1} \otimes F \otimes q_{pose}` and from then on :math:`q_{segment} =
+  F^{-1} \otimes q_{sensor} \otimes q_{off}` (:func:`calibrate`, :func:`segment_orientations`), where
+  :math:`F` is the heading the body faced in the pose: the pose is in the *body frame* (x where the
+  body faced, y to its left, z up), so a performer may calibrate facing anywhere.  :math:`F` must be
+  right: a heading off by Y does not turn the whole body by Y (which a ``reference`` press would undo)
+  but conjugates every segment's orientation by it, up to 2Y of error on a segment tilted far from its
+  pose.  Each sensor's heading in the pose carries its own yaw mounting error, so :func:`calibrate`
+  takes the circular mean over all the sensors (the errors average down as 1/sqrt(n)), or a heading the
+  caller knows (``front``: a ``reference`` press toward the front loudspeaker, say).
 * **Forward kinematics** (:func:`forward`): each joint is its parent's joint plus the parent's
   orientation applied to ``at``; each segment's end is its joint plus its own orientation applied to
   ``length``.
@@ -38,11 +42,12 @@ from typing import Any
 from . import scalar as sq
 
 __all__ = [
+    "BodyCalibration",
     "Segment",
     "Skeleton",
     "forward",
+    "calibrate",
     "heading",
-    "offsets",
     "pointing",
     "ray_floor",
     "ray_sphere",
@@ -213,31 +218,54 @@ def heading(q: Quat) -> Quat:
     return (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
 
 
-def offsets(skeleton: Skeleton, sensor_q: Sequence[Quat]) -> tuple[Quat, list[Quat]]:
-    """At the calibration pose: the body's heading (from the root segment's sensor) and each segment's
-    sensor-to-segment offset, so that :func:`segment_orientations` gives every segment its ``pose``.
-    ``sensor_q[i]``: sensor i+1's orientation (earth frame).  Segments without a sensor get none."""
-    root = skeleton.segments[0]
-    front = heading(sq.multiply(sensor_q[root.sensor - 1], sq.conjugate(root.pose)))
+@dataclass(frozen=True)
+class BodyCalibration:
+    """What :func:`calibrate` takes from the calibration pose: the body's heading then, and each segment's
+    sensor-to-segment offset (the identity for a segment without a sensor)."""
+
+    front: Quat
+    offsets: tuple[Quat, ...]
+
+
+def calibrate(skeleton: Skeleton, sensor_q: Sequence[Quat], front: Quat | None = None) -> BodyCalibration:
+    """The calibration pose: ``sensor_q[i]``, sensor i+1's orientation (earth frame) while every segment
+    holds its ``pose``.  ``front``: the body's heading then (a yaw-only quaternion), when known; else the
+    circular mean of every sensor's heading with its segment's pose taken out.
+
+    >>> arm = Skeleton((Segment("a", None, (0, 0, 0), (0.3, 0, 0), 1),))
+    >>> turned = sq.axis_angle_quat(0.0, 0.0, 1.0, math.radians(40.0))
+    >>> cal = calibrate(arm, [turned])
+    >>> [round(c, 9) for c in segment_orientations(arm, [turned], cal)[0]]
+    [1.0, 0.0, 0.0, 0.0]
+    """
+    if front is None:
+        sx = sy = 0.0
+        for s in skeleton.segments:
+            if s.sensor is not None:
+                w, _, _, z = heading(sq.multiply(sensor_q[s.sensor - 1], sq.conjugate(s.pose)))
+                yaw = 2.0 * math.atan2(z, w)
+                sx, sy = sx + math.cos(yaw), sy + math.sin(yaw)
+        yaw = math.atan2(sy, sx)
+        front = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
     out = []
     for s in skeleton.segments:
         if s.sensor is None:
             out.append(_IDENTITY)
             continue
-        # body frame = front^-1 (earth); segment = sensor (x) off: front^-1 q_s off = pose
+        # the segment in the body frame is F^-1 q_s off = pose at the calibration pose
         q_body = sq.multiply(sq.conjugate(front), sensor_q[s.sensor - 1])
         out.append(sq.normalize(sq.multiply(sq.conjugate(q_body), s.pose)))
-    return front, out
+    return BodyCalibration(front, tuple(out))
 
 
 def segment_orientations(
-    skeleton: Skeleton, sensor_q: Sequence[Quat], front: Quat, offset: Sequence[Quat]
+    skeleton: Skeleton, sensor_q: Sequence[Quat], calibration: BodyCalibration
 ) -> list[Quat]:
     """Each segment's orientation in the body frame: its sensor's, the heading of the calibration pose
     taken out, turned by the segment's offset; a segment without a sensor moves with its parent."""
-    inv_front = sq.conjugate(front)
+    inv_front = sq.conjugate(calibration.front)
     out: list[Quat] = []
-    for s, parent, off in zip(skeleton.segments, skeleton.parents, offset, strict=True):
+    for s, parent, off in zip(skeleton.segments, skeleton.parents, calibration.offsets, strict=True):
         if s.sensor is None:
             out.append(out[parent] if parent is not None else _IDENTITY)  # (the root has a sensor)
         else:
