@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 from pointat import shipped
 from pointat.devices.body_sim import BodySimulator
@@ -354,6 +354,8 @@ class SimulateBody(Node):
     """
 
     outlets = (Outlet("truth", "vector", "every segment's true orientation, body frame, 4M numbers"),)
+    #: Pd's stub is drawn for the 15-sensor body, so that it connects as any smaller one does.
+    stub_values: ClassVar[dict[str, Any]] = {"file": "pointat:data/body15.json"}
     params = (
         Param("file", "path", ARM, "the skeleton (JSON)", reads=True),
         Param("rate", "float", 100.0, "sample rate", unit="Hz", above=0.0),
