@@ -461,6 +461,20 @@ def _rounds(fn: Callable[[], None], n: int, rounds: int) -> tuple[float, float]:
     return min(times), statistics.median(times)
 
 
+def _feed(
+    rt: Runtime, feeds: list[tuple[Callable[[int, Message], None], int]], msgs: list[list[tuple]]
+) -> None:
+    """Run a patch of tqt or tqt_bank nodes over ``msgs`` (per sample, per sensor: mag, accel, gyro):
+    each sensor's three messages to its node's inlets, the hot gyro last, as ``scaling`` sends them."""
+    rt.start()
+    for sample in msgs:
+        for (receive, gyro), (mm, am, gm) in zip(feeds, sample, strict=True):
+            receive(gyro + 2, mm)
+            receive(gyro + 1, am)
+            receive(gyro, gm)
+    rt.shutdown()
+
+
 def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[list[FilterCost], list[str]]:
     """Per-update cost of pointat's pure filters and of the peers, same samples, same rounds."""
     g, a, m = (np.ascontiguousarray(sample[k][:n]) for k in ("gyr", "acc", "mag"))
@@ -552,13 +566,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
                     node = rt.add(TQTNode(f"f{j}", TQTNode.resolve_params()))
                     rt.connect(node, 0, sink, 0)
                     feeds.append((node.receive, 0))
-            rt.start()
-            for i in range(nb):
-                for (receive, gyro), (mm, am, gm) in zip(feeds, msgs[i], strict=True):
-                    receive(gyro + 2, mm)
-                    receive(gyro + 1, am)
-                    receive(gyro, gm)
-            rt.shutdown()
+            _feed(rt, feeds, msgs)
 
         best, med = _rounds(nodes, nb * k15, rounds)
         out.append(FilterCost(label, "pointat", best, med, note))
@@ -578,14 +586,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
                 rt.connect(skel, o, sink, 0)
         else:
             rt.connect(bank, 0, sink, 0)
-        feeds = [(bank.receive, 1 + 3 * j) for j in range(k15)]
-        rt.start()
-        for i in range(nb):
-            for (receive, gyro), (mm, am, gm) in zip(feeds, msgs[i], strict=True):
-                receive(gyro + 2, mm)
-                receive(gyro + 1, am)
-                receive(gyro, gm)
-        rt.shutdown()
+        _feed(rt, [(bank.receive, 1 + 3 * j) for j in range(k15)], msgs)
 
     best, med = _rounds(body, nb, rounds)
     out.append(

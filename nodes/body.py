@@ -119,11 +119,9 @@ body.segments -> out.segments
         self._root = tuple(as_floats(msg, 3))  # type: ignore[assignment]
 
     def on_quats(self, msg: Message) -> None:
-        v = as_floats(msg, 4 * self._n) if len(msg.value) == 4 * self._n else None
-        if v is None:
-            raise ValueError(
-                f"expected {4 * self._n} numbers (4 for each of {self._n} sensors), got {len(msg.value)}"
-            )
+        v = as_floats(msg)
+        if len(v) != 4 * self._n:
+            raise ValueError(f"expected {4 * self._n} numbers (4 for each of {self._n} sensors), got {len(v)}")
         q = [tuple(v[4 * i : 4 * i + 4]) for i in range(self._n)]
         if self._first is None:
             self._first = msg.time
