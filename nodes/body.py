@@ -121,7 +121,9 @@ body.segments -> out.segments
     def on_quats(self, msg: Message) -> None:
         v = as_floats(msg)
         if len(v) != 4 * self._n:
-            raise ValueError(f"expected {4 * self._n} numbers (4 for each of {self._n} sensors), got {len(v)}")
+            raise ValueError(
+                f"expected {4 * self._n} numbers (4 for each of {self._n} sensors), got {len(v)}"
+            )
         q = [tuple(v[4 * i : 4 * i + 4]) for i in range(self._n)]
         if self._first is None:
             self._first = msg.time

@@ -72,6 +72,16 @@ def _pair(method: str, args: tuple) -> tuple[Any, Any]:
 
 
 # ----------------------------------------------------------------------------------------- map
+#: An azimuth behind the listener mirrored to the front (``map`` and ``midi_out``'s ``fold``).
+FOLD = Param(
+    "fold",
+    "bool",
+    False,
+    "the input is an azimuth (deg): mirror one behind the listener to the front (135 -> 45)",
+    live=True,
+)
+
+
 @register("map")
 class Map(Node):
     r"""Scale a range onto another, through a curve: the mapping every gesture tool starts with.
@@ -121,13 +131,7 @@ class Map(Node):
         Param("gamma", "float", 2.0, "exponent of pow (> 0): > 1 starts slowly, < 1 fast", live=True),
         Param("clip", "bool", False, "keep the output within out_lo..out_hi", live=True),
         Param("invert", "bool", False, "read the input range backwards (in_hi maps to out_lo)", live=True),
-        Param(
-            "fold",
-            "bool",
-            False,
-            "the input is an azimuth (deg): mirror one behind the listener to the front (135 -> 45)",
-            live=True,
-        ),
+        FOLD,
     )
     example = """
 # azimuth (+ left) to a pan value (0 left, 127 right); behind the listener folded to the front

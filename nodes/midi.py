@@ -69,6 +69,7 @@ from pointat.errors import PointatError
 from pointat.maths.scalar import fold_front
 from pointat.message import Message, as_float, method
 from pointat.node import Inlet, Node, Outlet, Param
+from pointat.nodes.mapping import FOLD
 from pointat.registry import register
 from pointat.runtime import Timer
 
@@ -862,13 +863,7 @@ class MidiOut(_PortWatch, Node):
             live=True,
             size=2,
         ),
-        Param(
-            "fold",
-            "bool",
-            False,
-            "the input is an azimuth (deg): mirror one behind the listener to the front (135 -> 45)",
-            live=True,
-        ),
+        FOLD,
         Param("change", "bool", True, "send only when the MIDI value changes", live=True),
         Param("velocity", "int", 100, "note-on velocity, 1..127 (kind=note)", live=True),
         Param("length", "float", 100.0, "how long a banged note sounds (kind=note)", unit="ms", live=True),

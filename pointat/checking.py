@@ -21,6 +21,7 @@ from typing import Any
 from . import shipped
 from .errors import PatchError, Problem, Where, did_you_mean
 from .expansion import _expand, _set_arguments
+from .graphs import reached
 from .node import MAX_DEPTH, Inlet, Node, Outlet, ParamError
 from .patchfile import format_value
 from .registry import Registry, default_registry
@@ -493,12 +494,7 @@ def _going_nowhere(result: Checked) -> list[Problem]:
                 for n, s in result.nodes.items()
                 if s.cls.type_name == "send" and s.values.get("bus") == r.values.get("bus")
             )
-    stack = list(useful)
-    while stack:
-        for src in feeders.get(stack.pop(), ()):
-            if src not in useful:
-                useful.add(src)
-                stack.append(src)
+    useful = reached(useful, lambda n: feeders.get(n, ()))
     own = result.spec.path
     idle = [
         n

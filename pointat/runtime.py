@@ -52,6 +52,7 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 from .errors import FeedbackError, PatchError, Problem, Repeats, worth_reporting
+from .graphs import reached
 from .message import Message, make, method
 from .node import Node
 from .scheduling import (
@@ -174,12 +175,7 @@ class Runtime:
             for targets in node._targets:
                 for dst, _inlet in targets:
                     feeders.setdefault(dst, []).append(node)
-        stack = list(useful)
-        while stack:
-            for src in feeders.get(stack.pop(), ()):
-                if src not in useful:
-                    useful.add(src)
-                    stack.append(src)
+        useful = reached(useful, lambda n: feeders.get(n, ()))
         for node in self.nodes.values():
             node._targets = [[(d, i) for d, i in targets if d in useful] for targets in node._targets]
         idle = [n.name for n in self.nodes.values() if n not in useful]
