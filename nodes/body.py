@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 from pointat import shipped
 from pointat.devices.body_sim import BodySimulator
 from pointat.devices.bvh import BvhJoint, BvhWriter, local_rotations
+from pointat.maths import scalar as sq
 from pointat.maths import skeleton as sk
 from pointat.message import Message, as_floats, floats, make
 from pointat.node import Inlet, Node, Outlet, Param
@@ -131,10 +132,11 @@ body.segments -> out.segments
             self._want = True
         if self._want:
             self._want = False
-            front = None
-            if not math.isnan(self.p.front):
-                half = math.radians(self.p.front) / 2.0
-                front = (math.cos(half), 0.0, 0.0, math.sin(half))
+            front = (
+                None
+                if math.isnan(self.p.front)
+                else sq.axis_angle_quat(0.0, 0.0, 1.0, math.radians(self.p.front))
+            )
             self._cal = sk.calibrate(self.body, q, front)  # type: ignore[arg-type]
             self.out(3, make("calibrated", msg.time))
         if self._cal is None:

@@ -204,18 +204,23 @@ def _vector(value: Any, n: int, what: str) -> tuple[float, ...]:
 
 
 # -- orientations ---------------------------------------------------------------------------------------
+def _yaw(q: Quat) -> float:
+    """Where ``q`` turns x, seen from above, radians from x toward y (its x axis projected on the
+    horizontal; pointing straight up or down, its z axis instead)."""
+    fx, fy, fz = sq.rotate(q, 1.0, 0.0, 0.0)
+    if math.hypot(fx, fy) < 1e-6:
+        fx, fy, _ = sq.rotate(q, 0.0, 0.0, -1.0 if fz > 0 else 1.0)
+    return math.atan2(fy, fx)
+
+
 def heading(q: Quat) -> Quat:
     """The yaw-only part of ``q``: the rotation about the vertical that turns x to where q's x points,
-    seen from above (its x axis projected on the horizontal; pointing straight up, its z axis instead).
+    seen from above (:func:`_yaw`).
 
     >>> [round(c, 6) for c in heading(sq.axis_angle_quat(0.0, 0.0, 1.0, math.radians(30)))]
     [0.965926, 0.0, 0.0, 0.258819]
     """
-    fx, fy, _ = sq.rotate(q, 1.0, 0.0, 0.0)
-    if math.hypot(fx, fy) < 1e-6:
-        fx, fy, _ = sq.rotate(q, 0.0, 0.0, -1.0 if sq.rotate(q, 1.0, 0.0, 0.0)[2] > 0 else 1.0)
-    yaw = math.atan2(fy, fx)
-    return (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
+    return sq.axis_angle_quat(0.0, 0.0, 1.0, _yaw(q))
 
 
 @dataclass(frozen=True)
@@ -239,14 +244,13 @@ def calibrate(skeleton: Skeleton, sensor_q: Sequence[Quat], front: Quat | None =
     [1.0, 0.0, 0.0, 0.0]
     """
     if front is None:
-        sx = sy = 0.0
-        for s in skeleton.segments:
-            if s.sensor is not None:
-                w, _, _, z = heading(sq.multiply(sensor_q[s.sensor - 1], sq.conjugate(s.pose)))
-                yaw = 2.0 * math.atan2(z, w)
-                sx, sy = sx + math.cos(yaw), sy + math.sin(yaw)
-        yaw = math.atan2(sy, sx)
-        front = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
+        yaws = [
+            _yaw(sq.multiply(sensor_q[s.sensor - 1], sq.conjugate(s.pose)))
+            for s in skeleton.segments
+            if s.sensor
+        ]
+        mean = math.atan2(sum(math.sin(y) for y in yaws), sum(math.cos(y) for y in yaws))
+        front = sq.axis_angle_quat(0.0, 0.0, 1.0, mean)
     out = []
     for s in skeleton.segments:
         if s.sensor is None:
