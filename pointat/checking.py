@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from . import shipped
-from .errors import PatchError, Problem, Where, did_you_mean
+from .errors import PatchError, Problem, Where, did_you_mean, shorten
 from .expansion import _expand, _set_arguments
 from .graphs import reached
 from .node import MAX_DEPTH, Inlet, Node, Outlet, ParamError
@@ -102,13 +102,15 @@ def check(
     for step in (_names, _overrides, _nodes, _own_ports, _wires):
         step(run)
     result = run.result
-    for finder in (_never_triggered, _going_nowhere, _too_deep):
+    for finder in (_never_triggered, _going_nowhere):
         result.warnings += finder(result)
     if not run.flat.nodes:  # all comments, or a file of another kind: it would run and do nothing
         result.warnings.append(
             Problem(Where(run.flat.path), "the patch has no nodes: it does nothing", "warning")
         )
-    run.problems += _cycles(result)  # among the nodes and wires that are right: said with the rest
+    edges = _hot_edges(result)
+    run.problems += _cycles(result, edges)  # among the nodes and wires that are right: said with the rest
+    result.warnings += _too_deep(result, edges)
     if run.problems:
         raise PatchError(_in_line_order(run.problems))
     return result
@@ -276,7 +278,7 @@ def _node_files(run: _Run, decl: NodeDecl, cls: type[Node], values: dict[str, An
     for name in files:
         if kinds[name] not in ("file", "missing"):  # a folder, a device or a pipe (which would hang)...
             what = "not a regular file" if kinds[name] in ("folder", "other") else kinds[name]
-            run.refuse(decl, f"{label}: parameter '{name}': {_short(str(values[name]))}: {what}")
+            run.refuse(decl, f"{label}: parameter '{name}': {shorten(str(values[name]))}: {what}")
             return
     for name in missing:
         run.result.warnings.append(
@@ -487,13 +489,9 @@ def _going_nowhere(result: Checked) -> list[Problem]:
     feeders: dict[str, list[str]] = {}
     for src, _o, dst, _i in result.wires:
         feeders.setdefault(dst, []).append(src)
-    for name, r in result.nodes.items():  # send -> receive: a receive's bus is fed by its sends
-        if r.cls.type_name == "receive":
-            feeders.setdefault(name, []).extend(
-                n
-                for n, s in result.nodes.items()
-                if s.cls.type_name == "send" and s.values.get("bus") == r.values.get("bus")
-            )
+    for send, receives in _bus_links(result).items():  # a receive is fed by the sends of its bus
+        for name in receives:
+            feeders.setdefault(name, []).append(send)
     useful = reached(useful, lambda n: feeders.get(n, ()))
     own = result.spec.path
     idle = [
@@ -516,10 +514,6 @@ def _going_nowhere(result: Checked) -> list[Problem]:
     return found
 
 
-def _short(text: str, most: int = 80) -> str:
-    return text if len(text) <= most else f"{text[: most // 2]}…{text[-most // 2 :]}"
-
-
 def _writable(name: str, value: str) -> None:
     """Refuse a file a node will write but could not: a folder, or a file in a folder that is not there
     (found at the desk, not when the show starts)."""
@@ -528,7 +522,7 @@ def _writable(name: str, value: str) -> None:
     if kind == "folder":
         raise ValueError(f"parameter '{name}': {value!r} is a folder: name a file in it")
     if kind not in ("file", "missing", "other"):  # (other: /dev/null, a FIFO a reader waits on: writable)
-        raise ValueError(f"parameter '{name}': {_short(value)}: {kind}")
+        raise ValueError(f"parameter '{name}': {shorten(value)}: {kind}")
     folder = path.parent
     kind = path_kind(folder)
     if kind != "folder":
@@ -557,10 +551,9 @@ def _anchor_paths(
             values[p.name] = str(base / v)
 
 
-def _too_deep(result: Checked) -> list[Problem]:
+def _too_deep(result: Checked, edges: dict[str, list[str]]) -> list[Problem]:
     """A chain through hot inlets longer than the runtime's :data:`~pointat.node.MAX_DEPTH` (no loop in
     it; loops are :func:`_cycles`'): messages stop there, as Pd's "stack overflow" stops them."""
-    edges = _hot_edges(result)
     into = {n: 0 for n in edges}
     for v in edges:
         for w in edges[v]:
@@ -594,20 +587,27 @@ def _hot_edges(result: Checked) -> dict[str, list[str]]:
         s, d = result.nodes[src], result.nodes[dst]
         if d.inlets[i].is_hot(i) and not s.cls.defers:
             edges[src].append(dst)
-    # send -> receive by bus name
+    for send, receives in _bus_links(result).items():
+        edges[send] += receives
+    return edges
+
+
+def _bus_links(result: Checked) -> dict[str, list[str]]:
+    """Each ``send`` node -> the ``receive`` nodes of its bus."""
     buses: dict[str, list[str]] = {}
     for name, r in result.nodes.items():
         if r.cls.type_name == "receive":
             buses.setdefault(str(r.values.get("bus")), []).append(name)
-    for name, r in result.nodes.items():
-        if r.cls.type_name == "send":
-            edges[name] += buses.get(str(r.values.get("bus")), [])
-    return edges
+    return {
+        name: buses.get(str(r.values.get("bus")), [])
+        for name, r in result.nodes.items()
+        if r.cls.type_name == "send"
+    }
 
 
-def _cycles(result: Checked) -> list[Problem]:
-    """Feedback loops through hot inlets with no deferring node (delay, metro) on them."""
-    edges = _hot_edges(result)
+def _cycles(result: Checked, edges: dict[str, list[str]]) -> list[Problem]:
+    """Feedback loops through hot inlets with no deferring node (delay, metro) on them (``edges``:
+    :func:`_hot_edges`)."""
     # Tarjan's strongly connected components, iterative: a chain of thousands of nodes is no recursion
     index: dict[str, int] = {}
     low: dict[str, int] = {}

@@ -108,6 +108,16 @@ class Repeats:
         return n, tell
 
 
+def shorten(text: str, most: int = 80) -> str:
+    """``text``, its middle left out when it is longer than ``most`` (a name of 300 characters in a
+    message).
+
+    >>> shorten("x" * 100, 10)
+    'xxxxx…xxxxx'
+    """
+    return text if len(text) <= most else f"{text[: most // 2]}…{text[-most // 2 :]}"
+
+
 def closest(name: str, names: Iterable[str]) -> str | None:
     """The one of ``names`` closest to a misspelt ``name``, or ``None`` when none is close."""
     close = difflib.get_close_matches(name, list(names), n=1)

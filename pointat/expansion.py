@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from . import patchfile, pdfile
-from .errors import PatchError, Problem, Where, closest
+from .errors import PatchError, Problem, Where, closest, shorten
 from .patchfile import parse_patch, parse_value
 from .registry import Registry
 from .shipped import PREFIX
@@ -176,10 +176,6 @@ def _expand(
     return out
 
 
-def _short(text: str, most: int = 80) -> str:
-    return text if len(text) <= most else f"{text[: most // 2]}…{text[-most // 2 :]}"
-
-
 def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
     """The file of an abstraction instance: its type, relative to the patch that holds it."""
     return (Path(parent.path).parent / decl.type).resolve()
@@ -208,7 +204,7 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], oute
             decl.where,
         )
     if kind != "file":  # a name too long, no permission...
-        raise PatchError(f"abstraction '{_short(decl.type)}': {kind}", decl.where)
+        raise PatchError(f"abstraction '{shorten(decl.type)}': {kind}", decl.where)
     if str(path) in stack:
         loop = [Path(p).name for p in stack[stack.index(str(path)) :]] + [path.name]
         raise PatchError(
@@ -223,7 +219,7 @@ def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], oute
         if any(p.where is not None and p.where.line for p in exc.problems):
             raise
         raise PatchError(
-            f"abstraction '{_short(decl.type)}': " + "; ".join(p.message for p in exc.problems), decl.where
+            f"abstraction '{shorten(decl.type)}': " + "; ".join(p.message for p in exc.problems), decl.where
         ) from None
     if decl.args:
         raise PatchError(
