@@ -19,8 +19,8 @@ from pointat.maths import scalar as sq
 from pointat.maths import skeleton as sk
 from pointat.message import Message, as_floats, floats, make
 from pointat.node import Inlet, Node, Outlet, Param
+from pointat.nodes.sensors import PacedSource
 from pointat.registry import register
-from pointat.scheduling import Timer
 
 __all__ = ["BvhRecord", "PointRay", "SimulateBody", "SkeletonNode"]
 
@@ -337,7 +337,7 @@ body.segments -> take.segments
 
 
 @register("simulate_body")
-class SimulateBody(Node):
+class SimulateBody(PacedSource):
     """A virtual body: a skeleton's sensors moving with known truth (arm or whole body).
 
     The body (``file``; the arm by default, ``pointat:data/body15.json`` a whole body) first holds the
@@ -423,23 +423,12 @@ class SimulateBody(Node):
             gyro_sampling=self.p.gyro,
         )
         self._n = self.sim.skeleton.sensors
-        self._k = 0
         self._block: Any = None
-        self._timer: Timer | None = None
 
     def start(self) -> None:
-        self.active = True
-        self._timer = self.call_at(0.0, self._tick)
+        self.pace()
 
-    def _tick(self) -> None:
-        k = self._k
-        t = k / self.p.rate
-        if self.p.duration and t >= self.p.duration:
-            self.ended = True
-            self.close()
-            return
-        self._k += 1
-        self._timer = self.call_at((k + 1) / self.p.rate, self._tick)
+    def sample(self, k: int, t: float) -> None:
         j = k % self.BLOCK
         if j == 0:
             self._block = self.sim.take(self.BLOCK, k)
@@ -450,9 +439,3 @@ class SimulateBody(Node):
             self.out(2 + 3 * i, floats(tuple(acc[i]), t))
             self.out(1 + 3 * i, floats(tuple(gyro[i]), t))
         self.out(0, floats(tuple(b.q_body[j].ravel().tolist()), t))
-
-    def close(self) -> None:
-        self.active = False
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None

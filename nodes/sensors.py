@@ -413,8 +413,48 @@ base.1 -> nulls2 -> right
             self.out(ev, ("open_failed", self.p.device))
 
 
+class PacedSource(Node):
+    """A source that samples on the scheduler's timers: sample ``k`` at ``k / rate`` seconds, until its
+    ``duration`` runs out (0: until the patch stops; then :meth:`finish`, the source ends, the patch may
+    end with it).  A subclass has the ``rate`` and ``duration`` parameters and writes :meth:`sample`."""
+
+    _timer: Timer | None = None
+    _k = 0
+
+    def pace(self) -> None:
+        """Start sampling (from ``start``)."""
+        self.active = True
+        self._k = 0
+        self._timer = self.call_at(0.0, self._tick)
+
+    def _tick(self) -> None:
+        k = self._k
+        t = k / self.p.rate
+        if self.p.duration and t >= self.p.duration:
+            self.ended = True
+            self.finish(t)
+            self.close()
+            return
+        self._k += 1
+        self._timer = self.call_at((k + 1) / self.p.rate, self._tick)
+        self.sample(k, t)
+
+    def sample(self, k: int, t: float) -> None:
+        """Send sample ``k`` (time ``t``)."""
+        raise NotImplementedError
+
+    def finish(self, t: float) -> None:
+        """The last thing said when the duration has run out, before :meth:`close`."""
+
+    def close(self) -> None:
+        self.active = False
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+
+
 @register("simulate")
-class Simulate(Node):
+class Simulate(PacedSource):
     """A virtual Pointing-at glove: scripted hand motion through a realistic sensor model.
 
     Pointing sweeps, holds at loudspeaker directions, raising and lowering, a 90 deg roll gesture; gyro
@@ -536,36 +576,27 @@ glove -> nulls -> cal
             sensor=sensor,
             bursts=self._bursts(vars(self.p)),
         )
-        self._timer: Timer | None = None
         self._pty: PtyGlove | None = None
-        self._k = 0
 
     def start(self) -> None:
-        self.active = True
         if self.p.output == "pty":
             self._pty = PtyGlove(self.sim, format=self.p.format).start()
             if self.p.link:
                 if os.path.islink(self.p.link):
                     os.unlink(self.p.link)
                 os.symlink(self._pty.device_path, self.p.link)
-        self._timer = self.call_at(0.0, self._tick)
+        self.pace()
 
     def loadbang(self) -> None:
         if self._pty is not None:
             self.time = self.now
             self.out(2, self.p.link or self._pty.device_path)
 
-    def _tick(self) -> None:
-        k = self._k
-        t = k / self.p.rate
-        if self.p.duration and t >= self.p.duration:
-            self.ended = True
-            if self._pty is not None:  # its reader is done too, before the pseudo-terminal goes
-                self.out(2, method("close", time=t))
-            self.close()
-            return
-        self._k += 1
-        self._timer = self.call_at((k + 1) / self.p.rate, self._tick)
+    def finish(self, t: float) -> None:
+        if self._pty is not None:  # its reader is done too, before the pseudo-terminal goes
+            self.out(2, method("close", time=t))
+
+    def sample(self, k: int, t: float) -> None:
         if self._pty is not None:
             self.out(1, vector(self.sim.truth(k).q, t))
             return
@@ -574,10 +605,7 @@ glove -> nulls -> cal
         self.out(0, vector(s.frame.channels, t))
 
     def close(self) -> None:
-        self.active = False
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
+        super().close()
         if self._pty is not None:
             self._pty.close()
             self._pty = None
