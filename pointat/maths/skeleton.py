@@ -161,8 +161,11 @@ class Skeleton:
                     f"{label}: unknown key {sorted(unknown)[0]!r} (keys: name parent at length sensor pose)"
                 )
             try:
-                name = str(item["name"])
+                name = item["name"]
                 parent = item.get("parent")
+                for key, value in (("name", name), ("parent", parent)):
+                    if not isinstance(value, str) and not (key == "parent" and value is None):
+                        raise ValueError(f"{key}: expected a segment's name, got {value!r}")
                 length = _vector(item.get("length", (0.0, 0.0, 0.0)), 3, "length")
                 default_at = lengths.get(parent, (0.0, 0.0, 0.0)) if parent is not None else (0.0, 0.0, 0.0)
                 at = _vector(item.get("at", default_at), 3, "at")
@@ -175,7 +178,7 @@ class Skeleton:
             except ValueError as exc:
                 raise ValueError(f"{label}: {exc}") from None
             lengths[name] = length
-            segments.append(Segment(name, None if parent is None else str(parent), at, length, sensor, pose))
+            segments.append(Segment(name, parent, at, length, sensor, pose))
         try:
             root = _vector(data.get("root", (0.0, 0.0, 0.0)), 3, "root")
             return cls(tuple(segments), root)
