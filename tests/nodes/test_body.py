@@ -171,10 +171,10 @@ def test_bvh_record_writes_a_take_that_an_independent_parser_reads_back(tmp_path
     )
 
 
-def test_the_shipped_arm_patch_tracks_the_simulated_arm_within_a_degree_and_a_centimetre():
+def arm_errors(seed=0, heading=35.0):
     """patches/arm_pointing.pat on its simulated arm (3 sensors strapped up to 3 deg off their segments,
-    biases up to 1 deg/s, noise; the body facing 35 deg from north), 60 s on the manual clock: after the
-    calibration pose, every segment's orientation and the wrist's position against the simulator's truth."""
+    biases up to 1 deg/s, noise), 60 s on the manual clock: after the calibration pose, each segment's
+    orientation RMS error (degrees) and the wrist's position RMS error (metres) against the truth."""
     from pathlib import Path
 
     text = (Path(__file__).resolve().parents[2] / "patches" / "arm_pointing.pat").read_text()
@@ -183,6 +183,10 @@ def test_the_shipped_arm_patch_tracks_the_simulated_arm_within_a_degree_and_a_ce
         .replace("port=9000", "port=9")
         .replace("port=9003", "port=9")
     )
+    text = text.replace(
+        "simulate_body pose=6 heading=35", f"simulate_body pose=6 heading={heading} seed={seed}"
+    )
+    text = text.replace("auto=5 front=35", f"auto=5 front={heading}")
     text += "node seg collect\nnode truth collect\nbody.segments -> seg\narm.truth -> truth\n"
     rt = patch(text)
     rt.start()
@@ -204,6 +208,32 @@ def test_the_shipped_arm_patch_tracks_the_simulated_arm_within_a_degree_and_a_ce
         )
         wrist.append(math.dist(sk.forward(ARM, q_est)[0][2], sk.forward(ARM, q_true)[0][2]))
     rms = [math.sqrt(sum(e[k] ** 2 for e in errors) / len(errors)) for k in range(3)]
-    wrist_rms = math.sqrt(sum(w * w for w in wrist) / len(wrist))
+    return rms, math.sqrt(sum(w * w for w in wrist) / len(wrist))
+
+
+def test_the_shipped_arm_patch_tracks_the_simulated_arm_within_a_degree_and_a_centimetre():
+    """The draw the patch's settings (the fast gains in the pose, its length) were chosen on."""
+    rms, wrist = arm_errors()
     assert max(rms) <= 1.0, rms
-    assert wrist_rms <= 0.01, wrist_rms
+    assert wrist <= 0.01, wrist
+
+
+def test_the_arm_patch_holds_on_draws_it_was_not_tuned_on():
+    """Eight other arms (mountings, biases, noise) facing eight other ways.  Measured when this test was
+    written: hands 0.60-1.01 deg RMS (one draw of eight above 1 deg), forearms and upper arms 0.25-0.63
+    deg, wrists 0.23-0.34 cm.  The claim (1 deg, 1 cm) holds on the median; no draw is far off it."""
+    hands = []
+    for seed, heading in [
+        (1, -70.0),
+        (2, 150.0),
+        (3, 10.0),
+        (4, -160.0),
+        (5, 95.0),
+        (6, -5.0),
+        (7, 220.0),
+        (8, 60.0),
+    ]:
+        rms, wrist = arm_errors(seed, heading)
+        assert max(rms) <= 1.1 and wrist <= 0.01, (seed, rms, wrist)
+        hands.append(rms[2])
+    assert sorted(hands)[len(hands) // 2] <= 1.0, hands
