@@ -28,6 +28,7 @@ units.accel -> fuse.accel
 units.range -> fuse.range
 units.gyro -> fuse.gyro
 fuse.flags -> state
+fuse.flags -> out.flags
 fuse.quat -> ref
 ref -> dir
 ref -> roll

@@ -27,6 +27,7 @@ units.accel -> fuse.accel
 units.range -> fuse.range
 units.gyro -> fuse.gyro
 fuse.flags -> state
+fuse.flags -> out.flags
 fuse.quat -> ref -> dir
 dir.elevation -> out.elevation
 dir.azimuth -> out.azimuth

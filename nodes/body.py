@@ -355,6 +355,8 @@ class SimulateBody(PacedSource):
     whole samples half a sample ahead (0.5 deg at the hand at 3 rad/s and 100 Hz).
     """
 
+    sample_outlets = "gyro[0-9]+"
+
     outlets = (Outlet("truth", "vector", "every segment's true orientation, body frame, 4M numbers"),)
     #: Pd's stub is drawn for the 15-sensor body, so that it connects as any smaller one does.
     stub_values: ClassVar[dict[str, Any]] = {"file": "pointat:data/body15.json"}

@@ -132,6 +132,11 @@ class Offset(Node):
         )  # fmt: skip
         self.out(0, floats(d, msg.time))
 
+    def health(self) -> dict[str, Any]:
+        if self._ready:
+            return {"gyro_nulls": "ready"}
+        return {"gyro_nulls": f"calibrating {self._n}/{self.p.samples}"}
+
     def _moved_again(self) -> None:
         if self._ready:
             self._n = self.p.samples  # done: the old nulls stay

@@ -393,18 +393,22 @@ class Loadbang(Node):
 
 @register("print")
 class Print(Node):
-    """Print every message to the console, behind a prefix (as Pd's print)."""
+    """Print every message to the console, behind a prefix, as a person reads it: numbers rounded to
+    ``decimals`` places (a direction to 0.1 deg by default), no type words (``list``, ``symbol``)."""
 
     needs_input = True
     inlets = (Inlet("in", ("any",), "any message"),)
     params = (
         Param("prefix", "symbol", "print", "text before each message"),
         Param("time", "bool", False, "also show the message's time stamp"),
+        Param(
+            "decimals", "int", 1, "places after the point of every number", minimum=0, maximum=12, live=True
+        ),
     )
 
     def on_in(self, msg: Message) -> None:
         stamp = f" @{msg.time:.3f}" if self.p.time else ""
-        self._runtime().console(f"{self.p.prefix}{stamp}: {msg.describe()}")
+        self._runtime().console(f"{self.p.prefix}{stamp}: {msg.human(self.p.decimals)}")
 
 
 @register("change")

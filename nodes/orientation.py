@@ -455,6 +455,19 @@ fuse.flags -> state
         acc, gyro = as_floats(msg, 2)
         self.filter.retune(acc_range=acc, gyro_range=gyro)  # (refuses what the constructor refuses)
 
+    def health(self) -> dict[str, Any]:
+        """Rest and bias learning (robust mode), and the magnetic dip learned, for the monitor."""
+        f = self.filter
+        bits = f.flag_bits
+        bias = math.degrees(math.sqrt(sum(b * b for b in f.bias)))
+        dip = f.magnetic_dip
+        return {
+            "resting": bool(bits & TQTFlags.REST),
+            "bias_dps": round(bias, 3),
+            "bias_learned_s": round(f.bias_seconds, 1),
+            "dip_deg": None if dip is None else round(math.degrees(dip), 1),
+        }
+
     def on_gyro(self, msg: Message) -> None:
         gyro = as_floats(msg, 3)
         acc, mag = self.cold.get("accel"), self.cold.get("mag")

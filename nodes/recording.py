@@ -255,6 +255,9 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
         names = self.p.columns or (["value"] if self._width == 1 else [f"v{i}" for i in range(self._width)])
         self._fh.write(",".join(["t", *map(str, names)]) + "\n")
 
+    def health(self) -> dict[str, Any]:
+        return {"recording": str(self.p.file), "rows": self.count}
+
     def on_in(self, msg: Message) -> None:
         if self._fh is None:
             raise RuntimeError(f"record: {self.p.file} is not open")
@@ -335,6 +338,8 @@ class Replay(Node):
     goes out of ``range`` as the patch starts, for ``tqt``'s ``range``: a recording of strikes that
     saturated the accelerometer is then fused as the live glove would be.
     """
+
+    sample_outlets = "gyro"
 
     outlets = (
         Outlet("gyro", "vector", "angular rate, rad/s (gyr_*/gyro_* columns)"),

@@ -95,6 +95,8 @@ class Mote(Node):
     ``latency_timer`` file to set instead.
     """
 
+    sample_outlets = "m[0-9]+"
+
     inlets = (
         Inlet("control", ("symbol", "bang"), "a device path to open; methods: open PATH, close, stats"),
     )
@@ -225,6 +227,13 @@ base.1 -> nulls2 -> right
         if self._reader is not None:
             self._reader.stop()  # joins the thread if there is one; closes the port
             self._reader = None
+
+    def health(self) -> dict[str, Any]:
+        reader = self._reader
+        if reader is None:
+            return {"device": "closed"}
+        s = reader.stats()
+        return {"lost": s.lost, "corrupt": s.corrupt}
 
     def do_stats(self) -> None:
         if self._reader is None:
@@ -479,6 +488,8 @@ class Simulate(PacedSource):
     default 10 g strokes saturate there, as the real glove would.  Outside the bursts the samples are
     the same as with ``burst=none``.  See ``pointat.devices.glove_sim.Burst``.
     """
+
+    sample_outlets = "adc"
 
     outlets = (
         Outlet("adc", "vector", ADC_DOC + " (output=direct)"),

@@ -20,6 +20,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from pointat.control import control
 from pointat.devices.osc_wire import (
     F32_MAX,
     _fit,
@@ -27,10 +28,11 @@ from pointat.devices.osc_wire import (
     bundle_time,
     decode_packet,
     encode_bundle,
+    encode_message,
     udp_port,
 )
-from pointat.errors import Repeats, did_you_mean, worth_reporting
-from pointat.message import Message, as_float, floats, make, method
+from pointat.errors import Repeats, worth_reporting
+from pointat.message import Message, as_float, floats, method
 from pointat.node import FULL_SCALE_PARAMS, RANGE_OUTLET, Inlet, Node, Outlet, Param, full_scale
 from pointat.registry import register
 from pointat.runtime import Timer
@@ -363,6 +365,7 @@ class OscOut(UdpSender):
         Inlet("elevation", ("float", "int"), "degrees, + up"),
         Inlet("distance", ("float", "int"), "0 far .. 90 near (the roll gesture)"),
         Inlet("spread", ("float", "int"), "source spread 0..100 (vbap)"),
+        Inlet("flags", ("symbol",), "the filter's flags (tqt's flags outlet): told in the status"),
     )
     params = (
         Param("profile", "symbol", "pointat", "the receiver", choices=tuple(PROFILES)),
@@ -396,6 +399,25 @@ class OscOut(UdpSender):
         ),
         Param("change", "bool", False, "send only updates that moved more than the deadband", live=True),
         Param("deadband", "float", 0.0, "with change (or > 0): skip smaller moves", unit="deg", live=True),
+        Param(
+            "status",
+            "float",
+            -1.0,
+            "seconds between heartbeats /pointat/N/status STATE RATE (states at once when they change); "
+            "-1: the profile's usual (1 s for pointat, vbap and generic, none for the products), 0: none",
+            unit="s",
+            minimum=-1.0,
+            live=True,
+        ),
+        Param(
+            "dropout",
+            "float",
+            0.5,
+            "no update for this long is a dropout, told in the status",
+            unit="s",
+            minimum=0.05,
+            live=True,
+        ),
     )
     example = """
 node dir  azi_ele
@@ -459,6 +481,71 @@ dir.azimuth -> out.azimuth
         self.sent = 0
         self.failed = 0
         self.refused = 0
+        self.sent_at = -math.inf  # logical time of the last update
+        self.flag = "ok"  # the filter's flags, as its outlet last said
+        self.status_state = ""  # the state last told
+        self.statuses = 0
+        self._beat: tuple[float, int] = (0.0, 0)  # (time, updates) at the last heartbeat
+        self._status_timer: Timer | None = None
+
+    # status --------------------------------------------------------------------
+    #: Seconds between two looks at the state (a dropout is told within this of ``dropout``).
+    STATUS_LOOK = 0.1
+
+    def status_every(self) -> float:
+        """Seconds between heartbeats (0: none)."""
+        every = self.p.status
+        return (1.0 if self.profile.status else 0.0) if every < 0 else every
+
+    def loadbang(self) -> None:
+        # "waiting" is told only if it lasts a heartbeat: a glove that starts at once says "ok" first
+        self.status_state = "waiting"
+        if self.status_every() > 0:
+            self._beat = (self.now, 0)
+            self._status_timer = self.call_later(self.STATUS_LOOK, self._look)
+            self._status_timer.daemon = True
+
+    def _look(self) -> None:
+        """Every :attr:`STATUS_LOOK` s: tell a changed state at once, and the state every ``status`` s."""
+        every = self.status_every()
+        self._status_timer = None
+        if every <= 0:
+            return
+        now = self.now
+        if self.updates == 0:
+            state = "waiting"
+        elif now - self.sent_at > self.p.dropout:
+            state = "dropout"
+        else:
+            state = self.flag if self.flag != "ok" else "ok"
+        if state != self.status_state or now - self._beat[0] >= every - 1e-9:
+            then, count = self._beat
+            rate = (self.updates - count) / (now - then) if now > then else 0.0
+            self._beat = (now, self.updates)
+            self.status_state = state
+            self.statuses += 1
+            n = self.p.source or self.profile.first
+            self.send([encode_message(f"/pointat/{n}/status", [state, float(round(rate, 1))])])
+        self._status_timer = self.call_later(self.STATUS_LOOK, self._look)
+        self._status_timer.daemon = True  # a heartbeat keeps no ended patch running
+
+    def on_flags(self, msg: Message) -> None:
+        self.flag = str(msg.value)
+
+    def param_changed(self, name: str) -> None:
+        if name == "source":
+            self._compile()
+        elif (
+            name == "status"
+            and self._status_timer is None
+            and self.status_every() > 0
+            and self.rt is not None
+        ):
+            self._beat = (self.now, self.updates)
+            self._look()
+
+    def health(self) -> dict[str, Any]:
+        return {"refused": self.refused, "failed": self.failed}
 
     def on_elevation(self, msg: Message) -> None:
         v = msg.value if msg.kind == "float" else as_float(msg)  # (per sample: a call less)
@@ -533,13 +620,10 @@ dir.azimuth -> out.azimuth
         if self.p.rate > 0:  # the time only paces (a rate set later finds an old one: the next goes at once)
             self._last_time = self.now
         self.updates += 1
+        self.sent_at = self.now
         az, el, dist, spread = update
         src = Source(self.p.source or self.profile.first, az, el, dist, spread, self.p.radius)
         self.send(self._encoder.encode(src))
-
-    def param_changed(self, name: str) -> None:
-        if name == "source":
-            self._compile()
 
     def _compile(self) -> None:
         """The encoder of one update for the current source number (addresses and tags encoded once)."""
@@ -605,6 +689,8 @@ class OscIn(Node):
     ``range`` as the patch starts; wired to ``tqt``'s ``range``, a reading stuck at the limit during a
     strike is known to be saturated rather than taken for the hand's motion.
     """
+
+    sample_outlets = "gyro|quat"
 
     acts_alone = True  # live control
 
@@ -822,52 +908,18 @@ phone.quat -> dir
         return routes
 
     def _control(self, address: str, args: list[Any]) -> bool:
-        """``/pointat/NODE/SELECTOR args`` or ``/pointat/NODE args``; False when it names no node.
+        """``/pointat/NODE/SELECTOR args``, ``/pointat/NODE args`` or ``/pointat/preset/...``
+        (:func:`pointat.control.control`); False when it names no node.
 
-        NODE may be an abstraction's inner node (``left/dir``).  Node names never start with a digit, so
-        pointat's own direction messages (``/pointat/1/aed``) are not control: they go on by ``any``.
+        Node names never start with a digit, so pointat's own direction messages (``/pointat/1/aed``)
+        are not control: they go on by ``any``.
         """
         rest = address[len("/pointat/") :]
         if not rest or rest[0].isdigit():
             return False
-        rt = self._runtime()
-        name, selector = rest, None
-        if rest not in rt.nodes:  # not values for a node's left inlet: /pointat/NODE/SELECTOR
-            name, _, selector = rest.rpartition("/")
-            if name not in rt.nodes or not selector:
-                why = (
-                    f"no parameter or method after node '{name}'"
-                    if name in rt.nodes
-                    else f"no node '{name or rest}'" + did_you_mean(name or rest, rt.nodes)
-                )
-                self._refuse(address, why + "; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD")
-                return True
-        if selector is None and not rt.nodes[name].in_specs:
-            self._refuse(
-                address,
-                f"node '{name}' has no inlets to take values; send /pointat/{name}/PARAM value or "
-                f"/pointat/{name}/METHOD",
-            )
-            return True
-        node = rt.nodes[name]
-        handler = node._handlers[0] if selector is None else getattr(node, "do_" + selector, None)
-        if args and getattr(handler, "names_path", False):  # the rule: live control names no path
-            self._refuse(
-                address,
-                f"node '{name}': live control names no files or devices (the patch does): send "
-                f"/pointat/{name}/{selector or ''} with no arguments"
-                if selector
-                else f"node '{name}': live control names no files or devices (the patch does)",
-            )
-            return True
-        try:  # on the scheduler thread already: straight to the node, nothing queued or lost
-            if selector is None:
-                msg = make(None if not args else args[0] if len(args) == 1 else tuple(args))
-            else:
-                msg = rt.message(selector, *args)
-            rt.nodes[name].receive(0, msg._replace(time=self.time))
-        except Exception as exc:  # a blob where a number belongs, an unknown method, a refused value
-            self._refuse(address, f"node '{name}': {exc}")
+        why = control(self._runtime(), address, args, self.time)
+        if why is not None:
+            self._refuse(address, why)
         return True
 
     def _refuse(self, address: str, why: str) -> None:

@@ -215,6 +215,10 @@ class Profile:
     doc: str = ""
     #: False for a receiver known to ignore a bundle's time tag (``osc_out``'s ``delay`` would do nothing).
     time_tags: bool = True
+    #: Whether ``osc_out`` sends its heartbeat and state (``/pointat/N/status``) unless told: True for
+    #: receivers a patch of one's own reads (Pd, Max: route it), False for products that would log every
+    #: address they do not know.
+    status: bool = True
 
     def render(
         self, source: Source, messages: Sequence[tuple[str, Sequence[str | int | float]]] | None = None
@@ -271,7 +275,12 @@ PROFILES: dict[str, Profile] = {
             "Pd/Max [vbap]: azimuth elevation spread",
         ),
         Profile(
-            "adm", 4001, 1, (("/adm/obj/{n}/aed", ("az", "el", "dist01")),), "ADM-OSC 1.0 (objects from 1)"
+            "adm",
+            4001,
+            1,
+            (("/adm/obj/{n}/aed", ("az", "el", "dist01")),),
+            "ADM-OSC 1.0 (objects from 1)",
+            status=False,
         ),
         Profile(
             "iem_stereo",
@@ -280,6 +289,7 @@ PROFILES: dict[str, Profile] = {
             (("/StereoEncoder/azimuth", ("az",)), ("/StereoEncoder/elevation", ("el",))),
             "IEM StereoEncoder (one plug-in per port)",
             time_tags=False,
+            status=False,
         ),
         Profile(
             "iem_multi",
@@ -288,9 +298,15 @@ PROFILES: dict[str, Profile] = {
             (("/MultiEncoder/azimuth{n}", ("az",)), ("/MultiEncoder/elevation{n}", ("el",))),
             "IEM MultiEncoder (inputs from 0)",
             time_tags=False,
+            status=False,
         ),
         Profile(
-            "spat", 9000, 1, (("/source/{n}/aed", ("az_right", "el", "dist_m")),), "SPAT Revolution (+ right)"
+            "spat",
+            9000,
+            1,
+            (("/source/{n}/aed", ("az_right", "el", "dist_m")),),
+            "SPAT Revolution (+ right)",
+            status=False,
         ),
         Profile(
             "icst",
@@ -298,8 +314,16 @@ PROFILES: dict[str, Profile] = {
             1,
             (("/icst/ambi/sourceindex/xyz", ("n", "x", "y", "z")),),
             "ICST AmbiEncoder (sources from 1)",
+            status=False,
         ),
-        Profile("reaper", 8000, 1, (("/track/{n}/pan", ("pan",)),), "REAPER track pan (tracks from 1)"),
+        Profile(
+            "reaper",
+            8000,
+            1,
+            (("/track/{n}/pan", ("pan",)),),
+            "REAPER track pan (tracks from 1)",
+            status=False,
+        ),
         Profile("generic", 9000, 1, (), "any address, any fields"),
     )
 }

@@ -25,7 +25,7 @@ node wait  delay 4500
 node calm  msg k 1, k_heading 0.05
 node both  pack 0 0 0
 node slow  speedlim 500
-node show  print prefix="arm points at: azimuth elevation metres"
+node show  print prefix="arm points at: azimuth elevation metres" decimals=2
 node state print prefix=body
 
 lb -> fast -> suit

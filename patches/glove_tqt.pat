@@ -34,6 +34,7 @@ units.accel -> tqt.accel
 units.range -> tqt.range
 units.gyro -> tqt.gyro
 tqt.flags -> state
+tqt.flags -> out.flags
 press -> tqt.reference
 tqt.distance -> out.distance
 tqt.distance -> both.2

@@ -19,3 +19,4 @@ tqt.elevation -> both.1
 tqt.azimuth -> out.azimuth
 tqt.azimuth -> both.0
 both -> slow -> show
+tqt.flags -> out.flags

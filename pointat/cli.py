@@ -12,19 +12,27 @@ import signal
 import sys
 import threading
 from pathlib import Path
+from typing import Any
 
 from . import __version__, shipped
 from .checking import check
+from .console import about, banner
 from .errors import PatchError, PointatError, did_you_mean
 from .expansion import read_spec
 from .loader import build, parse_overrides
+from .maths.vbap import parse_layout, read_layout
+from .observe import Observer
+from .presets import Presets, presets_path
 from .registry import Registry, default_registry
-from .scheduling import CPU_DMA_LATENCY, keep_cpus_awake, realtime_priority
+from .scheduling import CPU_DMA_LATENCY, keep_cpus_awake, quiet_thread, realtime_priority
 from .spec import is_pd_file
 from .terminal import LineHandler, LineWriter
+from .webserver import MonitorServer
 
 log = logging.getLogger("pointat")
 LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
+#: The monitor's port when ``--monitor`` names none (next to the patches' 9000 out and 9001 control).
+MONITOR_PORT = 9002
 
 EPILOG = """\
 examples:
@@ -125,6 +133,36 @@ def _parser() -> argparse.ArgumentParser:
         "than the time between samples: two periods, 2 at 1 kHz, 20 at 100 Hz",
     )
 
+    p.add_argument(
+        "--monitor",
+        nargs="?",
+        const=MONITOR_PORT,
+        type=int,
+        metavar="PORT",
+        help=f"serve the monitor page and OSCQuery on PORT (default {MONITOR_PORT}; 0: any free port): open "
+        "http://127.0.0.1:PORT/monitor in a browser; tools that speak OSCQuery find the patch by zeroconf",
+    )
+    p.add_argument(
+        "--monitor-host",
+        default="127.0.0.1",
+        metavar="HOST",
+        help="address the monitor listens on (default 127.0.0.1, this machine only; 0.0.0.0: every "
+        "interface, for a tablet on the stage's network)",
+    )
+    p.add_argument(
+        "--layout",
+        metavar="AZIMUTHS|FILE",
+        help="the loudspeakers the monitor shows when the patch has no vbap node: azimuths (0,45,90,...), "
+        "az:el pairs (0:0,90:0,0:90) or a layout file as vbap reads it (default: a ring of eight)",
+    )
+    p.add_argument(
+        "--status",
+        type=_seconds,
+        metavar="SECONDS",
+        help="a status line per glove every SECONDS (default: 1, redrawn in place, on a terminal; 5 on a "
+        "pipe or file; 0: none)",
+    )
+
     p = sub.add_parser(
         "check",
         help="validate a patch without running it, and read the files its nodes will read (calibrations, "
@@ -220,6 +258,13 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     checked = _checked(args, registry)
     rt = build(checked)
     rt.spin = args.spin / 1000.0
+    layout = _layout(args.layout) if args.layout else None
+    observer = Observer(rt, layout=layout, patch=Path(args.patch).stem, about=about(args.patch)).attach()
+    if os.path.isfile(args.patch):
+        rt.presets = Presets(rt, presets_path(args.patch))
+    server = None
+    if args.monitor is not None:
+        server = _monitor(rt, observer, args)
 
     def reader_gone() -> None:  # pointat run ... | head: stop, quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -241,7 +286,8 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     err = LineWriter(sys.stderr, name="log")
     awake = None
     try:
-        handler = LineHandler(err)
+        # on one terminal, log lines go above the status lines too (one writer owns the screen)
+        handler = LineHandler(out if out.tty and _same_terminal() else err)
         handler.setFormatter(logging.Formatter(LOG_FORMAT))
         root.handlers = [handler]
         logging.captureWarnings(True)
@@ -267,7 +313,25 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
                 args.spin,
             )
         log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
-        rt.run(args.duration)
+        for line in banner(rt, args.patch, monitor=server, presets=rt.presets):
+            out.write(line)  # (before the loadbangs print anything)
+        if server is not None:
+            server.start()  # (before the clock starts: its threads and zeroconf take a moment)
+        rt.start()
+        observer.start()
+        every = args.status if args.status is not None else 1.0 if out.tty else 5.0
+        ticker = _Ticker(every, lambda: out.status(observer.status_lines())) if every > 0 else None
+        try:
+            rt.run(args.duration)
+        finally:
+            if ticker is not None:
+                ticker.stop()
+            out.status([])
+            for line in observer.summary():
+                out.write(line)
+            observer.stop()
+            if server is not None:
+                server.close()
     finally:
         if awake is not None:
             os.close(awake)
@@ -282,6 +346,64 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
         for sig, previous in saved_signals.items():
             signal.signal(sig, signal.SIG_DFL if previous is None else previous)
     return 0
+
+
+class _Ticker:
+    """Call ``fn`` every ``every`` seconds from a quiet thread until :meth:`stop`."""
+
+    def __init__(self, every: float, fn: Any):
+        self._stop = threading.Event()
+        self._every, self._fn = every, fn
+        self._thread = quiet_thread(threading.Thread(target=self._run, name="pointat-status", daemon=True))
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self._every):
+            try:
+                self._fn()
+            except Exception:  # a status line is never worth the patch
+                log.debug("status line failed", exc_info=True)
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(1.0)
+
+
+def _same_terminal() -> bool:
+    try:
+        return os.isatty(sys.stderr.fileno()) and os.ttyname(sys.stderr.fileno()) == os.ttyname(
+            sys.stdout.fileno()
+        )
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _layout(text: str) -> Any:
+    """``--layout``: azimuths, az:el pairs, or a layout file."""
+    if os.path.isfile(text):
+        return read_layout(text)
+    try:
+        items = [x for x in text.replace(";", ",").split(",") if x.strip()]
+        if any(":" in x for x in items):
+            return parse_layout([[float(v) for v in x.split(":")] for x in items])
+        return parse_layout([float(x) for x in items])
+    except ValueError as exc:
+        raise PointatError(
+            f"--layout {text!r}: expected azimuths (0,45,90), az:el pairs (0:0,90:0,0:90) or a layout file; {exc}"
+        ) from None
+
+
+def _monitor(rt: Any, observer: Any, args: argparse.Namespace) -> Any:
+    name = f"pointat {Path(args.patch).stem}"
+    try:
+        return MonitorServer(rt, observer, args.monitor_host, args.monitor, name=name)
+    except OSError as exc:
+        if args.monitor == 0:
+            raise PointatError(f"--monitor: cannot listen on {args.monitor_host}: {exc}") from None
+        log.warning(
+            "--monitor: port %d is taken (%s): serving on a free port instead", args.monitor, exc.strerror
+        )
+        return MonitorServer(rt, observer, args.monitor_host, 0, name=name)
 
 
 def cmd_check(args: argparse.Namespace, registry: Registry) -> int:

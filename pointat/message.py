@@ -31,6 +31,7 @@ any other   ``tuple`` of arguments: a *method* message   ``anything`` (``set 3``
 
 from __future__ import annotations
 
+import math
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -80,10 +81,38 @@ class Message(NamedTuple):
             return f"symbol {v}"
         return _atom(v)
 
+    def human(self, decimals: int = 1) -> str:
+        """The message as a person reads it (``print``): numbers to ``decimals`` places, no Pd type words.
+
+        >>> make((12.3456, -0.04, 7)).human()
+        '12.3 0.0 7'
+        >>> make("mag_disturbed").human(), make(None).human(), method("ready", 2019.19).human()
+        ('mag_disturbed', 'bang', 'ready 2019.2')
+        """
+        v = self.value
+        if self.kind == "bang":
+            return "bang"
+        if self.kind == "vector":
+            return " ".join(_rounded(float(x), decimals) for x in np.ravel(v))
+        if self.kind == "list" or self.is_method:
+            words = [_rounded(x, decimals) for x in v]
+            return " ".join([self.kind, *words] if self.is_method else words)
+        return _rounded(v, decimals)
+
 
 #: ``tuple.__new__``: builds a message without the NamedTuple constructor's extra Python call (per sample,
 #: every node builds one or more).
 _new = tuple.__new__
+
+
+def _rounded(x: Any, decimals: int) -> str:
+    """A number to ``decimals`` places (never ``-0.0``); anything else as it is."""
+    if isinstance(x, (float, np.floating)):
+        if x != x or x in (math.inf, -math.inf):
+            return str(float(x))
+        text = f"{float(x):.{decimals}f}"
+        return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+    return str(x)
 
 
 def _atom(x: Any) -> str:

@@ -313,6 +313,10 @@ class Node:
     stub_values: ClassVar[dict[str, Any]] = {}
     #: Where the class came from (module, entry point or plugin file), for error messages.
     origin: ClassVar[str] = ""
+    #: A source's outlets that carry one sensor sample per message (a regular expression over outlet
+    #: names, ``m[0-9]+`` for a mote's): the console, the monitor and OSCQuery count them for the rate,
+    #: and tell a dropout when they fall silent (:mod:`pointat.observe`).
+    sample_outlets: ClassVar[str] = ""
     #: Where the node is declared (patch file and line), when it was built from a patch: the runtime's
     #: errors name the place.
     where: Where | None = None
@@ -463,6 +467,12 @@ class Node:
 
     def param_changed(self, name: str) -> None:
         """A parameter was set while running; rebuild what depends on it."""
+
+    def health(self) -> Mapping[str, Any]:
+        """What a person would want to know of this node while it runs (a filter's rest, a mote's lost
+        packets, a calibration's step), as names and plain values; read from the observer's thread
+        (:mod:`pointat.observe`), so it must only read attributes, never change them.  Default: nothing."""
+        return {}
 
     def close(self) -> None:
         """Release ports, files and threads. Must be idempotent."""

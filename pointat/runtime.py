@@ -126,6 +126,8 @@ class Runtime:
         self._late_warned = -math.inf  # when the log last said that timers run late (time.monotonic)
         self.spin = spin
         self._input_at = -math.inf  # when a pass last served input (time.monotonic)
+        #: The patch's presets (:class:`pointat.presets.Presets`), when it runs from a file.
+        self.presets: Any = None
         #: Where ``print`` nodes write; the CLI points it at the terminal, tests at a list.
         self.console: Callable[[str], None] = logging.getLogger("pointat.console").info
         for node in nodes:
@@ -482,7 +484,7 @@ class Runtime:
         ``osc_in`` whose outlets are wired to nothing) does not keep a patch running whose own sources
         are all done, one of them at the end of its material (a ``replay`` at the end of its take, a
         ``simulate`` whose duration ran out): the take is over."""
-        if self._queue.queue or not all(t.cancelled for t in self._timers):
+        if self._queue.queue or not all(t.cancelled or t.daemon for t in self._timers):
             return False
         active = [n for n in self.nodes.values() if n.active]
         if not active:

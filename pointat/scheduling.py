@@ -123,13 +123,15 @@ class ManualClock:
 
 
 class Timer:
-    """A scheduled call; :meth:`cancel` it to drop it."""
+    """A scheduled call; :meth:`cancel` it to drop it.  A ``daemon`` timer (a heartbeat) does not keep
+    a patch running whose sources have all ended."""
 
-    __slots__ = ("when", "seq", "node", "fn", "args", "cancelled")
+    __slots__ = ("when", "seq", "node", "fn", "args", "cancelled", "daemon")
 
     def __init__(self, when: float, seq: int, node: Any, fn: Callable, args: tuple):
         self.when, self.seq, self.node, self.fn, self.args = when, seq, node, fn, args
         self.cancelled = False
+        self.daemon = False
 
     def __lt__(self, other: Timer) -> bool:
         return (self.when, self.seq) < (other.when, other.seq)

@@ -47,6 +47,14 @@ class LineWriter:
         self.lost = 0  # lines the stream refused (closed, or no stream at all)
         self.broken = False
         self._lines: deque[str] = deque()
+        #: The status lines kept at the foot of a terminal, redrawn in place (:meth:`status`).
+        self._footer: list[str] = []
+        self._shown = 0  # footer lines on the screen now
+        self._redraw = False
+        try:
+            self.tty = bool(stream.isatty())
+        except (AttributeError, ValueError):
+            self.tty = False
         self._cond = threading.Condition()
         self._busy = False  # the thread is writing lines it took
         self._closing = False
@@ -64,6 +72,20 @@ class LineWriter:
             self._lines.append(line)
             self._cond.notify()
 
+    def status(self, lines: list[str]) -> None:
+        """Show ``lines`` as the status at the foot of a terminal, redrawn in place (other lines scroll
+        above it); on a pipe or a file they are written as ordinary lines."""
+        if not self.tty:
+            for line in lines:
+                self.write(line)
+            return
+        with self._cond:
+            if self.broken or self._closing:
+                return
+            self._footer = list(lines)
+            self._redraw = True
+            self._cond.notify()
+
     def close(self, timeout: float | None = 1.0) -> bool:
         """Write what waits (for at most ``timeout`` seconds, ``None``: until it is written) and stop the
         thread; whether everything was written."""
@@ -79,19 +101,28 @@ class LineWriter:
             with self._cond:
                 self._busy = False
                 self._cond.notify_all()
-                self._cond.wait_for(lambda: self._lines or self._closing)
-                if not self._lines:
+                self._cond.wait_for(lambda: self._lines or self._closing or self._redraw)
+                if not self._lines and not self._redraw:
+                    if self._shown:  # the status stays on the screen, the cursor goes below it
+                        self._write("\n")
                     return
                 lines = list(self._lines)
                 self._lines.clear()
+                footer, self._redraw = (self._footer if self.tty else []), False
                 dropped, self.dropped = self.dropped, 0
                 self._busy = True
             if dropped:
                 lines.append(
                     f"({dropped} lines not shown: the terminal did not take them; paused with Ctrl-S?)"
                 )
+            text = "".join(line + "\n" for line in lines)
+            if self.tty:  # wipe the status, write the lines, draw the status again below them
+                up = f"\x1b[{self._shown - 1}A" if self._shown > 1 else ""
+                wipe = f"\r{up}\x1b[J" if self._shown else ""
+                text = wipe + text + "\n".join(footer)
+                self._shown = len(footer)
             try:
-                self._write("".join(line + "\n" for line in lines))
+                self._write(text)
             except BrokenPipeError:
                 with self._cond:
                     self.broken = True

@@ -151,14 +151,14 @@ def test_rt_runs_at_real_time_priority_or_says_why_not(tmp_path):
     out = pointat("run", "--rt", "--plugins", tmp_path, patch, "--for", "0.5")
     assert out.returncode == 0, out.stderr
     granted = "--rt: real-time priority" not in out.stderr
-    assert ("policy: symbol fifo" if granted else "policy: symbol normal") in out.stdout, (
+    assert ("policy: fifo" if granted else "policy: normal") in out.stdout, (
         out.stdout,
         out.stderr,
     )
     if not granted:
         assert "running at normal priority" in out.stderr
     plain = pointat("run", "--plugins", tmp_path, patch, "--for", "0.5")
-    assert "policy: symbol normal" in plain.stdout, plain.stdout
+    assert "policy: normal" in plain.stdout, plain.stdout
 
 
 def test_spin_runs_a_patch_and_is_refused_with_rt_or_out_of_range():
@@ -207,7 +207,7 @@ def test_rt_keeps_the_cpus_out_of_deep_idle_while_it_runs_or_says_why_not(tmp_pa
     if "the CPUs may sleep deeply" in out.stderr:
         assert "not permitted" in out.stderr or "not available" in out.stderr, out.stderr
     else:
-        assert out.stdout.strip() == "qos: 0", (out.stdout, out.stderr)
+        assert "qos: 0" in out.stdout.splitlines(), (out.stdout, out.stderr)
         assert current() == before != 0  # let go when the patch ended
 
 

@@ -147,6 +147,7 @@ def test_a_print_prefix_of_words_is_written_as_words_and_reads_back_the_same(pre
     assert REG.get("print").resolve_params(back.node("p").args, back.node("p").params) == {
         "prefix": prefix,
         "time": time,
+        "decimals": 1,
     }
 
 

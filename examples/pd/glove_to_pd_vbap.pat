@@ -24,7 +24,7 @@ node ctl    osc_in port=9001
 node pd     osc_out profile=vbap host=127.0.0.1 port=9000 source=1 rate=50
 node spk    vbap layout=[0, 45, 90, 135, 180, -135, -90, -45]
 node slow   speedlim 500
-node show   print prefix="gains"
+node show   print prefix="gains" decimals=2
 
 glove.device -> base
 press -> tqt.reference

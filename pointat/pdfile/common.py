@@ -46,8 +46,10 @@ def _print_args(args: list[Any]) -> list[Any]:
 
     Pd's ``print`` joins all its atoms into its prefix, one space apart (``[print gyro nulls]`` prints
     ``gyro nulls: ...``), numbers as Pd shows them.  Two atoms of which the second is 0 or 1 are the
-    prefix and ``time``, the form pointat writes for ``time=true``.
+    prefix and ``time``, the form pointat writes for ``time=true``; three, the second 0 or 1 and the third
+    a whole number, are the prefix, ``time`` and ``decimals``.
     """
-    if len(args) < 2 or (len(args) == 2 and type(args[1]) is int and args[1] in (0, 1)):
+    timed = len(args) in (2, 3) and type(args[1]) is int and args[1] in (0, 1)
+    if len(args) < 2 or (timed and (len(args) == 2 or type(args[2]) is int)):
         return args
     return [" ".join(f"{a:g}" if isinstance(a, (int, float)) else str(a) for a in args)]

@@ -292,7 +292,7 @@ class _Reader:
             else:
                 box = self.add(canvas, rec, "node", str(cls))
                 if cls == "print":  # "a=b" is a word of Pd's print prefix, but "time=1" sets pointat's
-                    self.arguments(box, atoms[5:], rec.line, keys=("prefix", "time"))
+                    self.arguments(box, atoms[5:], rec.line, keys=("prefix", "time", "decimals"))
                     box.args = _print_args(box.args)
                 else:
                     self.arguments(box, atoms[5:], rec.line)

@@ -191,7 +191,12 @@ def _box(decl: NodeDecl, registry: Registry) -> _Out:
         for a in values["content"]:
             _warn_precision(decl.name, "msg", a)
         return _Out(decl, "msg", [_atom_text(a) for a in values["content"]], ins, outs)
-    if cls.type_name == "print" and not values["time"] and _plain_words(values["prefix"]):
+    if (
+        cls.type_name == "print"
+        and not values["time"]
+        and values["decimals"] == 1
+        and _plain_words(values["prefix"])
+    ):
         # as Pd reads it: [print gyro nulls] prints "gyro nulls: ...", and its box shows no escapes
         return _Out(decl, "obj", [decl.type, *values["prefix"].split(" ")], ins, outs)
     if cls.type_name in VANILLA:

@@ -173,6 +173,10 @@ def test_sigterm_and_sigint_stop_a_running_patch_cleanly(tmp_path):
             stderr=subprocess.PIPE,
             text=True,
         )
+        banner = [proc.stdout.readline()]  # what runs, ..., then how to stop it
+        while banner[-1] and banner[-1].strip() != "Ctrl-C stops.":
+            banner.append(proc.stdout.readline())
+        assert banner[0].startswith("pointat ") and banner[-1].strip() == "Ctrl-C stops.", banner
         line = proc.stdout.readline()  # it runs
         assert line.startswith("print: bang")
         proc.send_signal(sig)

@@ -45,7 +45,9 @@ class Listener:
             except BlockingIOError:
                 break
         self.sock.close()
-        return self.datagrams
+        # the directions; the heartbeats (/pointat/N/status) follow the clock, not the take
+        self.statuses = [d for d in self.datagrams if d.split(b"\0", 1)[0].endswith(b"/status")]
+        return [d for d in self.datagrams if not d.split(b"\0", 1)[0].endswith(b"/status")]
 
 
 def _run(patch: str, *sets: str, seconds: float | None = None) -> subprocess.CompletedProcess:

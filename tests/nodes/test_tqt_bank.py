@@ -258,6 +258,9 @@ def test_the_shipped_three_glove_patch_sends_three_sources_over_osc():
             got.setdefault(msg.address, []).append(tuple(msg.params))
         err = proc.stderr.read()
     assert proc.returncode == 0 and "ERROR" not in err and "WARNING" not in err, err
+    statuses = {a: got.pop(a) for a in list(got) if a.endswith("/status")}  # the heartbeats
+    assert sorted(statuses) == ["/pointat/1/status", "/pointat/2/status", "/pointat/3/status"]
+    assert all(v[-1][0] == "ok" for v in statuses.values()), statuses
     assert sorted(got) == ["/pointat/1/aed", "/pointat/2/aed", "/pointat/3/aed"]
     counts = [len(v) for v in got.values()]
     assert min(counts) > 150, counts  # 100 Hz for 4 s, less the 1.5 s of gyro nulls

@@ -190,6 +190,11 @@ class TQTFilter(_TQTParams):
         return (self._s[b], self._s[b + 1], self._s[b + 2])
 
     @property
+    def bias_seconds(self) -> float:
+        """Seconds of rest the bias estimate has taken in so far (robust mode)."""
+        return self._s[step.S_BIAS_T]
+
+    @property
     def magnetic_dip(self) -> float | None:
         """Dip reference in radians (``None`` until learned)."""
         if self.dip is None and not self._s[step.S_MAG_KNOWN]:

@@ -1,0 +1,111 @@
+"""What ``pointat run`` tells a performer: a banner (what the patch is, where its data comes from and goes
+to), a status line per glove while it runs, and a summary at the end.  Words only, from a built runtime;
+the console's writer (:mod:`pointat.terminal`) puts them on the screen."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from . import __version__
+
+__all__ = ["about", "banner", "describe"]
+
+
+def about(path: str | os.PathLike[str]) -> str:
+    """A patch's first comment sentence or line: what it is.
+
+    >>> import tempfile
+    >>> with tempfile.NamedTemporaryFile("w", suffix=".pat", delete=False) as f:
+    ...     _ = f.write("# The Pointing-at glove.\\n# More.\\nnode a metro\\n")
+    >>> about(f.name)
+    'The Pointing-at glove.'
+    """
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return ""
+    for line in head.splitlines():
+        text = line.strip()
+        if text.startswith("#N ") or text.startswith("#X "):  # a Pd file: no comment of ours
+            return ""
+        if not text:
+            continue
+        if not text.startswith("#"):
+            return ""
+        text = text.lstrip("#").strip()
+        if text:
+            return text
+    return ""
+
+
+def _p(node: Any, name: str, default: Any = None) -> Any:
+    return getattr(node.p, name, default)
+
+
+def describe(node: Any) -> str:
+    """One node as a performer would name it: what it reads or where it sends."""
+    t = node.type_name
+    label = f"{t} '{node.name}'"
+    if t == "simulate":
+        out = _p(node, "output")
+        return f"{label}: the simulated glove, {_p(node, 'rate'):g} Hz" + (
+            " (through a pseudo-terminal, as a real base station)" if out == "pty" else ""
+        )
+    if t == "simulate_body":
+        return f"{label}: a simulated body, {_p(node, 'rate'):g} Hz"
+    if t == "mote":
+        device = _p(node, "device") or "the simulated glove's pseudo-terminal"
+        return f"{label}: base station on {device}, motes {list(_p(node, 'ids', ()))}"
+    if t == "replay":
+        speed = _p(node, "speed")
+        pace = "as fast as it can" if speed == 0 else f"at {speed:g}x"
+        return f"{label}: plays {_p(node, 'file')} {pace}"
+    if t == "osc_in":
+        what = (
+            "live control"
+            if _p(node, "device") == "none" and not _p(node, "map")
+            else f"{_p(node, 'device')}"
+        )
+        port = _p(node, "port") or "a free port"
+        control = " /pointat/NODE/PARAM value" if _p(node, "control") else ""
+        return f"{label}: OSC on {_p(node, 'host')}:{port} ({what}{':' + control if control else ''})"
+    if t == "osc_out":
+        dests = ", ".join(f"{d.host}:{d.port}" for d in getattr(node, "dests", ()))
+        return f"{label}: OSC to {dests}, profile {_p(node, 'profile')}"
+    if t == "osc_body":
+        return f"{label}: OSC skeleton to {_p(node, 'host')}:{_p(node, 'port')}"
+    if t in ("record", "bvh_record"):
+        return f"{label}: records into {_p(node, 'file')}"
+    if t in ("midi_out", "midi_in"):
+        return f"{label}: MIDI port {_p(node, 'port') or '(the first)'}"
+    if t == "calibrate":
+        return (
+            f"{label}: calibration, writes {_p(node, 'file')} (steps by OSC: /pointat/{node.name}/rest ...)"
+        )
+    return label
+
+
+_INPUTS = ("simulate", "simulate_body", "mote", "replay", "osc_in", "midi_in")
+_OUTPUTS = ("osc_out", "osc_body", "record", "bvh_record", "midi_out", "calibrate")
+
+
+def banner(rt: Any, patch: str, *, monitor: Any = None, presets: Any = None) -> list[str]:
+    """The lines ``pointat run`` starts with."""
+    name = Path(patch).stem
+    what = about(patch)
+    lines = [f"pointat {__version__} · {name}" + (f": {what}" if what else "")]
+    for label, types in (("in ", _INPUTS), ("out", _OUTPUTS)):
+        for node in rt.nodes.values():
+            if node.type_name in types:
+                lines.append(f"  {label}  {describe(node)}")
+    if monitor is not None:
+        lines.append(
+            f"  monitor  {monitor.url}  (OSCQuery on the same port; OSC control on {monitor.osc_port}/udp)"
+        )
+    if presets is not None:
+        lines.append(f"  presets  {presets.path}  (/pointat/preset/save NAME, /pointat/preset/recall NAME)")
+    lines.append("  Ctrl-C stops.")
+    return lines

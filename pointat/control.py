@@ -1,0 +1,74 @@
+"""Live control by address: ``/pointat/NODE/PARAM value``, ``/pointat/NODE/METHOD args``, ``/pointat/NODE
+values`` and ``/pointat/preset/save NAME`` / ``recall NAME``.  One function for every way in (``osc_in``,
+the OSCQuery server's OSC port and WebSocket), run on the scheduler thread.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .errors import did_you_mean
+from .message import make
+
+__all__ = ["PREFIX", "control"]
+
+PREFIX = "/pointat/"
+
+
+def control(rt: Any, address: str, args: list[Any], time: float) -> str | None:
+    """Carry out one live-control message on ``rt`` (scheduler thread); ``None`` when done, else why it
+    was refused.  ``address`` starts with :data:`PREFIX`; NODE may be an abstraction's inner node
+    (``left/dir``)."""
+    # OSC's floats are float32: 0.2 arrives as 0.20000000298...; a setting means the 0.2 that was typed
+    args = [float(f"{a:.7g}") if type(a) is float else a for a in args]
+    rest = address[len(PREFIX) :]
+    if rest.startswith("preset/") and "preset" not in rt.nodes:
+        return _preset(rt, rest[len("preset/") :], args)
+    name, selector = rest, None
+    if rest not in rt.nodes:  # not values for a node's left inlet: /pointat/NODE/SELECTOR
+        name, _, selector = rest.rpartition("/")
+        if name not in rt.nodes or not selector:
+            why = (
+                f"no parameter or method after node '{name}'"
+                if name in rt.nodes
+                else f"no node '{name or rest}'" + did_you_mean(name or rest, rt.nodes)
+            )
+            return why + "; expected /pointat/NODE/PARAM value or /pointat/NODE/METHOD"
+    node = rt.nodes[name]
+    if selector is None and not node.in_specs:
+        return (
+            f"node '{name}' has no inlets to take values; send /pointat/{name}/PARAM value or "
+            f"/pointat/{name}/METHOD"
+        )
+    handler = node._handlers[0] if selector is None else getattr(node, "do_" + selector, None)
+    if args and getattr(handler, "names_path", False):  # the rule: live control names no path
+        return (
+            f"node '{name}': live control names no files or devices (the patch does): send "
+            f"/pointat/{name}/{selector or ''} with no arguments"
+            if selector
+            else f"node '{name}': live control names no files or devices (the patch does)"
+        )
+    try:  # on the scheduler thread already: straight to the node, nothing queued or lost
+        if selector is None:
+            msg = make(None if not args else args[0] if len(args) == 1 else tuple(args))
+        else:
+            msg = rt.message(selector, *args)
+        node.receive(0, msg._replace(time=time))
+    except Exception as exc:  # a blob where a number belongs, an unknown method, a refused value
+        return f"node '{name}': {exc}"
+    return None
+
+
+def _preset(rt: Any, verb: str, args: list[Any]) -> str | None:
+    presets = getattr(rt, "presets", None)
+    if presets is None:
+        return "presets are kept for a patch run from a file (pointat run PATCH)"
+    if verb not in ("save", "recall", "delete") or len(args) != 1 or not isinstance(args[0], (str, int)):
+        return (
+            "expected /pointat/preset/save NAME, /pointat/preset/recall NAME or /pointat/preset/delete NAME"
+        )
+    try:
+        getattr(presets, verb)(str(args[0]))
+    except (KeyError, ValueError, OSError) as exc:
+        return f"preset {verb} {args[0]}: {exc}"
+    return None

@@ -1,0 +1,406 @@
+"""What a running patch is doing, told to people: the console's status lines, the monitor page, OSCQuery.
+
+An :class:`Observer` watches a built :class:`~pointat.runtime.Runtime` from a thread of its own:
+
+* **Sensor streams**: every wired outlet of a source that carries one sample per message (a node
+  class's :attr:`~pointat.node.Node.sample_outlets`: a ``mote``'s ``m1``, a ``replay``'s ``gyro``...).
+  A tap on it counts the samples and notes when the last came: the rate, and a *dropout* when none came
+  for :attr:`Observer.DROPOUT` seconds (or five sample periods, whichever is longer).
+* **Pointers**: every ``osc_out``: the direction it last sent (azimuth, elevation, distance), read from
+  the node, never fed.
+* **Flags**: every ``flags`` outlet is tapped: the filter's state as it changes (``mag_disturbed``,
+  ``acc_saturated``...), with when it changed.
+* **Health**: what each node's :meth:`~pointat.node.Node.health` says (a filter's rest and bias
+  learning, a mote's lost packets, a calibration's step, an ``osc_out``'s refused datagrams).
+* **Loudspeakers**: the layout of the patch's first ``vbap`` node, else the one given (``pointat run
+  --layout``), else a ring of eight; the VBAP gains of each pointer's direction are worked out here.
+
+The scheduler pays one call per sample and per flag for the taps (a counter and a clock read); every
+other reading, the history of the last :attr:`Observer.HISTORY` seconds and the gains are the observer
+thread's, :attr:`Observer.RATE` times a second.  A reading that races the scheduler (a direction being
+written) is at most one sample old.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import re
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .maths.vbap import Layout, make_layout, vbap_gains
+from .message import Message
+from .node import Inlet, Node
+
+__all__ = ["Observer", "fmt_direction"]
+
+log = logging.getLogger("pointat.observe")
+
+
+class _Tap(Node):
+    """A listener on an outlet: not a node of the patch (not in ``rt.nodes``), only a call per message."""
+
+    type_name = "tap"
+    inlets = (Inlet("in", ("any",), "any message"),)
+
+    def __init__(self, fn: Callable[[Message], None]):
+        super().__init__("(observer)")
+        self._fn = fn
+
+    def on_in(self, msg: Message) -> None:
+        self._fn(msg)
+
+
+def tap(node: Node, outlet: int, fn: Callable[[Message], None]) -> None:
+    """Call ``fn(msg)`` for every message ``node`` sends from ``outlet`` (after its wired targets)."""
+    node._targets[outlet].append((_Tap(fn), 0))
+
+
+@dataclass
+class Stream:
+    """One sensor stream: a source node's sample outlet."""
+
+    node: Node
+    outlet: str
+    index: int
+    count: int = 0
+    last: float = -math.inf  # time.monotonic() of the last sample
+    rate: float = 0.0  # samples per second over the last second
+    nominal: float = 0.0  # the node's rate parameter, when it has one
+    dropouts: int = 0
+    down_since: float | None = None
+    down_total: float = 0.0
+    _marks: deque = field(default_factory=lambda: deque(maxlen=64))
+
+    @property
+    def key(self) -> str:
+        return f"{self.node.name}.{self.outlet}"
+
+    def hit(self, _msg: Message) -> None:  # the scheduler's one call per sample
+        self.count += 1
+        self.last = time.monotonic()
+
+
+@dataclass
+class Pointer:
+    """One ``osc_out``: where it points, and its recent past."""
+
+    node: Node
+    history: deque = field(default_factory=deque)  # (t, az, el, dist)
+
+
+def fmt_direction(az: float, el: float, dist: float | None = None) -> str:
+    """A direction as a person reads it: degrees to 0.1, distance to 1 (the gesture's 0 far .. 90 near).
+
+    >>> fmt_direction(23.456, -1.04, 12.7)
+    'az 23.5°  el -1.0°  dist 13'
+    """
+    text = f"az {az:5.1f}°  el {el:4.1f}°"
+    return text if dist is None else f"{text}  dist {dist:.0f}"
+
+
+#: Flag words a filter sends, in the order the state line prefers them (the first one up is shown).
+FLAG_ORDER = ("bad_gyro", "bad_accmag", "gyro_saturated", "acc_saturated", "mag_disturbed", "shaking")
+
+
+class Observer:
+    """Watches a runtime for people (console, monitor, OSCQuery).  :meth:`attach` before the runtime
+    starts, :meth:`start` the thread, :meth:`stop` at the end; :meth:`snapshot` any time."""
+
+    #: Readings a second taken by the thread (directions, rates, health).
+    RATE = 25.0
+    #: Seconds of history kept for the plots.
+    HISTORY = 10.0
+    #: A stream with no sample for this long (or five of its periods, whichever is longer) is down.
+    DROPOUT = 0.25
+
+    def __init__(self, rt: Any, *, layout: Layout | None = None, patch: str = "", about: str = ""):
+        self.rt = rt
+        self.patch = patch
+        self.about = about
+        self.streams: list[Stream] = []
+        self.pointers: list[Pointer] = []
+        self.flags: dict[str, list[Any]] = {}  # node name -> [word, since (monotonic), changes]
+        self.flag_log: deque = deque(maxlen=200)  # (monotonic, node, word)
+        self.layout, self.layout_from = self._layout(layout)
+        self.started = time.monotonic()
+        self._snapshot: dict[str, Any] = {}
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._listeners: list[Callable[[dict[str, Any]], None]] = []
+        self._marks: deque = deque()  # (monotonic, {stream key: count}) for the rates
+        self.accel: dict[str, list[Any]] = {}  # outlet -> [the last acceleration vector]
+        self.accel_history: dict[str, deque] = {}
+
+    # -- setting up --------------------------------------------------------------------------------
+    def _layout(self, given: Layout | None) -> tuple[Layout, str]:
+        for node in self.rt.nodes.values():
+            if node.type_name == "vbap" and getattr(node, "layout", None) is not None:
+                return node.layout, f"vbap '{node.name}'"
+        if given is not None:
+            return given, "--layout"
+        return make_layout(
+            [0, 45, 90, 135, 180, -135, -90, -45]
+        ), "a ring of eight (no vbap node, no --layout)"
+
+    def attach(self) -> Observer:
+        """Find the streams, pointers and flags of the runtime and tap them (before it starts)."""
+        for node in self.rt.nodes.values():
+            pattern = type(node).sample_outlets
+            for i, spec in enumerate(node.out_specs):
+                if not node._targets[i]:
+                    continue  # not wired: not used by this patch
+                if pattern and re.fullmatch(pattern, spec.name):
+                    nominal = getattr(node.p, "rate", 0.0) if hasattr(node.p, "rate") else 0.0
+                    stream = Stream(node, spec.name, i, nominal=float(nominal or 0.0))
+                    self.streams.append(stream)
+                    tap(node, i, stream.hit)
+                elif spec.name == "flags" and spec.kind == "symbol":
+                    self.flags[node.name] = ["ok", time.monotonic(), 0]
+                    tap(node, i, self._flag_tap(node.name))
+                if spec.name == "accel" and spec.kind == "vector" and len(self.accel) < 4:
+                    if node._targets[i] and type(node).sample_outlets == "":
+                        self.accel[f"{node.name}.accel"] = box = [None]
+                        self.accel_history[f"{node.name}.accel"] = deque()
+                        tap(node, i, _keep(box))
+            if node.type_name == "osc_out":
+                self.pointers.append(Pointer(node))
+        return self
+
+    def _flag_tap(self, name: str) -> Callable[[Message], None]:
+        state = self.flags[name]
+
+        def flag(msg: Message) -> None:
+            word = str(msg.value)
+            state[0], state[1] = word, time.monotonic()
+            state[2] += 1
+            self.flag_log.append((state[1], name, word))
+
+        return flag
+
+    def listen(self, fn: Callable[[dict[str, Any]], None]) -> None:
+        """Call ``fn(snapshot)`` from the observer's thread after each reading."""
+        self._listeners.append(fn)
+
+    def start(self) -> None:
+        self.started = time.monotonic()
+        self._thread = threading.Thread(target=self._run, name="pointat-observer", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(2.0)
+
+    def _run(self) -> None:
+        period = 1.0 / self.RATE
+        next_at = time.monotonic()
+        while not self._stop.is_set():
+            try:
+                snap = self.read()
+                for fn in list(self._listeners):
+                    fn(snap)
+            except Exception:  # the observer must never take the patch down
+                log.exception("observer: a reading failed")
+            next_at += period
+            self._stop.wait(max(0.0, next_at - time.monotonic()))
+            next_at = max(next_at, time.monotonic() - period)
+
+    # -- reading -----------------------------------------------------------------------------------
+    def read(self) -> dict[str, Any]:
+        """Take one reading now (the thread does this :attr:`RATE` times a second)."""
+        now = time.monotonic()
+        counts = {s.key: s.count for s in self.streams}
+        self._marks.append((now, counts))
+        while len(self._marks) > 2 and now - self._marks[1][0] >= 1.0:
+            self._marks.popleft()
+        then, before = self._marks[0]
+        span = now - then
+        streams = []
+        for s in self.streams:
+            if span > 0.2:
+                s.rate = (s.count - before.get(s.key, 0)) / span
+            period = 1.0 / s.nominal if s.nominal > 0 else 0.0
+            late = now - s.last
+            down = s.count > 0 and late > max(self.DROPOUT, 5.0 * period)
+            waiting = s.count == 0 and getattr(s.node, "active", True)
+            if down and s.down_since is None:
+                s.down_since = s.last
+                s.dropouts += 1
+            elif not down and s.down_since is not None:
+                s.down_total += s.last - s.down_since
+                s.down_since = None
+            health = _health(s.node)
+            streams.append(
+                {
+                    "name": s.key,
+                    "node": s.node.name,
+                    "type": s.node.type_name,
+                    "state": "waiting" if waiting else "dropout" if down else "ok",
+                    "rate": round(s.rate, 1),
+                    "nominal": s.nominal,
+                    "samples": s.count,
+                    "dropouts": s.dropouts,
+                    "silent_s": round(late, 2) if down else 0.0,
+                    **health,
+                }
+            )
+        flags = {}
+        for name, (word, since, changes) in self.flags.items():
+            node = self.rt.nodes.get(name)
+            flags[name] = {
+                "flag": word,
+                "for_s": round(now - since, 1),
+                "changes": changes,
+                **(_health(node) if node is not None else {}),
+            }
+        pointers = []
+        for p in self.pointers:
+            az, el, dist, _spread = (float(v) for v in p.node.state)
+            updates = getattr(p.node, "updates", 0)
+            p.history.append((round(now - self.started, 3), round(az, 2), round(el, 2), round(dist, 2)))
+            while p.history and p.history[-1][0] - p.history[0][0] > self.HISTORY:
+                p.history.popleft()
+            gains = vbap_gains(self.layout, az, el) if updates else np.zeros(self.layout.n)
+            pointers.append(
+                {
+                    "name": p.node.name,
+                    "profile": p.node.p.profile,
+                    "to": _destinations(p.node),
+                    "azimuth": round(az, 1),
+                    "elevation": round(el, 1),
+                    "distance": round(dist, 1),
+                    "updates": updates,
+                    "gains": [round(float(g), 3) for g in gains],
+                    **_health(p.node),
+                }
+            )
+        t = round(now - self.started, 3)
+        accel = {}
+        for key, (value,) in self.accel.items():
+            if value is not None:
+                g = float(np.linalg.norm(np.asarray(value, dtype=float)[:3])) / _G
+                accel[key] = round(g, 3)
+                h = self.accel_history[key]
+                h.append((t, accel[key]))
+                while h and t - h[0][0] > self.HISTORY:
+                    h.popleft()
+        seen = {s.node.name for s in self.streams} | set(self.flags) | {p.node.name for p in self.pointers}
+        others = []
+        for name, node in self.rt.nodes.items():
+            if name not in seen and type(node).health is not Node.health:
+                h = _health(node)
+                if h:
+                    others.append({"name": name, "text": ", ".join(f"{k} {v}" for k, v in h.items())})
+        snap = {
+            "patch": self.patch,
+            "about": self.about,
+            "t": round(now - self.started, 3),
+            "layout": {
+                "from": self.layout_from,
+                "dim": self.layout.dim,
+                "azimuths": [float(a) for a in self.layout.azimuths],
+                "elevations": [float(e) for e in self.layout.elevations],
+            },
+            "streams": streams,
+            "flags": flags,
+            "pointers": pointers,
+            "history": {p.node.name: list(p.history) for p in self.pointers},
+            "accel": accel,
+            "accel_history": {k: list(h) for k, h in self.accel_history.items()},
+            "nodes": others,
+            "events": [
+                [round(t - self.started, 2), name, word] for t, name, word in list(self.flag_log)[-20:]
+            ],
+        }
+        with self._lock:
+            self._snapshot = snap
+        return snap
+
+    def snapshot(self) -> dict[str, Any]:
+        """The latest reading (taken now when the thread has not run yet)."""
+        with self._lock:
+            snap = self._snapshot
+        return snap or self.read()
+
+    # -- words for the console ---------------------------------------------------------------------
+    def status_lines(self) -> list[str]:
+        """One line per pointer and per sensor stream, for the console's status line."""
+        snap = self.read()
+        lines = []
+        worst = _worst_flag(snap["flags"])
+        for p in snap["pointers"]:
+            sent = f"{p['updates']} sent" + (f", {p['refused']} refused" if p.get("refused") else "")
+            lines.append(
+                f"{p['name']}: {fmt_direction(p['azimuth'], p['elevation'], p['distance'])}  ({sent})"
+                + (f"  [{worst}]" if worst else "")
+            )
+        for s in snap["streams"]:
+            state = {"ok": "ok", "waiting": "waiting", "dropout": f"NO DATA for {s['silent_s']:.1f} s"}[
+                s["state"]
+            ]
+            lost = f", {s['lost']} lost" if s.get("lost") else ""
+            lines.append(f"{s['name']}: {state}, {s['rate']:.0f} Hz{lost}")
+        return lines
+
+    def summary(self) -> list[str]:
+        """What happened, for the end of a run."""
+        snap = self.read()
+        took = time.monotonic() - self.started
+        lines = [f"ran {took:.1f} s"]
+        for s in self.streams:
+            mean = s.count / took if took > 0 else 0.0
+            down = s.down_total + (time.monotonic() - s.down_since if s.down_since is not None else 0.0)
+            extra = _health(s.node)
+            lines.append(
+                f"{s.key}: {s.count} samples ({mean:.1f} Hz on average)"
+                + (f", {extra['lost']} lost" if extra.get("lost") else "")
+                + (f", {s.dropouts} dropouts ({down:.1f} s without data)" if s.dropouts else ", no dropout")
+            )
+        for p in snap["pointers"]:
+            lines.append(
+                f"{p['name']}: {p['updates']} updates sent to {', '.join(p['to'])}"
+                + (f", {p['refused']} refused (nobody listening)" if p.get("refused") else "")
+            )
+        for name, (word, _since, changes) in self.flags.items():
+            seen = sorted({w for _t, n, w in self.flag_log if n == name and w != "ok"})
+            if seen:
+                lines.append(f"{name}: flagged {', '.join(seen)} ({changes} changes), now {word}")
+        return lines
+
+
+_G = 9.80665
+
+
+def _keep(box: list[Any]) -> Callable[[Message], None]:
+    def keep(msg: Message) -> None:
+        box[0] = msg.value
+
+    return keep
+
+
+def _health(node: Node) -> dict[str, Any]:
+    try:
+        return dict(node.health())
+    except Exception:  # read from another thread while the node changes: next time
+        return {}
+
+
+def _destinations(node: Node) -> list[str]:
+    return [f"{d.host}:{d.port}" for d in getattr(node, "dests", ())]
+
+
+def _worst_flag(flags: dict[str, dict[str, Any]]) -> str:
+    up = {f["flag"] for f in flags.values() if f["flag"] != "ok"}
+    for word in FLAG_ORDER:
+        if any(word in u for u in up):
+            return word
+    return sorted(up)[0] if up else ""

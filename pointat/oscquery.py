@@ -1,0 +1,210 @@
+"""A running patch's OSC address space as OSCQuery describes it (Vidvox's OSCQuery proposal).
+
+Every node's live parameters (``/pointat/NODE/PARAM``, with TYPE, VALUE, RANGE, UNIT, DESCRIPTION and
+ACCESS read-write) and methods (``/pointat/NODE/METHOD``, write-only); each ``osc_out``'s direction as
+it was last sent (``/pointat/NODE/aed``, read-only); the presets (``/pointat/preset/save`` and
+``recall``).  The addresses are the ones ``osc_in`` takes for live control, so a value set through
+OSCQuery is set exactly as ``pointat send`` would set it (:func:`pointat.control.control`).
+
+Plain functions of a runtime and an observer; the server (:mod:`pointat.webserver`) serves them.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from typing import Any
+
+import numpy as np
+
+from .control import PREFIX
+
+__all__ = ["EXTENSIONS", "address_space", "find", "value_of"]
+
+#: What the server implements of the proposal's optional parts (HOST_INFO's EXTENSIONS).
+EXTENSIONS = {
+    "ACCESS": True,
+    "VALUE": True,
+    "RANGE": True,
+    "DESCRIPTION": True,
+    "UNIT": True,
+    "TAGS": False,
+    "CLIPMODE": False,
+    "CRITICAL": False,
+    "EXTENDED_TYPE": False,
+    "HTML": False,
+    "LISTEN": True,
+    "PATH_CHANGED": False,
+    "PATH_ADDED": False,
+    "PATH_REMOVED": False,
+    "PATH_RENAMED": False,
+}
+
+#: pointat's units as OSCQuery's UNIT names (libossia's), where one fits; others are given as they are.
+UNITS = {
+    "deg": "angle.degree",
+    "rad": "angle.radian",
+    "s": "time.second",
+    "ms": "time.millisecond",
+    "Hz": "time.hz",
+    "m": "distance.m",
+    "cm": "distance.cm",
+}
+
+_TYPES = {"float": "f", "int": "i", "bool": "T", "symbol": "s"}
+_ACCESS_READ, _ACCESS_WRITE, _ACCESS_RW = 1, 2, 3
+
+
+def _param_leaf(path: str, node: Any, p: Any) -> dict[str, Any] | None:
+    if p.type in _TYPES:
+        tag = _TYPES[p.type]
+    elif p.type == "vector" and p.size:
+        tag = "f" * p.size
+    else:
+        return None  # a list or a path: not something a fader sets
+    leaf: dict[str, Any] = {
+        "FULL_PATH": path,
+        "TYPE": tag,
+        "ACCESS": _ACCESS_RW,
+        "DESCRIPTION": p.doc,
+        "VALUE": _value(getattr(node.p, p.name), tag),
+    }
+    if p.unit:
+        leaf["UNIT"] = [UNITS.get(p.unit, p.unit)] * len(tag)
+    if p.choices:
+        leaf["RANGE"] = [{"VALS": list(p.choices)}]
+    elif p.minimum is not None or p.maximum is not None or p.above is not None:
+        low = p.minimum if p.minimum is not None else p.above
+        rng = {k: v for k, v in (("MIN", low), ("MAX", p.maximum)) if v is not None}
+        leaf["RANGE"] = [rng] * len(tag)
+    return leaf
+
+
+def _value(value: Any, tag: str) -> list[Any]:
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    values = list(value) if isinstance(value, (list, tuple)) else [value]
+    out = []
+    for v in values:
+        if isinstance(v, float) and not math.isfinite(v):
+            out.append(None)
+        elif isinstance(v, np.generic):
+            out.append(v.item())
+        else:
+            out.append(v)
+    return out if len(out) == len(tag) else out[: len(tag)]
+
+
+def _method_leaf(path: str, fn: Any) -> dict[str, Any]:
+    params = [
+        p
+        for p in inspect.signature(fn).parameters.values()
+        if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)
+    ]
+    tag = "".join(_TYPES.get(_annotation(p), "s") for p in params) or "N"
+    doc = inspect.getdoc(fn) or ""
+    return {"FULL_PATH": path, "TYPE": tag, "ACCESS": _ACCESS_WRITE, "DESCRIPTION": doc.split("\n\n")[0]}
+
+
+def _annotation(p: inspect.Parameter) -> str:
+    a = p.annotation
+    name = a if isinstance(a, str) else getattr(a, "__name__", "")
+    return {"float": "float", "int": "int", "bool": "bool", "str": "symbol"}.get(
+        name.split("|")[0].strip(), "symbol"
+    )
+
+
+def _container(path: str, description: str = "") -> dict[str, Any]:
+    node: dict[str, Any] = {"FULL_PATH": path, "CONTENTS": {}}
+    if description:
+        node["DESCRIPTION"] = description
+    return node
+
+
+def _place(root: dict[str, Any], path: str, leaf: dict[str, Any]) -> None:
+    parts = [p for p in path.split("/") if p]
+    here = root
+    for i, part in enumerate(parts[:-1]):
+        contents = here.setdefault("CONTENTS", {})
+        here = contents.setdefault(part, _container("/" + "/".join(parts[: i + 1])))
+    here.setdefault("CONTENTS", {})[parts[-1]] = {**here.get("CONTENTS", {}).get(parts[-1], {}), **leaf}
+
+
+def address_space(rt: Any, observer: Any = None, description: str = "") -> dict[str, Any]:
+    """The whole tree, as the root's JSON (``GET /``)."""
+    root = _container("/", description or "pointat: a running patch's live parameters and methods")
+    for name, node in rt.nodes.items():
+        base = PREFIX + name
+        _place(
+            root,
+            base,
+            {"DESCRIPTION": f"{node.type_name}: {(type(node).__doc__ or '').strip().splitlines()[0]}"},
+        )
+        for p in type(node).params:
+            if p.live:
+                leaf = _param_leaf(f"{base}/{p.name}", node, p)
+                if leaf is not None:
+                    _place(root, leaf["FULL_PATH"], leaf)
+        for attr in dir(type(node)):
+            if attr.startswith("do_") and callable(getattr(node, attr, None)):
+                fn = getattr(node, attr)
+                _place(root, f"{base}/{attr[3:]}", _method_leaf(f"{base}/{attr[3:]}", fn))
+        if node.type_name == "osc_out":
+            state = [float(v) for v in node.state[:3]]
+            _place(
+                root,
+                f"{base}/aed",
+                {
+                    "FULL_PATH": f"{base}/aed",
+                    "TYPE": "fff",
+                    "ACCESS": _ACCESS_READ,
+                    "VALUE": state,
+                    "UNIT": ["angle.degree", "angle.degree", ""],
+                    "DESCRIPTION": "the direction last sent: azimuth (+ left), elevation (+ up), distance (0 far .. 90 near)",
+                },
+            )
+    presets = getattr(rt, "presets", None)
+    if presets is not None and "preset" not in rt.nodes:
+        names = presets.names()
+        for verb, doc in (
+            ("save", "save every live parameter as the named preset"),
+            ("recall", "set the live parameters of the named preset"),
+            ("delete", "forget the named preset"),
+        ):
+            leaf = {
+                "FULL_PATH": f"{PREFIX}preset/{verb}",
+                "TYPE": "s",
+                "ACCESS": _ACCESS_WRITE,
+                "DESCRIPTION": doc,
+            }
+            if verb != "save" and names:
+                leaf["RANGE"] = [{"VALS": names}]
+            _place(root, leaf["FULL_PATH"], leaf)
+    return root
+
+
+def find(tree: dict[str, Any], path: str) -> dict[str, Any] | None:
+    """The node at ``path`` in ``tree`` (``/`` is the root), or None."""
+    here = tree
+    for part in (p for p in path.split("/") if p):
+        here = here.get("CONTENTS", {}).get(part)
+        if here is None:
+            return None
+    return here
+
+
+def value_of(rt: Any, path: str) -> list[Any] | None:
+    """A readable address's value now (a live parameter, an ``osc_out``'s ``aed``), or None."""
+    if not path.startswith(PREFIX):
+        return None
+    name, _, leaf = path[len(PREFIX) :].rpartition("/")
+    node = rt.nodes.get(name)
+    if node is None:
+        return None
+    if leaf == "aed" and node.type_name == "osc_out":
+        return [float(v) for v in node.state[:3]]
+    p = type(node).param(leaf)
+    if p is None or not p.live:
+        return None
+    tag = _TYPES.get(p.type, "f" * (p.size or 0))
+    return _value(getattr(node.p, leaf), tag) if tag else None
