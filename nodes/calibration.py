@@ -460,6 +460,17 @@ class Calibrate(Node):
         # the gyro's sensitivity matrix), for its misalignment once all three are there
         self._columns: dict[int, np.ndarray] = {}
 
+    def health(self) -> dict[str, Any]:
+        """The step under way, or what the next could be, for the console and the monitor."""
+        if self._collect is not None:
+            return {"step": f"{self._collect}: {len(self._buf)} samples"}
+        done = ["gyro nulls"] if self._rested else []
+        done += [f"{len(self.poses)} poses"] if self.poses else []
+        return {
+            "step": f"waiting for a step (/pointat/{self.name}/rest, pose, mag_begin, turn_begin, save)",
+            "done": ", ".join(done) or "nothing yet",
+        }
+
     def loadbang(self) -> None:
         """Start from the calibration already in ``file``: a step taken again replaces its part, and
         ``save`` keeps the rest (redoing the gyro nulls the next day must not wipe the accelerometer's)."""

@@ -7,6 +7,7 @@ see :mod:`pointat.devices.mote_frame`), time-stamped with the sensor's time.
 from __future__ import annotations
 
 import logging
+import math
 import os
 import time
 from collections.abc import Mapping
@@ -603,13 +604,33 @@ glove -> nulls -> cal
             self.time = self.now
             self.out(2, self.p.link or self._pty.device_path)
 
+    def do_dropout(self, seconds: float = 1.0) -> None:
+        """Go silent for ``seconds``, as a glove out of radio range: the samples of that time are lost
+        (the pseudo-terminal gets no frames), then the glove is back where its script has got to."""
+        seconds = float(seconds)
+        if not 0.0 < seconds <= 3600.0:
+            raise ValueError(f"dropout takes 0 < seconds <= 3600, got {seconds}")
+        if self._pty is not None:
+            self._pty.stop()
+        self._silent_until = self.now + seconds
+        self.call_later(seconds, self._back)
+
+    def _back(self) -> None:
+        if self._pty is not None and self.active:
+            self._pty.skip(self._k - self._pty.index)  # to the sample the script is at now
+            self._pty.start()
+
     def finish(self, t: float) -> None:
         if self._pty is not None:  # its reader is done too, before the pseudo-terminal goes
             self.out(2, method("close", time=t))
 
+    _silent_until = -math.inf
+
     def sample(self, k: int, t: float) -> None:
         if self._pty is not None:
             self.out(1, vector(self.sim.truth(k).q, t))
+            return
+        if t < self._silent_until:  # a dropout: nothing arrives
             return
         s = self.sim.sample(k)
         self.out(1, vector(s.q, t))

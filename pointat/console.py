@@ -14,31 +14,34 @@ __all__ = ["about", "banner", "describe"]
 
 
 def about(path: str | os.PathLike[str]) -> str:
-    """A patch's first comment sentence or line: what it is.
+    """What a patch is: the first sentence of its opening comment.
 
     >>> import tempfile
     >>> with tempfile.NamedTemporaryFile("w", suffix=".pat", delete=False) as f:
-    ...     _ = f.write("# The Pointing-at glove.\\n# More.\\nnode a metro\\n")
+    ...     _ = f.write("# The Pointing-at glove, with\n# its filter. More.\nnode a metro\n")
     >>> about(f.name)
-    'The Pointing-at glove.'
+    'The Pointing-at glove, with its filter.'
     """
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
             head = fh.read(4096)
     except OSError:
         return ""
+    words: list[str] = []
     for line in head.splitlines():
         text = line.strip()
-        if text.startswith("#N ") or text.startswith("#X "):  # a Pd file: no comment of ours
-            return ""
-        if not text:
-            continue
-        if not text.startswith("#"):
-            return ""
+        if not text.startswith("#") or text.startswith(("#N ", "#X ")):  # code, or a Pd file
+            break
         text = text.lstrip("#").strip()
-        if text:
-            return text
-    return ""
+        if not text:
+            if words:
+                break
+            continue
+        words.append(text)
+    paragraph = " ".join(words)
+    end = paragraph.find(". ")
+    sentence = paragraph if end < 0 else paragraph[: end + 1]
+    return sentence if len(sentence) <= 200 else sentence[:199] + "…"
 
 
 def _p(node: Any, name: str, default: Any = None) -> Any:

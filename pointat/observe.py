@@ -299,7 +299,9 @@ class Observer:
             if name not in seen and type(node).health is not Node.health:
                 h = _health(node)
                 if h:
-                    others.append({"name": name, "text": ", ".join(f"{k} {v}" for k, v in h.items())})
+                    others.append(
+                        {"name": name, "text": ", ".join(f"{k.replace('_', ' ')}: {v}" for k, v in h.items())}
+                    )
         snap = {
             "patch": self.patch,
             "about": self.about,
@@ -349,6 +351,8 @@ class Observer:
             ]
             lost = f", {s['lost']} lost" if s.get("lost") else ""
             lines.append(f"{s['name']}: {state}, {s['rate']:.0f} Hz{lost}")
+        for other in snap["nodes"]:  # a calibration's step, a recording's rows
+            lines.append(f"{other['name']}: {other['text']}")
         return lines
 
     def summary(self) -> list[str]:
@@ -370,6 +374,8 @@ class Observer:
                 f"{p['name']}: {p['updates']} updates sent to {', '.join(p['to'])}"
                 + (f", {p['refused']} refused (nobody listening)" if p.get("refused") else "")
             )
+        for other in snap["nodes"]:
+            lines.append(f"{other['name']}: {other['text']}")
         for name, (word, _since, changes) in self.flags.items():
             seen = sorted({w for _t, n, w in self.flag_log if n == name and w != "ok"})
             if seen:

@@ -1029,6 +1029,11 @@ class PtyGlove:
         self._stop.set()
         join(self._thread, timeout)
 
+    def skip(self, n: int) -> None:
+        """Leave out the next ``n`` samples: frames lost on the way (a glove out of radio range)."""
+        with self._lock:
+            self._index += max(0, int(n))
+
     def close(self) -> None:
         """Stop and close the pseudo-terminal (readers then see the device vanish); idempotent."""
         self.stop()

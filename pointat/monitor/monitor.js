@@ -147,9 +147,11 @@ function drawTables(snap) {
   $("events").innerHTML = snap.events.slice().reverse().map((e) => `<li>${e[0].toFixed(1)} s · ${esc(e[1])}: ${esc(e[2])}</li>`).join("");
 }
 
+let drawn = -1;
 function frame() {
   const snap = state.snap;
-  if (snap) {
+  if (snap && drawn !== state.frames) { // only when a reading came: the page costs nothing while idle
+    drawn = state.frames;
     $("patch").textContent = snap.patch; $("about").textContent = snap.about;
     $("clock").textContent = `${snap.t.toFixed(0)} s`;
     drawAbove(snap); drawSide(snap); drawGains(snap); drawTables(snap); drawPlots();

@@ -1,0 +1,184 @@
+"""The monitor page in a real browser: Debian's Chromium, driven through its ChromeDriver (selenium), on a
+patch run as a performer runs it (``pointat run glove_tqt --monitor 0``), the simulated glove moving.
+
+What a performer would look at is checked on screenshots of the page's canvases: the pointer (its colour)
+is drawn, and it moves.  The page's readout changes with the glove, the sensor stream says 100 Hz while
+the page is open, and the browser's own WebSocket gets OSCQuery's LISTEN stream (an OSC message per
+change of ``/pointat/out/aed``).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+POINTER = np.array([0x4F, 0xC3, 0xF7])  # the first pointer's colour (monitor.js COLOURS[0])
+FLAGS = [
+    "--headless=new",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-dev-shm-usage",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--window-size=1400,1200",
+]
+
+
+def _free_udp() -> socket.socket:
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    return s
+
+
+@pytest.fixture
+def running_patch(tmp_path):
+    """``pointat run glove_tqt --monitor 0`` (a receiver of our own on a free port); its monitor's URL."""
+    rx = _free_udp()
+    rx.settimeout(0.05)
+    cmd = [sys.executable, "-m", "pointat.cli", "run", "glove_tqt", "--monitor", "0", "--for", "40"]
+    cmd += ["--set", f"out.port={rx.getsockname()[1]}", "--set", "ctl.port=0"]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    url = None
+    deadline = time.monotonic() + 20
+    lines = []
+    while time.monotonic() < deadline and url is None:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line)
+        m = re.search(r"monitor  (http://127\.0\.0\.1:\d+/monitor)", line)
+        if m:
+            url = m.group(1)
+    try:
+        assert url is not None, ("no monitor line in the banner", lines, proc.poll())
+        yield url, rx
+    finally:
+        proc.terminate()
+        proc.communicate(timeout=10)
+        rx.close()
+
+
+@pytest.fixture
+def browser(require_tool):
+    require_tool(shutil.which("chromium") is not None, "Chromium is not installed (Debian: chromium)")
+    require_tool(shutil.which("chromedriver") is not None, "ChromeDriver is not installed (chromium-driver)")
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        require_tool(False, "selenium is not installed (pip install selenium)")
+    options = webdriver.ChromeOptions()
+    options.binary_location = shutil.which("chromium")
+    for flag in FLAGS:
+        options.add_argument(flag)
+    options.add_argument(f"--user-data-dir={os.environ.get('TMPDIR', '/tmp')}/pointat-chromium-{os.getpid()}")
+    driver = webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=options)
+    driver.set_page_load_timeout(20)
+    driver.set_script_timeout(10)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+def _pixels(png: bytes) -> np.ndarray:
+    import matplotlib.image
+
+    return (matplotlib.image.imread(io.BytesIO(png), format="png")[..., :3] * 255).round().astype(int)
+
+
+def _pointer_pixels(img: np.ndarray) -> np.ndarray:
+    return np.argwhere(np.abs(img - POINTER).sum(axis=-1) < 30)
+
+
+def _wait(driver, script: str, until, seconds: float = 10.0):
+    deadline = time.monotonic() + seconds
+    while True:
+        value = driver.execute_script(script)
+        if until(value) or time.monotonic() > deadline:
+            return value
+        time.sleep(0.1)
+
+
+def test_the_monitor_shows_the_glove_moving_over_the_loudspeakers(running_patch, browser, tmp_path):
+    url, _rx = running_patch
+    browser.get(url)
+    frames = _wait(browser, "return window.pointatMonitor.frames", lambda n: n >= 25)
+    assert frames >= 25, "the page got no readings over its WebSocket"
+    assert browser.execute_script("return window.pointatMonitor.connected") is True
+    # the glove's script sweeps the room: the readout and the drawing change as it moves
+    first = browser.execute_script("return document.querySelector('.aed').textContent")
+    above = browser.find_element("id", "above")
+    shot1 = above.screenshot_as_png
+    _wait(browser, "return document.querySelector('.aed').textContent", lambda t: t != first, 10.0)
+    time.sleep(1.0)
+    second = browser.execute_script("return document.querySelector('.aed').textContent")
+    shot2 = above.screenshot_as_png
+    assert re.fullmatch(r"az +-?\d+\.\d°  el +-?\d+\.\d°  dist \d+", first), first
+    assert second != first, "the readout did not move with the glove"
+    img1, img2 = _pixels(shot1), _pixels(shot2)
+    p1, p2 = _pointer_pixels(img1), _pointer_pixels(img2)
+    assert len(p1) > 100 and len(p2) > 100, "no pointer drawn from above"
+    # its tip (the pointer pixel farthest from the centre) moved
+    centre = np.array(img1.shape[:2]) / 2
+
+    def tip(p):
+        return p[np.argmax(((p - centre) ** 2).sum(axis=1))]
+
+    assert np.linalg.norm(tip(p1) - tip(p2)) > 5, (tip(p1), tip(p2))
+    # the rest of the page: eight loudspeakers' gains, the stream at its rate while the page is open
+    state = json.loads(urllib.request.urlopen(url + "/state", timeout=5).read())
+    assert state["layout"]["azimuths"] == [0, 45, 90, 135, 180, -135, -90, -45]
+    gains = state["pointers"][0]["gains"]
+    assert len(gains) == 8 and abs(sum(g * g for g in gains) - 1.0) < 1e-2
+    (stream,) = state["streams"]
+    assert stream["state"] == "ok" and 90 <= stream["rate"] <= 110, stream
+    rows = browser.execute_script("return document.querySelectorAll('#sensors tbody tr').length")
+    assert rows == 1
+    history = browser.execute_script("return window.pointatMonitor.history.out.map(h => h[1])")
+    assert max(history) - min(history) > 10, "the azimuth plot shows no motion"
+    page = tmp_path / "monitor.png"
+    page.write_bytes(browser.get_screenshot_as_png())
+    assert _pixels(page.read_bytes()).std() > 10  # not a blank page
+
+
+def test_the_browsers_websocket_gets_oscquery_listen_messages(running_patch, browser):
+    url, _rx = running_patch
+    browser.get(url)
+    got = browser.execute_async_script(
+        """
+        const done = arguments[arguments.length - 1];
+        const ws = new WebSocket(`ws://${location.host}/`);
+        ws.binaryType = "arraybuffer";
+        const seen = [];
+        ws.onopen = () => ws.send(JSON.stringify({COMMAND: "LISTEN", DATA: "/pointat/out/aed"}));
+        ws.onmessage = (ev) => {
+          const bytes = new Uint8Array(ev.data);
+          const address = new TextDecoder().decode(bytes.slice(0, bytes.indexOf(0)));
+          const view = new DataView(ev.data);
+          seen.push([address, view.getFloat32(bytes.length - 12)]);
+          if (seen.length === 5) { ws.send(JSON.stringify({COMMAND: "IGNORE", DATA: "/pointat/out/aed"})); ws.close(); done(seen); }
+        };
+        setTimeout(() => done(seen), 8000);
+        """
+    )
+    assert len(got) == 5, got
+    assert {a for a, _ in got} == {"/pointat/out/aed"}
+    azimuths = [az for _, az in got]
+    assert len(set(azimuths)) > 1, azimuths  # only changes are sent, and the glove moves
