@@ -1,7 +1,9 @@
 """Console and log lines from a running patch never wait for a terminal that does not read them."""
 
+import io
 import os
 import threading
+import time
 
 from pointat.terminal import LineWriter
 
@@ -69,3 +71,36 @@ def test_a_character_the_terminal_cannot_show_is_escaped_not_lost():
         writer.write(line)
     assert writer.close(5)
     assert raw.getvalue().decode() == "line 1\nazimuth 30\\xb0\nline 3\n" and writer.lost == 0
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_on_a_terminal_the_status_stays_at_the_foot_and_lines_scroll_above_it():
+    screen = _Terminal()
+    w = LineWriter(screen)
+    w.status(["out: az  12.0°", "base.m1: ok, 100 Hz"])
+    deadline = time.monotonic() + 2
+    while "base.m1" not in screen.getvalue() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    first = screen.getvalue()
+    assert first == "out: az  12.0°\nbase.m1: ok, 100 Hz"  # drawn, the cursor at its end
+    w.write("gyro nulls: ready")
+    w.status(["out: az  13.0°", "base.m1: ok, 100 Hz"])
+    w.close()
+    rest = screen.getvalue()[len(first) :]
+    # back to the status's first line, wiped to the end of the screen, the line, the status again
+    assert rest.startswith("\r\x1b[1A\x1b[J" + "gyro nulls: ready\n"), repr(rest)
+    assert rest.rstrip("\n").endswith("out: az  13.0°\nbase.m1: ok, 100 Hz"), repr(rest)
+    assert rest.endswith("\n")  # at the end the cursor goes below the status
+
+
+def test_on_a_pipe_status_lines_are_plain_lines():
+    out = io.StringIO()
+    w = LineWriter(out)
+    w.status(["out: az  12.0°"])
+    w.write("x")
+    w.close()
+    assert out.getvalue() == "out: az  12.0°\nx\n"

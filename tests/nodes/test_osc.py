@@ -1215,3 +1215,64 @@ def test_live_control_names_no_file_or_device(tmp_path, started, caplog):
     finally:
         os.close(master)
         os.close(slave)
+
+
+# --------------------------------------------------------------------------- osc_out: status to the receiver
+def _statuses(rx):
+    return [(args[0], round(args[1], 1)) for _, addr, _, args in rx.messages() if addr.endswith("/status")]
+
+
+def test_the_receiver_hears_waiting_ok_a_dropout_and_the_filters_flags(started, receivers):
+    rx = receivers()
+    rt, out = out_node(started, rx.port, "source=3")
+    rt.advance(1.05)  # no direction yet, for a heartbeat: "waiting"
+    assert _statuses(rx) == [("waiting", 0.0)]
+    for k in range(100):  # 100 Hz for a second
+        rt.advance(0.01)
+        push(out, k * 0.1, 1.0)
+    got = [m for m in rx.messages() if m[1].endswith("/status")]
+    assert [m[1] for m in got] == ["/pointat/3/status"]  # the source's own number
+    assert got[0][3][0] == "ok"  # told at the next look (0.1 s) after the first direction
+    rt.advance(0.1)  # a heartbeat a second after the last status (the "ok"): the updates since then
+    ((state, rate),) = _statuses(rx)
+    assert state == "ok" and 94 <= rate <= 101, rate
+    out.receive(4, make("mag_disturbed"))
+    rt.advance(0.1)
+    assert _statuses(rx)[0][0] == "mag_disturbed"  # at once, not at the next heartbeat
+    out.receive(4, make("ok"))
+    rt.advance(0.1)
+    assert _statuses(rx)[0][0] == "ok"
+    rt.advance(0.25)  # 0.45 s without a direction: not yet a dropout
+    assert [s for s, _ in _statuses(rx)] == []
+    rt.advance(0.2)  # past 0.5 s, and the look after it
+    assert [s for s, _ in _statuses(rx)] == ["dropout"]
+    push(out, 5.0)
+    rt.advance(0.1)
+    assert [s for s, _ in _statuses(rx)] == ["ok"]
+
+
+def test_status_follows_the_profile_and_can_be_set_or_turned_off(started, receivers):
+    rx = receivers()
+    rt, out = out_node(started, rx.port, "profile=adm")  # a product: no foreign addresses unless asked
+    rt.advance(3.0)
+    assert _statuses(rx) == []
+    out.set_param("status", 0.5)  # live: from now on, every 0.5 s
+    rt.advance(1.05)
+    assert [s for s, _ in _statuses(rx)] == ["waiting", "waiting"]
+    rx2 = receivers()
+    rt2, out2 = out_node(started, rx2.port, "status=0")
+    rt2.advance(2.0)
+    push(out2, 1.0)
+    rt2.advance(2.0)
+    assert [m[1] for m in rx2.messages()] == ["/pointat/1/aed"]
+
+
+def test_a_heartbeat_keeps_no_ended_patch_running():
+    from pointat.testing import patch as make_patch
+
+    rt = make_patch("node m msg 1\nnode on loadbang\nnode out osc_out port=9\non -> m -> out")
+    rt.start()
+    rt.advance(2.0)
+    assert rt._timers and all(t.daemon or t.cancelled for t in rt._timers)
+    assert rt._finished()
+    rt.shutdown()

@@ -1,0 +1,282 @@
+"""The OSCQuery server of a running patch, in process, over real sockets on 127.0.0.1: the address space
+(types, ranges, units, values), attribute queries, live control by OSC (its UDP port, a WebSocket) and
+the refusals; and what the observer reads for it (streams, dropouts, flags, pointers, layout)."""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import socket
+import struct
+import time
+import urllib.error
+import urllib.request
+
+import pytest
+from pythonosc.udp_client import SimpleUDPClient
+
+from pointat.checking import check
+from pointat.devices.osc_wire import decode_packet, encode_message
+from pointat.expansion import read_spec
+from pointat.loader import build, parse_overrides
+from pointat.observe import Observer
+from pointat.oscquery import address_space, find, value_of
+from pointat.patchfile import parse_patch
+from pointat.presets import Presets
+from pointat.registry import Registry
+from pointat.webserver import MonitorServer
+
+REG = Registry().load_builtins()
+
+PATCH = """\
+# A glove and a vbap node.
+node glove simulate rate=100 output=direct noise=false
+node nulls offset samples=20
+node units scaling
+node fuse  tqt rate=100
+node dir   azi_ele
+node pan   vbap layout=[30, -30, 110, -110]
+node out   osc_out port={port} rate=50
+glove.adc -> nulls -> units
+units.mag -> fuse.mag
+units.accel -> fuse.accel
+units.gyro -> fuse.gyro
+fuse.flags -> out.flags
+fuse -> dir
+dir.elevation -> out.elevation
+dir.elevation -> pan.elevation
+dir.azimuth -> out.azimuth
+dir.azimuth -> pan.azimuth
+"""
+
+
+def _get(url: str):
+    with urllib.request.urlopen(url, timeout=5) as r:
+        body = r.read()
+        return r.status, json.loads(body) if body else None
+
+
+@pytest.fixture
+def served(tmp_path):
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    path = tmp_path / "glove.pat"
+    path.write_text(PATCH.format(port=rx.getsockname()[1]))
+    rt = build(check(read_spec(str(path)), REG, parse_overrides([])))
+    rt.presets = Presets(rt, tmp_path / "glove.presets.json")
+    obs = Observer(rt, patch="glove").attach()
+    server = MonitorServer(rt, obs, "127.0.0.1", 0, name="pointat test", advertise=False)
+    server.start()
+    th = rt.run_in_thread(30)
+    obs.start()
+    try:
+        yield rt, obs, server, f"http://127.0.0.1:{server.port}"
+    finally:
+        obs.stop()
+        rt.stop()
+        th.join(5)
+        server.close()
+        rx.close()
+
+
+def _settle(check, seconds=5.0):
+    deadline = time.monotonic() + seconds
+    while not check():
+        assert time.monotonic() < deadline, "never happened"
+        time.sleep(0.02)
+
+
+def test_the_tree_describes_live_parameters_methods_and_directions(served):
+    rt, _obs, server, url = served
+    status, tree = _get(url + "/")
+    assert status == 200 and tree["FULL_PATH"] == "/"
+    k = find(tree, "/pointat/fuse/k")
+    assert k["TYPE"] == "f" and k["ACCESS"] == 3 and k["VALUE"] == [rt.nodes["fuse"].p.k]
+    rate = find(tree, "/pointat/out/rate")
+    assert rate["UNIT"] == ["time.hz"] and rate["VALUE"] == [50.0]
+    profile = find(tree, "/pointat/out/profile")
+    assert profile is None  # not live: a receiver is chosen in the patch
+    spread = find(tree, "/pointat/pan/spread")
+    assert spread["TYPE"] == "f" and spread["ACCESS"] == 3
+    recal = find(tree, "/pointat/nulls/recalibrate")
+    assert recal["TYPE"] == "N" and recal["ACCESS"] == 2
+    aed = find(tree, "/pointat/out/aed")
+    assert aed["TYPE"] == "fff" and aed["ACCESS"] == 1
+    assert find(tree, "/pointat/preset/save")["TYPE"] == "s"
+    # what is there is exactly what is served node by node, and what value_of reads
+    status, node = _get(url + "/pointat/fuse/k")
+    assert node == k
+    assert value_of(rt, "/pointat/out/rate") == [50.0]
+    assert value_of(rt, "/pointat/nowhere/x") is None and value_of(rt, "/other") is None
+    assert address_space(rt)["CONTENTS"]["pointat"]["CONTENTS"].keys() >= {"glove", "fuse", "out", "preset"}
+
+
+def test_host_info_and_attributes_as_the_proposal_asks(served):
+    _rt, _obs, server, url = served
+    _, info = _get(url + "/?HOST_INFO")
+    assert info["OSC_PORT"] == server.osc_port and info["OSC_TRANSPORT"] == "UDP"
+    assert info["EXTENSIONS"]["LISTEN"] is True and info["EXTENSIONS"]["VALUE"] is True
+    _, value = _get(url + "/pointat/out/rate?VALUE")
+    assert value == {"VALUE": [50.0]}
+    with urllib.request.urlopen(url + "/pointat/out/rate?CRITICAL", timeout=5) as r:
+        assert r.status == 204  # an attribute the node does not have
+    with pytest.raises(urllib.error.HTTPError) as info:
+        urllib.request.urlopen(url + "/pointat/no/such", timeout=5)
+    assert info.value.code == 404
+
+
+def test_a_value_set_by_osc_is_set_in_the_running_patch_and_bad_ones_are_refused(served, caplog):
+    rt, _obs, server, url = served
+    osc = SimpleUDPClient("127.0.0.1", server.osc_port)
+    osc.send_message("/pointat/out/rate", 20.2)
+    _settle(lambda: rt.nodes["out"].p.rate == 20.2)  # 20.2 as typed, not float32's 20.200000762939453
+    _, value = _get(url + "/pointat/out/rate?VALUE")
+    assert value == {"VALUE": [20.2]}
+    with caplog.at_level("WARNING", logger="pointat.monitor"):
+        osc.send_message("/pointat/out/rate", -5.0)  # below its range
+        osc.send_message("/pointat/outt/rate", 5.0)  # no such node
+        osc.send_message("/elsewhere", 1.0)  # not live control
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM).sendto(
+            b"\x00garbage", ("127.0.0.1", server.osc_port)
+        )
+        osc.send_message("/pointat/nulls/recalibrate", [])  # a method with no values
+        _settle(lambda: server.control_refused >= 4)
+    assert rt.nodes["out"].p.rate == 20.2  # nothing bad was taken
+    text = caplog.text
+    assert "-5" in text and "no node 'outt'" in text and "did you mean 'out'" in text, text
+    assert "/elsewhere refused" in text and "malformed" in text, text
+
+
+def _ws(port: int) -> socket.socket:
+    s = socket.create_connection(("127.0.0.1", port), timeout=5)
+    key = base64.b64encode(os.urandom(16)).decode()
+    s.sendall(
+        (
+            "GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
+        ).encode()
+    )
+    head = b""
+    while b"\r\n\r\n" not in head:
+        head += s.recv(1)
+    assert head.startswith(b"HTTP/1.1 101"), head
+    return s
+
+
+def _send(s: socket.socket, opcode: int, payload: bytes) -> None:
+    mask = os.urandom(4)
+    n = len(payload)
+    head = (
+        struct.pack("!BB", 0x80 | opcode, 0x80 | n)
+        if n < 126
+        else struct.pack("!BBH", 0x80 | opcode, 0xFE, n)
+    )
+    s.sendall(head + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+
+
+def _recv(s: socket.socket) -> tuple[int, bytes]:
+    def exactly(n: int) -> bytes:
+        data = b""
+        while len(data) < n:
+            chunk = s.recv(n - len(data))
+            assert chunk, "closed"
+            data += chunk
+        return data
+
+    b0, b1 = exactly(2)
+    n = b1 & 0x7F
+    if n == 126:
+        (n,) = struct.unpack("!H", exactly(2))
+    elif n == 127:
+        (n,) = struct.unpack("!Q", exactly(8))
+    return b0 & 0x0F, exactly(n)
+
+
+def test_over_a_websocket_listen_streams_changes_and_binary_osc_sets_values(served):
+    rt, _obs, server, _url = served
+    s = _ws(server.port)
+    try:
+        _send(s, 1, json.dumps({"COMMAND": "LISTEN", "DATA": "/pointat/out/rate"}).encode())
+        opcode, payload = _recv(s)
+        assert opcode == 2 and decode_packet(payload) == [("/pointat/out/rate", [50.0])]
+        # a value set another way reaches the listener as an OSC message
+        SimpleUDPClient("127.0.0.1", server.osc_port).send_message("/pointat/out/rate", 25.0)
+        opcode, payload = _recv(s)
+        assert decode_packet(payload) == [("/pointat/out/rate", [25.0])]
+        # and a binary OSC frame from the client sets one
+
+        _send(s, 2, encode_message("/pointat/out/rate", [30.0]))
+        _settle(lambda: rt.nodes["out"].p.rate == 30.0)
+        _send(s, 9, b"hi")  # ping
+        while True:
+            opcode, payload = _recv(s)
+            if opcode == 10:
+                assert payload == b"hi"
+                break
+    finally:
+        s.close()
+
+
+def test_a_client_that_breaks_the_protocol_is_closed_and_the_patch_goes_on(served):
+    rt, _obs, server, url = served
+    s = _ws(server.port)
+    s.sendall(b"\x81\x05hello")  # unmasked: a client's frames must be masked
+    opcode, payload = _recv(s)
+    assert opcode == 8 and b"masked" in payload
+    s.close()
+    _, value = _get(url + "/pointat/out/rate?VALUE")
+    assert value == {"VALUE": [50.0]}
+    assert rt.running
+
+
+def test_the_observer_reads_streams_flags_pointers_and_the_vbap_layout(served):
+    rt, obs, server, url = served
+    _settle(lambda: obs.snapshot()["pointers"] and obs.snapshot()["pointers"][0]["updates"] > 20)
+    _settle(lambda: obs.snapshot()["streams"][0]["rate"] > 80)
+    snap = obs.snapshot()
+    (stream,) = snap["streams"]
+    assert stream["name"] == "glove.adc" and stream["state"] == "ok" and stream["nominal"] == 100.0
+    assert (
+        snap["layout"]["azimuths"] == [30.0, -30.0, 110.0, -110.0] and snap["layout"]["from"] == "vbap 'pan'"
+    )
+    (pointer,) = snap["pointers"]
+    assert pointer["name"] == "out" and len(pointer["gains"]) == 4
+    assert "fuse" in snap["flags"] and snap["flags"]["fuse"]["flag"] in ("ok", "uninitialised")
+    assert {"resting", "bias_dps", "bias_learned_s", "dip_deg"} <= set(snap["flags"]["fuse"])
+    lines = obs.status_lines()
+    assert lines[0].startswith("out: az ") and any(line.startswith("glove.adc: ok, ") for line in lines)
+    # the glove goes silent: a dropout, told within DROPOUT and a reading
+    rt.send("glove", "dropout", 1.0)
+    _settle(lambda: obs.snapshot()["streams"][0]["state"] == "dropout", 2.0)
+    assert any("NO DATA" in line for line in obs.status_lines())
+    _settle(lambda: obs.snapshot()["streams"][0]["state"] == "ok", 3.0)
+    assert obs.snapshot()["streams"][0]["dropouts"] == 1
+    summary = obs.summary()
+    assert any(line.startswith("glove.adc: ") and "1 dropouts" in line for line in summary), summary
+    # the page's own state, the same reading with its history
+    _, state = _get(url + "/monitor/state")
+    assert state["history"]["out"] and state["url"].endswith("/monitor")
+
+
+def test_presets_over_oscquery(served, tmp_path):
+    rt, _obs, server, url = served
+    osc = SimpleUDPClient("127.0.0.1", server.osc_port)
+    osc.send_message("/pointat/out/rate", 40.0)
+    _settle(lambda: rt.nodes["out"].p.rate == 40.0)
+    osc.send_message("/pointat/preset/save", "a")
+    _settle(lambda: (tmp_path / "glove.presets.json").exists())
+    osc.send_message("/pointat/out/rate", 10.0)
+    _settle(lambda: rt.nodes["out"].p.rate == 10.0)
+    osc.send_message("/pointat/preset/recall", "a")
+    _settle(lambda: rt.nodes["out"].p.rate == 40.0)
+    _, tree = _get(url + "/")
+    assert find(tree, "/pointat/preset/recall")["RANGE"] == [{"VALS": ["a"]}]
+
+
+def test_a_patch_without_osc_out_or_vbap_has_a_ring_of_eight_and_no_pointer():
+    spec = parse_patch("node m metro 100\nnode p print\nnode on loadbang\non -> m -> p", "x.pat")
+    rt = build(check(spec, REG))
+    obs = Observer(rt).attach()
+    snap = obs.read()
+    assert snap["pointers"] == [] and snap["streams"] == [] and len(snap["layout"]["azimuths"]) == 8
