@@ -127,7 +127,12 @@ def _place(root: dict[str, Any], path: str, leaf: dict[str, Any]) -> None:
     for i, part in enumerate(parts[:-1]):
         contents = here.setdefault("CONTENTS", {})
         here = contents.setdefault(part, _container("/" + "/".join(parts[: i + 1])))
-    here.setdefault("CONTENTS", {})[parts[-1]] = {**here.get("CONTENTS", {}).get(parts[-1], {}), **leaf}
+    contents = here.setdefault("CONTENTS", {})
+    old = contents.get(parts[-1], {})
+    new = {**old, **leaf}
+    if "CONTENTS" in old and "CONTENTS" in leaf:  # what was placed inside it first stays
+        new["CONTENTS"] = {**leaf["CONTENTS"], **old["CONTENTS"]}
+    contents[parts[-1]] = new
 
 
 def address_space(rt: Any, observer: Any = None, description: str = "") -> dict[str, Any]:
@@ -135,10 +140,12 @@ def address_space(rt: Any, observer: Any = None, description: str = "") -> dict[
     root = _container("/", description or "pointat: a running patch's live parameters and methods")
     for name, node in rt.nodes.items():
         base = PREFIX + name
+        doc = (type(node).__doc__ or "").strip().splitlines()
+        # a container: each has its FULL_PATH (clients split it) and its CONTENTS, empty or not
         _place(
             root,
             base,
-            {"DESCRIPTION": f"{node.type_name}: {(type(node).__doc__ or '').strip().splitlines()[0]}"},
+            {"FULL_PATH": base, "CONTENTS": {}, "DESCRIPTION": f"{node.type_name}: {doc[0] if doc else ''}"},
         )
         for p in type(node).params:
             if p.live:

@@ -111,6 +111,14 @@ def test_the_tree_describes_live_parameters_methods_and_directions(served):
     assert value_of(rt, "/pointat/nowhere/x") is None and value_of(rt, "/other") is None
     assert address_space(rt)["CONTENTS"]["pointat"]["CONTENTS"].keys() >= {"glove", "fuse", "out", "preset"}
 
+    def walk(node, path):  # every entry says where it is (clients split FULL_PATH)
+        assert node["FULL_PATH"] == (path or "/"), (path, node)
+        for name, child in node.get("CONTENTS", {}).items():
+            walk(child, f"{path}/{name}")
+        assert "CONTENTS" in node or "TYPE" in node, path  # a container or a method
+
+    walk(tree, "")
+
 
 def test_host_info_and_attributes_as_the_proposal_asks(served):
     _rt, _obs, server, url = served
