@@ -46,6 +46,7 @@ examples:
   pointat graph my.pat -o my.dot                    Graphviz (also my.svg when dot is installed)
   pointat convert my.pat my.pd                      to Pure Data (and back: my.pd my.pat)
   pointat send 9001 /pointat/press/bang             live control of a running patch (OSC to port 9001)
+  pointat plot take.csv                             a recorded take as take.png and take.html
 """
 
 
@@ -169,6 +170,31 @@ def _parser() -> argparse.ArgumentParser:
         "loudspeaker layouts, recordings)",
     )
     _add_patch_args(p)
+
+    p = sub.add_parser(
+        "plot",
+        help="draw a recorded take as PNG and HTML: where the hand points, the sensor norms, the filter's "
+        "flags and, where the take has truth, the error against it (needs matplotlib)",
+    )
+    p.add_argument(
+        "take",
+        metavar="TAKE",
+        help="a take: record's CSV (record_glove.pat's ADC counts, or gyro/accel/mag columns) or a BROAD "
+        "trial (.csv.gz)",
+    )
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT",
+        help="write OUT.png and OUT.html (default: the take's path without its extension)",
+    )
+    p.add_argument(
+        "--truth",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="draw the orientation error against the take's truth, when it has one (BROAD's optical "
+        "quaternions; default: --truth)",
+    )
 
     p = sub.add_parser("graph", help="write the patch as Graphviz dot (and SVG when dot is installed)")
     _add_patch_args(p)
@@ -415,6 +441,14 @@ def cmd_check(args: argparse.Namespace, registry: Registry) -> int:
     return 0
 
 
+def cmd_plot(args: argparse.Namespace, registry: Registry) -> int:
+    from .plotting import plot_take
+
+    for path in plot_take(args.take, args.output, truth=args.truth):
+        print(path)
+    return 0
+
+
 def _count(n: int, what: str) -> str:
     return f"{n} {what}{'s' * (n != 1)}"
 
@@ -573,6 +607,7 @@ SEND_WAIT = 0.2
 COMMANDS = {
     "run": cmd_run,
     "check": cmd_check,
+    "plot": cmd_plot,
     "graph": cmd_graph,
     "nodes": cmd_nodes,
     "patches": cmd_patches,
