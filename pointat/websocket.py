@@ -67,15 +67,20 @@ class FrameReader:
     """Frames of a client, fed as bytes arrive: :meth:`feed` returns the complete messages (opcode,
     payload), fragments joined, control frames as they come.
 
-    A client's frames must be masked; a message longer than ``limit`` bytes, a control frame that is
+    A client's frames must be masked; a message longer than ``limit`` bytes or in more than
+    :attr:`FRAGMENTS` fragments, a control frame that is
     fragmented or longer than 125 bytes, reserved bits or opcodes, a continuation without a start, or
     text that is not UTF-8 raise :class:`WebSocketError`.
     """
+
+    #: Fragments one message may come in (a browser sends one; a flood of empty ones is refused).
+    FRAGMENTS = 1024
 
     def __init__(self, limit: int = 1 << 16):
         self.limit = limit
         self._buf = bytearray()
         self._parts: list[bytes] = []
+        self._size = 0  # bytes in _parts
         self._opcode: int | None = None  # of the fragmented message being joined
 
     def feed(self, data: bytes) -> list[tuple[int, bytes]]:
@@ -99,11 +104,14 @@ class FrameReader:
             else:
                 self._opcode = opcode
             self._parts.append(payload)
-            if sum(map(len, self._parts)) > self.limit:
+            self._size += len(payload)
+            if self._size > self.limit:
                 raise WebSocketError(f"a message longer than {self.limit} bytes")
+            if len(self._parts) > self.FRAGMENTS:
+                raise WebSocketError(f"a message in more than {self.FRAGMENTS} fragments")
             if fin:
                 message, kind = b"".join(self._parts), self._opcode
-                self._parts, self._opcode = [], None
+                self._parts, self._opcode, self._size = [], None, 0
                 if kind == TEXT:
                     try:
                         message.decode("utf-8")
