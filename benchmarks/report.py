@@ -34,6 +34,8 @@ class Run:
     throughput: ThroughputResults | None = None
     accuracy: AccuracyResults | None = None
     memory: MemoryResult | None = None
+    #: benchmarks.monitor's tables (Markdown, without its title)
+    monitor: str = ""
     notes: list[str] = field(default_factory=list)
 
 
@@ -843,6 +845,8 @@ def render(run: Run) -> str:
         out += _accuracy_section(run.accuracy, run.data_note)
     if run.memory:
         out += _memory_section(run.memory)
+    if run.monitor:
+        out += ["## 5. The monitor and OSCQuery (`python -m benchmarks.monitor`)", "", run.monitor, ""]
     out += ["## Commands", ""]
     out += [
         "The benchmark: `"
