@@ -18,7 +18,7 @@ def about(path: str | os.PathLike[str]) -> str:
 
     >>> import tempfile
     >>> with tempfile.NamedTemporaryFile("w", suffix=".pat", delete=False) as f:
-    ...     _ = f.write("# The Pointing-at glove, with\n# its filter. More.\nnode a metro\n")
+    ...     _ = f.write("# The Pointing-at glove, with\\n# its filter. More.\\nnode a metro\\n")
     >>> about(f.name)
     'The Pointing-at glove, with its filter.'
     """
