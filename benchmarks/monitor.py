@@ -19,14 +19,11 @@ Medians over rounds, with their range.
 from __future__ import annotations
 
 import argparse
-import base64
 import json
-import os
 import resource
 import shutil
 import socket
 import statistics
-import struct
 import subprocess
 import sys
 import threading
@@ -41,26 +38,12 @@ REPO = Path(__file__).resolve().parents[1]
 
 def _ws_client(port: int, commands: Sequence[dict]) -> tuple[socket.socket, threading.Thread, list[int]]:
     """A plain WebSocket client that sends ``commands`` and reads every frame until closed."""
-    s = socket.create_connection(("127.0.0.1", port), timeout=5)
-    key = base64.b64encode(os.urandom(16)).decode()
-    s.sendall(
-        (
-            "GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
-        ).encode()
-    )
-    head = b""
-    while b"\r\n\r\n" not in head:
-        head += s.recv(1)
+    from pointat.testing import ws_connect, ws_send
+
+    s = ws_connect(port)
     for cmd in commands:
-        payload = json.dumps(cmd).encode()
-        mask = os.urandom(4)
-        s.sendall(
-            struct.pack("!BB", 0x81, 0x80 | len(payload))
-            + mask
-            + bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
-        )
-    got = [0, 0]  # frames, bytes
+        ws_send(s, 1, json.dumps(cmd).encode())
+    got = [0, 0]  # reads, bytes
 
     def read() -> None:
         try:

@@ -4,11 +4,8 @@ the refusals; and what the observer reads for it (streams, dropouts, flags, poin
 
 from __future__ import annotations
 
-import base64
 import json
-import os
 import socket
-import struct
 import time
 import urllib.error
 import urllib.request
@@ -25,6 +22,7 @@ from pointat.oscquery import address_space, find, value_of
 from pointat.patchfile import parse_patch
 from pointat.presets import Presets
 from pointat.registry import Registry
+from pointat.testing import ws_connect, ws_receive, ws_send
 from pointat.webserver import MonitorServer
 
 REG = Registry().load_builtins()
@@ -156,69 +154,24 @@ def test_a_value_set_by_osc_is_set_in_the_running_patch_and_bad_ones_are_refused
     assert "/elsewhere refused" in text and "malformed" in text, text
 
 
-def _ws(port: int) -> socket.socket:
-    s = socket.create_connection(("127.0.0.1", port), timeout=5)
-    key = base64.b64encode(os.urandom(16)).decode()
-    s.sendall(
-        (
-            "GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
-        ).encode()
-    )
-    head = b""
-    while b"\r\n\r\n" not in head:
-        head += s.recv(1)
-    assert head.startswith(b"HTTP/1.1 101"), head
-    return s
-
-
-def _send(s: socket.socket, opcode: int, payload: bytes) -> None:
-    mask = os.urandom(4)
-    n = len(payload)
-    head = (
-        struct.pack("!BB", 0x80 | opcode, 0x80 | n)
-        if n < 126
-        else struct.pack("!BBH", 0x80 | opcode, 0xFE, n)
-    )
-    s.sendall(head + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
-
-
-def _recv(s: socket.socket) -> tuple[int, bytes]:
-    def exactly(n: int) -> bytes:
-        data = b""
-        while len(data) < n:
-            chunk = s.recv(n - len(data))
-            assert chunk, "closed"
-            data += chunk
-        return data
-
-    b0, b1 = exactly(2)
-    n = b1 & 0x7F
-    if n == 126:
-        (n,) = struct.unpack("!H", exactly(2))
-    elif n == 127:
-        (n,) = struct.unpack("!Q", exactly(8))
-    return b0 & 0x0F, exactly(n)
-
-
 def test_over_a_websocket_listen_streams_changes_and_binary_osc_sets_values(served):
     rt, _obs, server, _url = served
-    s = _ws(server.port)
+    s = ws_connect(server.port)
     try:
-        _send(s, 1, json.dumps({"COMMAND": "LISTEN", "DATA": "/pointat/out/rate"}).encode())
-        opcode, payload = _recv(s)
+        ws_send(s, 1, json.dumps({"COMMAND": "LISTEN", "DATA": "/pointat/out/rate"}).encode())
+        opcode, payload = ws_receive(s)
         assert opcode == 2 and decode_packet(payload) == [("/pointat/out/rate", [50.0])]
         # a value set another way reaches the listener as an OSC message
         SimpleUDPClient("127.0.0.1", server.osc_port).send_message("/pointat/out/rate", 25.0)
-        opcode, payload = _recv(s)
+        opcode, payload = ws_receive(s)
         assert decode_packet(payload) == [("/pointat/out/rate", [25.0])]
         # and a binary OSC frame from the client sets one
 
-        _send(s, 2, encode_message("/pointat/out/rate", [30.0]))
+        ws_send(s, 2, encode_message("/pointat/out/rate", [30.0]))
         _settle(lambda: rt.nodes["out"].p.rate == 30.0)
-        _send(s, 9, b"hi")  # ping
+        ws_send(s, 9, b"hi")  # ping
         while True:
-            opcode, payload = _recv(s)
+            opcode, payload = ws_receive(s)
             if opcode == 10:
                 assert payload == b"hi"
                 break
@@ -228,9 +181,9 @@ def test_over_a_websocket_listen_streams_changes_and_binary_osc_sets_values(serv
 
 def test_a_client_that_breaks_the_protocol_is_closed_and_the_patch_goes_on(served):
     rt, _obs, server, url = served
-    s = _ws(server.port)
+    s = ws_connect(server.port)
     s.sendall(b"\x81\x05hello")  # unmasked: a client's frames must be masked
-    opcode, payload = _recv(s)
+    opcode, payload = ws_receive(s)
     assert opcode == 8 and b"masked" in payload
     s.close()
     _, value = _get(url + "/pointat/out/rate?VALUE")
