@@ -473,7 +473,9 @@ class Simulate(PacedSource):
     ``output=pty`` writes real mote frames into a pseudo-terminal instead and sends its path from the
     ``device`` outlet (wire it to a ``mote``), so the whole serial path runs; when ``duration`` ends
     it, the outlet sends ``close`` before the pseudo-terminal goes, so the mote is done too and the
-    patch can end.  ``truth`` is the true orientation quaternion (sensor -> NWU).
+    patch can end.  ``truth`` is the true orientation quaternion (sensor -> NWU).  ``dropout SECONDS``
+    (a method: ``/pointat/glove/dropout 2``) makes the glove go silent, as one out of radio range, to
+    rehearse what the receiver and the monitor are told.
 
     ``burst=strokes`` or ``burst=shake`` adds bursts of hand translation, as a performer drums, strikes
     or shakes: one starts every ``burst_every`` seconds (the first at ``burst_every``) and lasts the

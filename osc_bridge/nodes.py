@@ -356,6 +356,13 @@ class OscOut(UdpSender):
     patch: an absent receiver (ECONNREFUSED) is counted (``refused``) and logged at the 1st, 10th,
     100th... datagram of each outage, and when it listens again; datagrams the system would not take
     are counted in ``failed``.
+
+    The receiver is also told how the glove is: ``/pointat/N/status STATE RATE`` every ``status`` seconds
+    and at once when the state changes: ``waiting`` (nothing sent yet), ``ok``, ``dropout`` (no update
+    for ``dropout`` seconds), or the filter's flag from the ``flags`` inlet (wire ``tqt.flags`` there):
+    ``mag_disturbed``, ``acc_saturated``, ``gyro_saturated``, ``shaking``.  RATE is the updates sent per
+    second since the last status.  On for the pointat, vbap and generic profiles; ``status=1`` turns it
+    on for the others, ``status=0`` off.
     """
 
     needs_input = True
