@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import re
 import shutil
 import socket
@@ -75,7 +74,7 @@ def running_patch(tmp_path):
 
 
 @pytest.fixture
-def browser(require_tool):
+def browser(require_tool, tmp_path_factory):
     require_tool(shutil.which("chromium") is not None, "Chromium is not installed (Debian: chromium)")
     require_tool(shutil.which("chromedriver") is not None, "ChromeDriver is not installed (chromium-driver)")
     try:
@@ -87,7 +86,7 @@ def browser(require_tool):
     options.binary_location = shutil.which("chromium")
     for flag in FLAGS:
         options.add_argument(flag)
-    options.add_argument(f"--user-data-dir={os.environ.get('TMPDIR', '/tmp')}/pointat-chromium-{os.getpid()}")
+    options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium')}")
     driver = webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=options)
     driver.set_page_load_timeout(20)
     driver.set_script_timeout(10)
