@@ -118,8 +118,10 @@ class Observer:
     RATE = 25.0
     #: Seconds of history kept for the plots.
     HISTORY = 10.0
-    #: A stream with no sample for this long (or five of its periods, whichever is longer) is down.
-    DROPOUT = 0.25
+    #: A stream with no sample for this long (or five of its periods, whichever is longer) is down: as
+    #: ``osc_out``'s ``dropout``.  The longest gap between a simulated glove's directions at a receiver,
+    #: over three 20 s runs on two cores busy with the test suite beside them, was 128 ms.
+    DROPOUT = 0.5
 
     def __init__(self, rt: Any, *, layout: Layout | None = None, patch: str = "", about: str = ""):
         self.rt = rt

@@ -1276,3 +1276,13 @@ def test_a_heartbeat_keeps_no_ended_patch_running():
     assert rt._timers and all(t.daemon or t.cancelled for t in rt._timers)
     assert rt._finished()
     rt.shutdown()
+
+
+def test_a_hand_held_still_with_send_on_change_is_no_dropout(started, receivers):
+    rx = receivers()
+    rt, out = out_node(started, rx.port, "change=true deadband=0.5")
+    for _ in range(200):  # two seconds of the same direction: one update sent, the rest held back
+        rt.advance(0.01)
+        push(out, 10.0, 2.0)
+    assert out.updates == 1
+    assert "dropout" not in [s for s, _ in _statuses(rx)]
