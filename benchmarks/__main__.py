@@ -35,7 +35,7 @@ def _parser() -> argparse.ArgumentParser:
         description="pointat's benchmarks: latency and jitter (against a python-osc relay and Pure Data), "
         "throughput and cost per update (against ahrs, imufusion, vqf), accuracy on the BROAD recordings, "
         "and memory; writes a Markdown report with SVG figures.",
-        epilog="quick: about 5 minutes; full: about 37 minutes (2 cores).  Peers: pip install -e '.[bench]'; "
+        epilog="quick: about 10 minutes; full: about 40 minutes (2 cores).  Peers: pip install -e '.[bench]'; "
         "Pure Data: apt-get install puredata-core.",
     )
     ap.add_argument(

@@ -14,7 +14,11 @@ thread that paces the input on a deadline schedule and reads the output socket i
 * **transport floors** -- a bare python-osc relay (:mod:`benchmarks.relay`: parse, re-encode, forward) and
   Pure Data relaying OSC (``benchmarks/patches/relay.pd``: ``[netreceive -u -b]`` -> ``[oscparse]`` ->
   ``[oscformat]`` -> ``[netsend -u -b]``), run as ``pd -nogui -noaudio -noprefs`` with and without
-  ``-sleepgrain 0.1``.  UDP in, UDP out, no pseudo-terminal.
+  ``-sleepgrain 0.1``.  UDP in, UDP out, no pseudo-terminal.  The mote path's floor is the same relay
+  reading the mote frames from the pseudo-terminal (``benchmarks.relay --pty``).  Both Python relays are
+  measured asleep in ``select`` between inputs, and again polling for two sample periods after each input
+  (``--poll``), as ``pointat run --spin`` polls: pointat's ``--spin`` rows are set against the polling
+  relays, its other rows against the sleeping ones.
 
 Latency = the kernel's receive time stamp of the output datagram (``SO_TIMESTAMPNS``, ``CLOCK_REALTIME``)
 minus ``time.time_ns()`` taken just before the input was written, so the harness's own wake-up delay on
@@ -95,6 +99,7 @@ class LatencyResult:
     #: run at real-time priority (pointat ``--rt``; a floor under ``chrt -f``), as Pd runs by default as root
     realtime: bool = False
     #: pointat ``--spin MS``: the scheduler polls for this many ms after each input instead of sleeping
+    #: (a floor with ``--poll MS``: the relay does the same, the floor of the ``--spin`` rows)
     spin: float = 0.0
     #: (p50, p99) of each round (:func:`pool`) in the order they ran; ``None`` for a round that failed
     rounds: list[tuple[float, float] | None] = field(default_factory=list)
@@ -771,13 +776,16 @@ def run_floor(
     workdir: Path,
     realtime: bool = False,
     busy_us: float = 0.0,
+    poll: float = 0.0,
 ) -> LatencyResult:
     """A transport floor: ``python-osc`` relay, ``pd`` (default flags) or ``pd-sg0.1`` (-sleepgrain 0.1).
 
     ``realtime`` runs the python-osc relay under ``chrt -f 10`` (Pd takes real-time priority itself) with
     the CPUs kept out of deep idle states while it is measured, as ``pointat run --rt`` keeps them.
     ``busy_us`` makes the python-osc relay spin that long on each message before it sends (its chain is
-    then ``python-osc+Nus``): what a chain of that cost adds to the floor.
+    then ``python-osc+Nus``): what a chain of that cost adds to the floor.  ``poll`` (ms) makes the
+    python-osc relay poll its socket for that long after each input instead of sleeping in ``select``, as
+    ``pointat run --spin`` does: the floor the ``--spin`` rows are set against (its ``spin`` is ``poll``).
     """
     sock = receiver_socket()
     in_port = free_udp_port()
@@ -799,6 +807,9 @@ def run_floor(
         if busy_us:
             cmd += ["--busy-us", f"{busy_us:g}"]
             label += f", +{busy_us:g} µs of work a message"
+        if poll:
+            cmd += ["--poll", f"{poll:g}"]
+            label += f", polling (--poll {poll:g})"
         if realtime:
             cmd = [*CHRT, *cmd]
             label += " (chrt -f 10)"
@@ -815,7 +826,7 @@ def run_floor(
         label = "Pd relay" + (" -sleepgrain 0.1" if kind == "pd-sg0.1" else " (default flags)")
     shown_cmd = shown(cmd).replace(str(workdir / f"relay_{in_port}.pd"), "benchmarks/patches/relay.pd")
     chain = f"{kind}+{busy_us:g}us" if busy_us else kind
-    res = LatencyResult(label, "floor", chain, rate, 1, shown_cmd, realtime=realtime)
+    res = LatencyResult(label, "floor", chain, rate, 1, shown_cmd, realtime=realtime, spin=poll)
     if kind != "python-osc" and shutil.which("pd") is None:
         src.close()
         sock.close()
@@ -824,25 +835,30 @@ def run_floor(
     # as pointat run --rt does for itself; where it cannot be had, neither run has it
     awake, _why = keep_cpus_awake() if realtime else (None, None)
     try:
-        return _measure(
-            res, cmd, workdir / f"{kind}_{rate:g}.log", src, sock, rate, phases, _floor_key, None, 1
-        )
+        log = workdir / f"{kind}_{rate:g}{'_poll' if poll else ''}.log"
+        return _measure(res, cmd, log, src, sock, rate, phases, _floor_key, None, 1)
     finally:
         if awake is not None:
             os.close(awake)
 
 
-def run_floor_pty(rate: float, phases: Phases, sample: dict[str, np.ndarray], workdir: Path) -> LatencyResult:
+def run_floor_pty(
+    rate: float, phases: Phases, sample: dict[str, np.ndarray], workdir: Path, poll: float = 0.0
+) -> LatencyResult:
     """The mote path's floor: the same frames into a pty, a bare Python process (pointat's frame parser,
-    python-osc's client) sending one datagram per frame to our socket."""
+    python-osc's client) sending one datagram per frame to our socket; polling for ``poll`` ms after each
+    input, as ``--spin`` does, when ``poll`` is given."""
     sock = receiver_socket()
     src = MoteSource(rate, 1)
     cmd = [sys.executable, "-m", "benchmarks.relay", "--pty", src.device]
     cmd += ["--out-port", str(sock.getsockname()[1]), "--for", f"{phases.lifetime:.0f}"]
-    res = LatencyResult(
-        "python pty relay", "floor", "pty", rate, 1, shown(cmd).replace(src.device, "/dev/pts/N")
-    )
-    log = workdir / f"pty_{rate:g}.log"
+    label = "python pty relay"
+    if poll:
+        cmd += ["--poll", f"{poll:g}"]
+        label += f", polling (--poll {poll:g})"
+    shown_cmd = shown(cmd).replace(src.device, "/dev/pts/N")
+    res = LatencyResult(label, "floor", "pty", rate, 1, shown_cmd, spin=poll)
+    log = workdir / f"pty_{rate:g}{'_poll' if poll else ''}.log"
     return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, 1)
 
 
@@ -1155,8 +1171,19 @@ def run_all(
                 )
             )
             # pointat --rt beside it; then polling instead of sleeping (--spin), at normal priority, against
-            # the plain relay
+            # the same relays polling the same way (polling against polling)
             for option, how in (("--rt", {"realtime": True}), ("--spin", {"spin": spin_for(rate)})):
+                if option == "--spin":
+                    poll = spin_for(rate)
+                    plan.append(
+                        (
+                            "python-osc relay, polling",
+                            partial(run_floor, "python-osc", rate, ph, sample, workdir, poll=poll),
+                        )
+                    )
+                    plan.append(
+                        ("python pty relay, polling", partial(run_floor_pty, rate, ph, sample, workdir, poll))
+                    )
                 for chain in ("torre", "tqt"):
                     plan.append(
                         (

@@ -1,19 +1,27 @@
-"""Throughput on one core, the cost of each node, and the pure filters against their peers.
+"""Throughput on one core, the cost of each node, the pure filters against their peers, and start-up.
 
-* **Patches, scheduler saturated.**  (a) ``benchmarks/patches/throughput_CHAIN.pat``: the simulated glove
-  (``simulate output=direct``) into the chain, one thread, manual clock advanced as fast as it goes; the
-  glove's own cost is measured alone and subtracted for the "chain only" figure.  (b) The same chain fed
-  pre-made ADC vectors straight into its first node (no source at all).  (c) The shipped replay patches
-  (``patches/replay_pointing_at.pat``, ``patches/replay_tqt.pat``) with ``replay speed=0`` of a BROAD
-  recording on the real-time runtime: the source thread, the bounded queue and the scheduler thread.
+Every figure is a median over chunks, runs or rounds, with the range (min–max) beside it: the machine is
+shared, and the fastest of many tries shows what it can do when nothing else runs, not what it does.
+
+* **Patches, scheduler saturated.**  In process: (a) ``benchmarks/patches/throughput_CHAIN.pat``: the
+  simulated glove (``simulate output=direct``) into the chain, one thread, manual clock advanced as fast
+  as it goes; the glove's own cost is measured alone and subtracted for the "chain only" figure.  (b) The
+  same chain fed pre-made ADC vectors by calling its first node's ``receive`` (no input I/O, no parsing,
+  no scheduler).  (c) The shipped replay patches (``patches/replay_pointing_at.pat``,
+  ``patches/replay_tqt.pat``) with ``replay speed=0`` of a BROAD recording on the real-time runtime: the
+  source thread, the bounded queue and the scheduler thread.  Whole process: (d) the same replay patches
+  run by ``pointat run`` in a process of their own, their OSC counted at a UDP socket in this one, from
+  the first datagram to the last (kernel time stamps).
 * **Per node.**  Every message each node of the chain received during (b) is recorded, then replayed into
   a fresh instance of that node alone (its outlets into a sink that does nothing): microseconds per input
   sample, which add up to about the chain's cost.  A ``cProfile`` of (b) names the hot functions.
 * **Pure filters.**  One ``update`` per sample of a BROAD trial, inputs prepared beforehand in each
   library's own format: pointat's ``TQTFilter`` (robust, paper), ``ComplementaryFilter``, ``TQTBank`` over
-  15 sensors (per sensor-sample), against ``ahrs`` Madgwick and Mahony, ``imufusion`` and ``vqf``.
-  The best of several rounds is reported (the least disturbed by other work on the machine), with the
-  median beside it.
+  15 sensors (per sensor-sample), against ``ahrs`` Madgwick and Mahony, ``imufusion`` and ``vqf`` called
+  once per sample, and VQF's and BasicVQF's ``updateBatch`` (one call for the whole trial) beside the bank,
+  batch against batch.
+* **Start-up.**  ``pointat run glove_tqt --for 0`` and ``pointat check glove_tqt``, whole process, wall
+  time from this process, after a first run that is not counted (files in the page cache).
 """
 
 from __future__ import annotations
@@ -26,6 +34,7 @@ import gzip
 import logging
 import math
 import pstats
+import select
 import socket
 import statistics
 import subprocess
@@ -50,12 +59,26 @@ from pointat.nodes.orientation import TQT as TQTNode
 from pointat.nodes.orientation import TQTBankNode
 from pointat.runtime import Runtime
 
-from .latency import free_udp_port, stop_process, udp_hole
+from .latency import (
+    _drain,
+    free_udp_port,
+    pointat_command,
+    receiver_socket,
+    shown,
+    stop_process,
+    udp_hole,
+)
 
 log = logging.getLogger("benchmarks.throughput")
 
 #: The 15-segment body the body row measures.
 BODY15 = "pointat:data/body15.json"
+BODY_ROW = "body: tqt_bank 15 + skeleton 15 segments"
+#: How each filter of the table is called (:attr:`FilterCost.calls`): like is set against like.
+PER_CALL = "one sensor-sample a call"
+BANK_CALLS = "15 sensors a call (a batch across sensors)"
+BATCH = "the whole trial a call (a batch across time)"
+IN_PATCH = "in a patch: 3 messages a sensor-sample"
 
 REPO = Path(__file__).resolve().parents[1]
 PATCHES = Path(__file__).resolve().parent / "patches"
@@ -112,12 +135,12 @@ def wake_cost(
     """Microseconds one ``send`` of a 40-byte datagram takes: ``gap`` seconds after the previous one, to the
     sink process (asleep between datagrams, as a receiver is) and to the hole (nobody to wake); and each
     send of ``burst`` back to back to the sink (what ``osc_out`` does with the gloves of one delivery).
-    The best of 3 rounds of ``n`` sends each."""
+    The median of 3 rounds of ``n`` sends each."""
     result = []
     for port, size in ((sink_port, 1), (hole.getsockname()[1], 1), (sink_port, burst)):
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         sock.connect(("127.0.0.1", port))
-        best = math.inf
+        each = []
         for _ in range(3):
             total = 0.0
             rounds = max(1, n // size)
@@ -129,10 +152,10 @@ def wake_cost(
                 for _ in range(size):
                     sock.send(b"x" * 40)
                 total += time.perf_counter() - t
-            best = min(best, 1e6 * total / (rounds * size))
+            each.append(1e6 * total / (rounds * size))
         sock.close()
         _empty(hole)
-        result.append(best)
+        result.append(statistics.median(each))
     return result[0], result[1], result[2]
 
 
@@ -148,42 +171,52 @@ def _bound(port: int) -> bool:
 # --------------------------------------------------------------------------------------- results
 @dataclass
 class PatchRate:
-    """Samples per second through one patch, and what it was measured with."""
+    """Samples per second through one patch, and what it was measured with.
+
+    ``us`` holds the µs per sample of every chunk (or run, or round) measured, in order; the figures are
+    their median, with their range beside it.
+    """
 
     chain: str
     how: str
-    samples: int
-    seconds: float
+    samples: int  # per chunk or run
+    us: list[float]
     source_us: float = 0.0  # per-sample cost of the source, subtracted for "chain only"
-    #: Every chunk's wall time, where there are several (``seconds`` is the fastest one's).
-    chunk_seconds: list[float] = field(default_factory=list)
-
-    @property
-    def median_us(self) -> float | None:
-        """The median chunk's µs per sample (``seconds`` is the fastest chunk's), or None for one chunk."""
-        if len(self.chunk_seconds) < 2 or not self.samples:
-            return None
-        return 1e6 * statistics.median(self.chunk_seconds) / self.samples
+    #: measured from outside: ``pointat run`` in a process of its own, its datagrams counted here
+    whole_process: bool = False
+    #: (datagrams received, datagrams the patch sent) over every run, where counted
+    received: tuple[int, int] | None = None
 
     @classmethod
     def pooled(cls, rates: list[PatchRate]) -> PatchRate:
-        """One rate from several measurements of the same thing: the fastest chunk of all of them."""
-        chunks = [c for r in rates for c in (r.chunk_seconds or [r.seconds])]
+        """One rate from several measurements of the same thing: all their chunks together."""
         first = rates[0]
-        return cls(first.chain, first.how, first.samples, min(chunks), first.source_us, chunks)
+        counted = [r.received for r in rates if r.received is not None]
+        received = (sum(a for a, _ in counted), sum(b for _, b in counted)) if counted else None
+        us = [u for r in rates for u in r.us]
+        return cls(first.chain, first.how, first.samples, us, first.source_us, first.whole_process, received)
+
+    @property
+    def median_us(self) -> float:
+        return statistics.median(self.us) if self.us else math.nan
+
+    @property
+    def min_us(self) -> float:
+        return min(self.us, default=math.nan)
+
+    @property
+    def max_us(self) -> float:
+        return max(self.us, default=math.nan)
 
     @property
     def per_second(self) -> float:
-        return self.samples / self.seconds if self.seconds > 0 else float("nan")
-
-    @property
-    def us_per_sample(self) -> float:
-        return 1e6 * self.seconds / self.samples if self.samples else float("nan")
+        """Samples per second at the median chunk."""
+        return 1e6 / self.median_us if self.median_us > 0 else math.nan
 
     @property
     def chain_per_second(self) -> float:
-        us = self.us_per_sample - self.source_us
-        return 1e6 / us if us > 0 else float("nan")
+        us = self.median_us - self.source_us
+        return 1e6 / us if us > 0 else math.nan
 
 
 @dataclass
@@ -197,11 +230,36 @@ class NodeCost:
 
 @dataclass
 class FilterCost:
+    """µs per update (per sensor-sample, per frame: see ``note``) of each round, in order."""
+
     name: str
     library: str
-    best_us: float
-    median_us: float
+    us: list[float]
     note: str = ""
+    #: how the filter is called: :data:`PER_CALL`, :data:`BANK_CALLS`, :data:`BATCH` or :data:`IN_PATCH`
+    calls: str = PER_CALL
+
+    @property
+    def median_us(self) -> float:
+        return statistics.median(self.us) if self.us else math.nan
+
+    @property
+    def min_us(self) -> float:
+        return min(self.us, default=math.nan)
+
+    @property
+    def max_us(self) -> float:
+        return max(self.us, default=math.nan)
+
+
+@dataclass
+class Startup:
+    """Wall time of a whole command, start to exit, each run (s), after a first run not counted."""
+
+    label: str
+    command: str
+    seconds: list[float] = field(default_factory=list)
+    error: str = ""
 
 
 @dataclass
@@ -215,6 +273,9 @@ class ThroughputResults:
     wake: tuple[float, float, float] | None = None
     #: chain -> (samples, {generation: (collections, mean pause us, longest pause us)})
     gc_pauses: dict[str, tuple[int, dict[int, tuple[int, float, float]]]] = field(default_factory=dict)
+    #: the commands of the whole-process measurements, (d) and start-up, as a person would type them
+    commands: list[str] = field(default_factory=list)
+    startup: list[Startup] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
 
 
@@ -231,18 +292,20 @@ def _load_chain(chain: str, port: int) -> Runtime:
     return rt
 
 
-CHUNKS = 5  # patch rates: the best of this many equal chunks of the run (the least disturbed one)
-PUSH_ROUNDS = 3  # (b) and (b'): measured this many times, in turn over the chains
+CHUNKS = 5  # patch rates in process: each run is timed in this many equal chunks
+PUSH_ROUNDS = 3  # (b), (b'), (c) and (d): measured this many times, in turn over the chains
+WHOLE_RUNS = 2  # (d): runs of the whole process in each of those rounds
 
 
-def _advance_best(rt: Runtime, seconds: float) -> float:
-    """Advance a manual clock by ``seconds`` in :data:`CHUNKS` chunks; the wall time of the fastest chunk."""
-    best = math.inf
+def _advance_chunks(rt: Runtime, seconds: float) -> list[float]:
+    """Advance a manual clock by ``seconds`` in :data:`CHUNKS` chunks; the µs per sample (1 kHz) of each."""
+    samples = seconds / CHUNKS * 1000
+    walls = []
     for _ in range(CHUNKS):
         t0 = time.perf_counter()
         rt.advance(seconds / CHUNKS)
-        best = min(best, time.perf_counter() - t0)
-    return best
+        walls.append(1e6 * (time.perf_counter() - t0) / samples)
+    return walls
 
 
 def simulate_rate(chain: str, seconds: float, port: int) -> PatchRate:
@@ -250,26 +313,29 @@ def simulate_rate(chain: str, seconds: float, port: int) -> PatchRate:
     rt = _load_chain(chain, port)
     rt.start()
     rt.advance(0.2)  # the offset node's gyro averaging and first-call costs out of the way
-    wall = _advance_best(rt, seconds)
+    us = _advance_chunks(rt, seconds)
     rt.shutdown()
-    return PatchRate(chain, "simulated glove, manual clock", round(seconds / CHUNKS * 1000), wall)
+    return PatchRate(chain, "simulated glove, manual clock", round(seconds / CHUNKS * 1000), us)
 
 
 def simulator_cost(seconds: float) -> float:
-    """Microseconds per sample of ``simulate rate=1000 output=direct`` alone (best chunk)."""
+    """Microseconds per sample of ``simulate rate=1000 output=direct`` alone (the median chunk)."""
     from pointat.testing import patch
 
     rt = patch("node glove simulate rate=1000 output=direct\n")
     rt.start()
     rt.advance(0.1)
-    wall = _advance_best(rt, seconds)
+    us = _advance_chunks(rt, seconds)
     rt.shutdown()
-    return 1e6 * wall / (seconds / CHUNKS * 1000)
+    return statistics.median(us)
 
 
-PUSHED = "ADC vectors pushed into the chain"
+PUSHED = "ADC vectors pushed into the chain's first node"
 #: (b'): as (b), the OSC going to a socket no process sleeps on.
 PUSHED_NO_WAKE = "ADC vectors pushed, OSC to a socket nobody waits on"
+#: (c) and (d)
+REPLAYED = "replay speed=0 (real-time runtime, BROAD trial)"
+WHOLE = "pointat run, replay speed=0, UDP out counted by a receiver"
 
 
 def _spy(node: Node) -> list[tuple[int, Message]]:
@@ -315,16 +381,16 @@ def push_rate(chain: str, messages: list[Message], port: int, record: bool = Fal
                 recorded[name] = _spy(node)
     body = messages[200:]
     size = len(body) // CHUNKS
-    walls = []
+    us = []
     for c in range(CHUNKS):
         chunk = body[c * size : (c + 1) * size]
         t0 = time.perf_counter()
         for msg in chunk:
             first.receive(0, msg)
-        walls.append(time.perf_counter() - t0)
+        us.append(1e6 * (time.perf_counter() - t0) / size)
     nodes = dict(rt.nodes)
     rt.shutdown()
-    return PatchRate(chain, how, size, min(walls), chunk_seconds=walls), recorded, nodes
+    return PatchRate(chain, how, size, us), recorded, nodes
 
 
 def node_costs(
@@ -337,8 +403,8 @@ def node_costs(
         values = dict(vars(proto.p))
         if proto.type_name == "osc_out":
             values["port"] = port
-        best = math.inf
-        for _ in range(3):  # a fresh instance each time (same state path); the fastest run counts
+        walls = []
+        for _ in range(3):  # a fresh instance each time (same state path); the median run counts
             inst = type(proto)(name, values)
             rt = Runtime(realtime=False)
             rt.add(inst)
@@ -350,9 +416,10 @@ def node_costs(
             t0 = time.perf_counter()
             for index, msg in inputs:
                 receive(index, msg)
-            best = min(best, time.perf_counter() - t0)
+            walls.append(time.perf_counter() - t0)
             rt.shutdown()
-        out.append(NodeCost(chain, name.removeprefix("g/"), proto.type_name, len(inputs), 1e6 * best / n))
+        us = 1e6 * statistics.median(walls) / n
+        out.append(NodeCost(chain, name.removeprefix("g/"), proto.type_name, len(inputs), us))
     return out
 
 
@@ -410,8 +477,9 @@ def gc_pauses(
     return len(messages), {g: (len(v), float(np.mean(v)), float(np.max(v))) for g, v in sorted(by.items())}
 
 
-def _broad_head(path: Path, rows: int, workdir: Path) -> Path:
-    """The first ``rows`` samples of a BROAD trial as a smaller .csv.gz (replay loads whole files)."""
+def _broad_head(path: Path, rows: int, workdir: Path) -> tuple[Path, int]:
+    """The first ``rows`` samples of a BROAD trial as a smaller .csv.gz (replay loads whole files), and
+    how many it holds (fewer when the trial is shorter)."""
     out = workdir / f"head_{rows}.csv.gz"
     with gzip.open(path, "rt", encoding="utf-8") as src, gzip.open(out, "wt", encoding="utf-8") as dst:
         header_seen = 0
@@ -422,43 +490,112 @@ def _broad_head(path: Path, rows: int, workdir: Path) -> Path:
             header_seen += 1
             if header_seen > rows:
                 break
+    return out, min(rows, header_seen - 1)
+
+
+def _replay_patch(chain: str) -> Path:
+    return REPO / "patches" / ("replay_pointing_at.pat" if chain == "torre" else "replay_tqt.pat")
+
+
+def replay_rate(chain: str, head: Path, port: int) -> PatchRate:
+    """(c) ``patches/replay_*.pat`` with ``speed=0``: real-time runtime, source thread and queue."""
+    rt = load(_replay_patch(chain), overrides=[f"source.file={head}", "source.speed=0", f"out.port={port}"])
+    rt.console = lambda line: None
+    src = rt.nodes["source"]
+    marks: dict[str, float] = {}
+    orig_emit, orig_done = src._emit, src._done  # type: ignore[attr-defined]
+
+    def emit(i: int, j: int) -> None:
+        if i == 0:
+            marks["first"] = time.perf_counter()
+        orig_emit(i, j)
+
+    def done() -> None:
+        marks["done"] = time.perf_counter()
+        orig_done()
+
+    src._emit, src._done = emit, done  # type: ignore[attr-defined]
+    rt.run(120.0)
+    wall = marks.get("done", math.nan) - marks.get("first", math.nan)
+    n = int(src.emitted)
+    return PatchRate(chain, REPLAYED, n, [1e6 * wall / n if n else math.nan])
+
+
+def whole_process_command(chain: str, head: Path, port: int) -> list[str]:
+    """(d) ``pointat run`` of the shipped replay patch at ``speed=0``, its OSC to ``port``."""
+    overrides = [f"source.file={head}", "source.speed=0", f"out.port={port}"]
+    cmd = pointat_command(_replay_patch(chain), overrides, 120.0)
+    return cmd[:4] + ["--status", "0"] + cmd[4:]
+
+
+def whole_process_rate(chain: str, head: Path, rows: int) -> tuple[PatchRate, str]:
+    """(d) The replay patch in a ``pointat run`` process of its own, as a user runs it: start-up, the
+    recording read, the source thread, the scheduler, ``osc_out``.  Its directions are counted at a UDP
+    socket in this process; the rate is from the kernel's receive time stamps of the first and the last
+    (start-up and exit are not in it: the start-up has a table of its own).  Returns the rate and the
+    command as shown."""
+    sock = receiver_socket()
+    cmd = whole_process_command(chain, head, sock.getsockname()[1])
+    stamps: list[int] = []
+    got: list[tuple[int, bytes]] = []
+    try:
+        proc = subprocess.Popen(
+            cmd, cwd=REPO, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, start_new_session=True
+        )
+        try:
+            deadline = time.monotonic() + 120.0
+            while proc.poll() is None and time.monotonic() < deadline:
+                select.select([sock], [], [], 0.05)
+                _drain(sock, got)
+                stamps += [t for t, data in got if data.startswith(b"/pointat/1/aed")]  # not the status
+                got.clear()
+        finally:
+            stop_process(proc)
+        _drain(sock, got)
+        stamps += [t for t, data in got if data.startswith(b"/pointat/1/aed")]
+    finally:
+        sock.close()
+    if len(stamps) < 2:
+        raise RuntimeError(f"{len(stamps)} directions came out of {rows}")
+    us = (stamps[-1] - stamps[0]) / 1000.0 / (len(stamps) - 1)
+    cmd_shown = shown(cmd).replace(str(head), f"FIRST_{rows}_ROWS_OF_TRIAL.csv.gz")
+    return PatchRate(chain, WHOLE, rows, [us], whole_process=True, received=(len(stamps), rows)), cmd_shown
+
+
+def startup_times(runs: int, port: int) -> list[Startup]:
+    """Wall time of ``pointat run glove_tqt --for 0`` and ``pointat check glove_tqt`` (whole process, from
+    this one: fork, interpreter, imports, patch, nodes started and stopped), beside ``python -c pass`` (the
+    interpreter alone).  One run of each first, not counted; then ``runs`` rounds, the commands in turn."""
+    run = pointat_command(Path("glove_tqt"), [f"out.port={port}", "ctl.port=0"], 0.0)
+    commands = [
+        ("pointat run glove_tqt --for 0", [*run[:4], "--status", "0", *run[4:]]),
+        ("pointat check glove_tqt", [sys.executable, "-m", "pointat.cli", "check", "glove_tqt"]),
+        ("python -c pass (the interpreter alone)", [sys.executable, "-c", "pass"]),
+    ]
+    out = [Startup(label, shown(cmd).replace(sys.executable, "python")) for label, cmd in commands]
+    for k in range(runs + 1):
+        for (_, cmd), res in zip(commands, out, strict=True):
+            if res.error:
+                continue
+            t0 = time.perf_counter()
+            done = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
+            wall = time.perf_counter() - t0
+            if done.returncode:
+                res.error = f"exit {done.returncode}: {(done.stderr or done.stdout).strip()[-200:]}"
+            elif k:  # the first run warms the page cache and is not counted
+                res.seconds.append(wall)
     return out
 
 
-def replay_rate(chain: str, trial: Path, rows: int, port: int) -> PatchRate:
-    """(c) ``patches/replay_*.pat`` with ``speed=0``: real-time runtime, source thread and queue."""
-    patch = REPO / "patches" / ("replay_pointing_at.pat" if chain == "torre" else "replay_tqt.pat")
-    with tempfile.TemporaryDirectory(prefix="pointat-bench-") as tmp:
-        head = _broad_head(trial, rows, Path(tmp))
-        rt = load(patch, overrides=[f"source.file={head}", "source.speed=0", f"out.port={port}"])
-        rt.console = lambda line: None
-        src = rt.nodes["source"]
-        marks: dict[str, float] = {}
-        orig_emit, orig_done = src._emit, src._done  # type: ignore[attr-defined]
-
-        def emit(i: int, j: int) -> None:
-            if i == 0:
-                marks["first"] = time.perf_counter()
-            orig_emit(i, j)
-
-        def done() -> None:
-            marks["done"] = time.perf_counter()
-            orig_done()
-
-        src._emit, src._done = emit, done  # type: ignore[attr-defined]
-        rt.run(120.0)
-    wall = marks.get("done", math.nan) - marks.get("first", math.nan)
-    return PatchRate(chain, "replay speed=0 (real-time runtime, BROAD trial)", int(src.emitted), wall)
-
-
 # --------------------------------------------------------------------------------------- filters
-def _rounds(fn: Callable[[], None], n: int, rounds: int) -> tuple[float, float]:
+def _rounds(fn: Callable[[], None], n: int, rounds: int) -> list[float]:
+    """µs per item (``n`` of them a call of ``fn``) of each of ``rounds`` calls."""
     times = []
     for _ in range(rounds):
         t0 = time.perf_counter()
         fn()
         times.append(1e6 * (time.perf_counter() - t0) / n)
-    return min(times), statistics.median(times)
+    return times
 
 
 def _feed(
@@ -494,16 +631,17 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
         return run
 
     for mode in ("robust", "paper"):
-        best, med = _rounds(tqt(mode), n, rounds)
-        out.append(FilterCost(f"TQTFilter {mode}", "pointat", best, med, "Python floats in"))
+        out.append(
+            FilterCost(f"TQTFilter {mode}", "pointat", _rounds(tqt(mode), n, rounds), "Python floats in")
+        )
 
     def compl() -> None:
         f = ComplementaryFilter(0.05)
         for i in range(n):
             f.update(g[i], a[i], m[i], dt)
 
-    best, med = _rounds(compl, n, max(1, rounds - 1))
-    out.append(FilterCost("ComplementaryFilter", "pointat", best, med, "numpy rows in"))
+    us = _rounds(compl, n, max(1, rounds - 1))
+    out.append(FilterCost("ComplementaryFilter", "pointat", us, "numpy rows in"))
 
     k15 = 15
     nb = min(n, 4000)
@@ -524,11 +662,11 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
             for i in range(nb):
                 b.update(G[i], A[i], M[i], dt)
 
-        best, med = _rounds(bank, nb * k15, rounds)
         note = "per sensor-sample; " + (
             "compiled loop (numba)" if backend == "numba" else "a Python loop over the sensors"
         )
-        out.append(FilterCost(f"TQTBank robust, 15 sensors, {backend}", "pointat", best, med, note))
+        us = _rounds(bank, nb * k15, rounds)
+        out.append(FilterCost(f"TQTBank robust, 15 sensors, {backend}", "pointat", us, note, BANK_CALLS))
     G15, A15, M15 = G.tolist(), A.tolist(), M.tolist()
 
     def fifteen() -> None:
@@ -538,8 +676,8 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
             for j in range(k15):
                 fs[j].update(gi[j], ai[j], mi[j], dt)
 
-    best, med = _rounds(fifteen, nb * k15, rounds)
-    out.append(FilterCost("15 x TQTFilter robust", "pointat", best, med, "per sensor-sample"))
+    us = _rounds(fifteen, nb * k15, rounds)
+    out.append(FilterCost("15 x TQTFilter robust", "pointat", us, "per sensor-sample"))
 
     # the same in a patch, as a user wires it: one tqt_bank node, or a tqt node a sensor; three messages
     # in a sensor-sample (mag, accel, then the hot gyro), its quaternion out to a sink
@@ -568,8 +706,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
                     feeds.append((node.receive, 0))
             _feed(rt, feeds, msgs)
 
-        best, med = _rounds(nodes, nb * k15, rounds)
-        out.append(FilterCost(label, "pointat", best, med, note))
+        out.append(FilterCost(label, "pointat", _rounds(nodes, nb * k15, rounds), note, IN_PATCH))
 
     # a whole body (issue 33): 15 sensors through one tqt_bank into a 15-segment skeleton (offsets from
     # the calibration pose, forward kinematics), per frame of all 15, beside one glove's tqt node per sample
@@ -588,20 +725,11 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
             rt.connect(bank, 0, sink, 0)
         _feed(rt, [(bank.receive, 1 + 3 * j) for j in range(k15)], msgs)
 
-    best, med = _rounds(body, nb, rounds)
-    out.append(
-        FilterCost(
-            "body: tqt_bank 15 + skeleton 15 segments",
-            "pointat",
-            best,
-            med,
-            "per frame of 15 sensors, in a patch",
-        )
-    )
-    best, med = _rounds(lambda: body(False), nb, rounds)
-    out.append(
-        FilterCost("body: tqt_bank 15 alone", "pointat", best, med, "per frame of 15 sensors, in a patch")
-    )
+    per_frame = "per frame of 15 sensors, in a patch"
+    us = _rounds(body, nb, rounds)
+    out.append(FilterCost(BODY_ROW, "pointat", us, per_frame, IN_PATCH))
+    us = _rounds(lambda: body(False), nb, rounds)
+    out.append(FilterCost("body: tqt_bank 15 alone", "pointat", us, per_frame, IN_PATCH))
 
     try:
         import ahrs
@@ -621,8 +749,8 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
                 q = f.updateMARG(q, g[i], a[i], m[i])
 
         for name, fn in (("Madgwick", madgwick), ("Mahony", mahony)):
-            best, med = _rounds(fn, n, max(1, rounds - 1))
-            out.append(FilterCost(name, f"ahrs {ahrs.__version__}", best, med, "numpy rows in"))
+            us = _rounds(fn, n, max(1, rounds - 1))
+            out.append(FilterCost(name, f"ahrs {ahrs.__version__}", us, "numpy rows in"))
     except ImportError as exc:
         errors.append(f"ahrs not installed ({exc}): pip install ahrs")
 
@@ -642,42 +770,36 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
                 upd(gd[i], ag[i], m[i])
                 get()
 
-        best, med = _rounds(fusion, n, rounds)
-        out.append(
-            FilterCost(
-                "Ahrs (update + get_quaternion)",
-                f"imufusion {_version('imufusion')}",
-                best,
-                med,
-                "C, numpy rows in",
-            )
-        )
+        us = _rounds(fusion, n, rounds)
+        library = f"imufusion {_version('imufusion')}"
+        out.append(FilterCost("Ahrs (update + get_quaternion)", library, us, "C, numpy rows in"))
     except ImportError as exc:
         errors.append(f"imufusion not installed ({exc}): pip install imufusion")
 
     try:
         import vqf
 
-        def vqf_loop() -> None:
-            f = vqf.VQF(dt)
-            upd, get = f.update, f.getQuat9D
-            for i in range(n):
-                upd(g[i], a[i], m[i])
-                get()
+        library = f"vqf {_version('vqf')}"
+        # the full filter and the basic one (no bias estimation, no magnetic disturbance rejection), each
+        # called once a sample as a live patch would, and once for the whole trial (updateBatch: the loop
+        # in C++, the same trade as TQTBank's one call for 15 sensors)
+        for name, cls in (("VQF", vqf.VQF), ("BasicVQF", vqf.BasicVQF)):
 
-        def vqf_batch() -> None:
-            vqf.VQF(dt).updateBatch(g, a, m)
+            def loop(cls: type = cls) -> None:
+                f = cls(dt)
+                upd, get = f.update, f.getQuat9D
+                for i in range(n):
+                    upd(g[i], a[i], m[i])
+                    get()
 
-        best, med = _rounds(vqf_loop, n, rounds)
-        out.append(
-            FilterCost("VQF (update + getQuat9D)", f"vqf {_version('vqf')}", best, med, "C++, numpy rows in")
-        )
-        best, med = _rounds(vqf_batch, n, rounds)
-        out.append(
-            FilterCost(
-                "VQF updateBatch", f"vqf {_version('vqf')}", best, med, "C++ loop over the whole array"
-            )
-        )
+            def batch(cls: type = cls) -> None:
+                cls(dt).updateBatch(g, a, m)
+
+            us = _rounds(loop, n, rounds)
+            out.append(FilterCost(f"{name} (update + getQuat9D)", library, us, "C++, numpy rows in"))
+            us = _rounds(batch, n, rounds)
+            note = "C++ loop over the whole trial; per sample"
+            out.append(FilterCost(f"{name} updateBatch", library, us, note, BATCH))
     except ImportError as exc:
         errors.append(f"vqf not installed ({exc}): pip install vqf")
     return out, errors
@@ -705,22 +827,40 @@ def run_all(
     replay_rows = 5000 if quick else 20000
     n_filter = 5000 if quick else 20000
     rounds = 3 if quick else 5
+    startup_runs = 5 if quick else 10
     messages = _adc_messages(n_push + 200)
     simulated: dict[str, PatchRate] = {}
-    replays: dict[str, PatchRate] = {}
-    pushes: dict[tuple[str, str], list[PatchRate]] = {}
-    with udp_sink() as port, udp_hole() as hole:
+    measured: dict[tuple[str, str], list[PatchRate]] = {}
+    with (
+        udp_sink() as port,
+        udp_hole() as hole,
+        tempfile.TemporaryDirectory(prefix="pointat-bench-") as tmp,
+    ):
+        head, rows = _broad_head(trial, replay_rows, Path(tmp))
+        shown_for: set[str] = set()
 
         def push_round(r: int) -> None:
-            """(b) and (b') once for each chain.  The section runs PUSH_ROUNDS of these, spread over it, so
-            that a slow spell of the shared machine does not decide the figures alone; the fastest chunk
-            of all the rounds counts, and the report gives the median chunk beside it."""
+            """(b), (b'), (c) and (d) once for each chain.  The section runs PUSH_ROUNDS of these, spread
+            over it, so that a slow spell of the shared machine does not decide the figures alone; the
+            report gives the median of all the chunks (or runs) and their range."""
             for chain in CHAINS:
-                progress(f"throughput: {chain} chain, ADC vectors pushed, round {r + 1}/{PUSH_ROUNDS}")
-                pushes.setdefault((chain, PUSHED), []).append(push_rate(chain, messages, port)[0])
+                progress(
+                    f"throughput: {chain} chain, pushed, replayed, whole process, round {r + 1}/{PUSH_ROUNDS}"
+                )
+                measured.setdefault((chain, PUSHED), []).append(push_rate(chain, messages, port)[0])
                 rate = push_rate(chain, messages, hole.getsockname()[1], how=PUSHED_NO_WAKE)[0]
-                pushes.setdefault((chain, PUSHED_NO_WAKE), []).append(rate)
+                measured.setdefault((chain, PUSHED_NO_WAKE), []).append(rate)
                 _empty(hole)
+                try:
+                    measured.setdefault((chain, REPLAYED), []).append(replay_rate(chain, head, port))
+                    for _ in range(WHOLE_RUNS):
+                        rate, command = whole_process_rate(chain, head, rows)
+                        measured.setdefault((chain, WHOLE), []).append(rate)
+                        if r == 0 and chain not in shown_for:  # once a chain (the ports differ)
+                            shown_for.add(chain)
+                            res.commands.append(command)
+                except Exception as exc:  # report, do not stop the other benchmarks
+                    res.errors.append(f"replay {chain}, round {r + 1}: {type(exc).__name__}: {exc}")
 
         progress("throughput: the system's cost of waking a receiver")
         res.wake = wake_cost(port, hole)
@@ -736,20 +876,20 @@ def run_all(
             res.nodes += node_costs(chain, recorded, nodes, n_push, port)
             res.hotspots[chain] = profile_chain(chain, messages, port)
             res.gc_pauses[chain] = gc_pauses(chain, _adc_messages(20200), port)
-            try:
-                replays[chain] = replay_rate(chain, trial, replay_rows, port)
-            except Exception as exc:  # report, do not stop the other benchmarks
-                res.errors.append(f"replay {chain}: {type(exc).__name__}: {exc}")
         push_round(1)
         progress("throughput: pure filters and peers")
         res.filters, errs = filter_costs(sample, n_filter, rounds)
         res.errors += errs
         for r in range(2, PUSH_ROUNDS):
             push_round(r)
-    for chain in CHAINS:  # the table's order: (a), (b), (b'), (c)
-        pushed = PatchRate.pooled(pushes[(chain, PUSHED)])
-        res.chain_totals[chain] = pushed.us_per_sample
-        res.patches += [simulated[chain], pushed, PatchRate.pooled(pushes[(chain, PUSHED_NO_WAKE)])]
-        if chain in replays:
-            res.patches.append(replays[chain])
+        progress("throughput: start-up, whole process")
+        res.startup = startup_times(startup_runs, hole.getsockname()[1])
+        res.commands += [st.command for st in res.startup]
+        _empty(hole)
+    for chain in CHAINS:  # the table's order: (a), (b), (b'), (c), (d)
+        res.patches.append(simulated[chain])
+        for how in (PUSHED, PUSHED_NO_WAKE, REPLAYED, WHOLE):
+            if measured.get((chain, how)):
+                res.patches.append(PatchRate.pooled(measured[(chain, how)]))
+        res.chain_totals[chain] = PatchRate.pooled(measured[(chain, PUSHED)]).median_us
     return res

@@ -38,6 +38,7 @@ import numpy as np
 from .maths.vbap import Layout, make_layout, vbap_gains
 from .message import Message
 from .node import Inlet, Node
+from .scheduling import quiet_thread
 
 __all__ = ["Observer", "fmt_direction"]
 
@@ -194,7 +195,8 @@ class Observer:
 
     def start(self) -> None:
         self.started = time.monotonic()
-        self._thread = threading.Thread(target=self._run, name="pointat-observer", daemon=True)
+        # it sleeps between readings: a spinning scheduler (--spin) polls beside it without pauses
+        self._thread = quiet_thread(threading.Thread(target=self._run, name="pointat-observer", daemon=True))
         self._thread.start()
 
     def stop(self) -> None:

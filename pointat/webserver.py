@@ -36,6 +36,7 @@ from urllib.parse import unquote, urlsplit
 from .control import PREFIX, control
 from .devices.osc_wire import decode_packet, encode_message
 from .oscquery import EXTENSIONS, address_space, find, value_of
+from .scheduling import quiet_thread
 from .websocket import BINARY, CLOSE, PING, PONG, TEXT, FrameReader, WebSocketError, accept_key, encode_frame
 
 __all__ = ["MonitorServer"]
@@ -48,6 +49,20 @@ _STATIC = {
     "/monitor/monitor.js": ("monitor.js", "text/javascript; charset=utf-8"),
     "/monitor/monitor.css": ("monitor.css", "text/css; charset=utf-8"),
 }
+
+
+class _Server(ThreadingHTTPServer):
+    """Threads for its requests, each marked quiet: they wait on their sockets, and a spinning scheduler
+    (``--spin``) must not pause for them (:func:`pointat.scheduling.quiet_thread`)."""
+
+    daemon_threads = True
+
+    def process_request(self, request: Any, client_address: Any) -> None:
+        th = threading.Thread(
+            target=self.process_request_thread, args=(request, client_address), name="pointat-monitor-client"
+        )
+        th.daemon = True
+        quiet_thread(th).start()
 
 
 class _Client:
@@ -100,8 +115,7 @@ class MonitorServer:
         class Handler(_Handler):
             monitor = server
 
-        self.http = ThreadingHTTPServer((host, port), Handler)
-        self.http.daemon_threads = True
+        self.http = _Server((host, port), Handler)
         self.port = self.http.server_address[1]
         self.osc = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
@@ -136,11 +150,11 @@ class MonitorServer:
     # -- running -----------------------------------------------------------------------------------
     def start(self) -> None:
         for target, what in ((self.http.serve_forever, "http"), (self._read_osc, "osc")):
-            th = threading.Thread(target=target, name=f"pointat-monitor-{what}", daemon=True)
+            th = quiet_thread(threading.Thread(target=target, name=f"pointat-monitor-{what}", daemon=True))
             th.start()
             self._threads.append(th)
         if self.advertise:  # (zeroconf probes the network for a second or two: not in anyone's way)
-            th = threading.Thread(target=self._advertise, name="pointat-zeroconf", daemon=True)
+            th = quiet_thread(threading.Thread(target=self._advertise, name="pointat-zeroconf", daemon=True))
             th.start()
             self._threads.append(th)
 
@@ -355,7 +369,10 @@ def _advertise(name: str, host: str, port: int, osc_port: int) -> Any:
     address = "127.0.0.1" if host in ("", "0.0.0.0") else host
     try:
         addresses = [socket.inet_aton(socket.gethostbyname(address))]
+        before = set(threading.enumerate())
         zc = Zeroconf(interfaces=["127.0.0.1"] if address.startswith("127.") else None)
+        for th in set(threading.enumerate()) - before:  # its event loop, asleep on its sockets
+            quiet_thread(th)
         label = f"{name} {time.strftime('%H%M%S')}"[:63]
         for kind, p in (("_oscjson._tcp.local.", port), ("_osc._udp.local.", osc_port)):
             zc.register_service(

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import socket
+import threading
 import time
 import urllib.error
 import urllib.request
@@ -241,3 +242,24 @@ def test_a_patch_without_osc_out_or_vbap_has_a_ring_of_eight_and_no_pointer():
     obs = Observer(rt).attach()
     snap = obs.read()
     assert snap["pointers"] == [] and snap["streams"] == [] and len(snap["layout"]["azimuths"]) == 8
+
+
+def test_the_observer_and_the_server_leave_a_spinning_scheduler_polling_without_pauses():
+    """``--spin`` polls without pauses when no other thread wants the interpreter: the observer's thread
+    and the server's (requests, OSC, zeroconf) sleep on their sockets and timers, marked quiet."""
+    rt = build(check(parse_patch("node ctl osc_in port=0\nnode p print\nctl.any -> p", "x.pat"), REG))
+    assert rt._spin_grain() == 0.0
+    obs = Observer(rt).attach()
+    server = MonitorServer(rt, obs, "127.0.0.1", 0, advertise=True)
+    server.start()
+    obs.start()
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.1:{server.port}/?HOST_INFO", timeout=5):
+            pass
+        deadline = time.monotonic() + 5
+        while server._zeroconf is None and time.monotonic() < deadline:  # advertised (or given up)
+            time.sleep(0.01)
+        assert rt._spin_grain() == 0.0, [t.name for t in threading.enumerate()]
+    finally:
+        obs.stop()
+        server.close()
