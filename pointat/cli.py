@@ -345,7 +345,8 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
         if server is not None:
             server.start()  # (before the clock starts: its threads and zeroconf take a moment)
         rt.start()
-        observer.start()
+        if server is not None:  # the page's readings; the console takes its own when it writes
+            observer.start()
         every = args.status if args.status is not None else 1.0 if out.tty else 5.0
         ticker = _Ticker(every, lambda: out.status(observer.status_lines())) if every > 0 else None
         try:

@@ -15,10 +15,12 @@ An :class:`Observer` watches a built :class:`~pointat.runtime.Runtime` from a th
 * **Loudspeakers**: the layout of the patch's first ``vbap`` node, else the one given (``pointat run
   --layout``), else a ring of eight; the VBAP gains of each pointer's direction are worked out here.
 
-The scheduler pays one call per sample and per flag for the taps (a counter and a clock read); every
+The scheduler pays one call per sample and per flag for the taps (a counter and a clock read).  Every
 other reading, the history of the last :attr:`Observer.HISTORY` seconds and the gains are the observer
-thread's, :attr:`Observer.RATE` times a second.  A reading that races the scheduler (a direction being
-written) is at most one sample old.
+thread's, :attr:`Observer.RATE` times a second, and only while the monitor is served (the console's
+status lines take a reading when they are written); a reading hands the interpreter to the scheduler
+between gloves, so that it never waits for a whole reading.  A reading that races the scheduler (a
+direction being written) is at most one sample old.
 """
 
 from __future__ import annotations
@@ -140,6 +142,8 @@ class Observer:
         self._stop = threading.Event()
         self._listeners: list[Callable[[dict[str, Any]], None]] = []
         self._marks: deque = deque()  # (monotonic, {stream key: count}) for the rates
+        #: Work out what only the page shows (the VBAP gains); the monitor's server sets it.
+        self.detailed = False
         self.accel: dict[str, list[Any]] = {}  # outlet -> [the last acceleration vector]
         self.accel_history: dict[str, deque] = {}
 
@@ -230,6 +234,7 @@ class Observer:
         span = now - then
         streams = []
         for s in self.streams:
+            _let_others_run()
             if span > 0.2:
                 s.rate = (s.count - before.get(s.key, 0)) / span
             period = 1.0 / s.nominal if s.nominal > 0 else 0.0
@@ -268,12 +273,16 @@ class Observer:
             }
         pointers = []
         for p in self.pointers:
+            _let_others_run()
             az, el, dist, _spread = (float(v) for v in p.node.state)
             updates = getattr(p.node, "updates", 0)
             p.history.append((round(now - self.started, 3), round(az, 2), round(el, 2), round(dist, 2)))
             while p.history and p.history[-1][0] - p.history[0][0] > self.HISTORY:
                 p.history.popleft()
-            gains = vbap_gains(self.layout, az, el) if updates else np.zeros(self.layout.n)
+            if self.detailed and updates:  # the page's; the console needs none
+                gains = vbap_gains(self.layout, az, el)
+            else:
+                gains = np.zeros(self.layout.n)
             pointers.append(
                 {
                     "name": p.node.name,
@@ -395,6 +404,12 @@ def _keep(box: list[Any]) -> Callable[[Message], None]:
         box[0] = msg.value
 
     return keep
+
+
+def _let_others_run() -> None:
+    """Hand the interpreter to any thread that waits for it (the scheduler): a reading of many gloves is
+    Python work of a millisecond or more, and the scheduler must not wait for all of it at once."""
+    time.sleep(0)
 
 
 def _health(node: Node) -> dict[str, Any]:

@@ -127,6 +127,7 @@ class MonitorServer:
         self._zeroconf: Any = None
         self._closed = False
         observer.listen(self._push)
+        observer.detailed = True
 
     @property
     def url(self) -> str:
