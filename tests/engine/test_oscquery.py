@@ -270,7 +270,9 @@ def test_a_dome_given_on_the_command_line_is_the_monitors_layout():
 
     dome = _layout("0:0,90:0,180:0,-90:0,45:45,-135:45,0:90")
     assert dome.dim == 3 and dome.n == 7
-    rt = build(check(parse_patch("node m metro 100\nnode p print\nnode on loadbang\non -> m -> p", "x.pat"), REG))
+    rt = build(
+        check(parse_patch("node m metro 100\nnode p print\nnode on loadbang\non -> m -> p", "x.pat"), REG)
+    )
     layout = Observer(rt, layout=dome).attach().read()["layout"]
     assert layout["dim"] == 3 and layout["elevations"][-1] == 90.0 and layout["from"] == "--layout"
     with pytest.raises(Exception, match="--layout"):
