@@ -123,6 +123,8 @@ class MonitorServer:
         except OSError:
             self.osc.bind((host, 0))
         self.osc_port = self.osc.getsockname()[1]
+        # (a blocked recvfrom is not woken by close() on Linux: the reader looks at _closed between waits)
+        self.osc.settimeout(0.2)
         self._threads: list[threading.Thread] = []
         self._zeroconf: Any = None
         self._closed = False
@@ -184,11 +186,16 @@ class MonitorServer:
                 c.sock.close()
             except OSError:
                 pass
+        for th in self._threads:  # the server's own threads end with it (zeroconf's registration aside)
+            if th.name != "pointat-zeroconf":
+                th.join(1.0)
 
     def _read_osc(self) -> None:
-        while True:
+        while not self._closed:
             try:
                 data, _peer = self.osc.recvfrom(65536)
+            except TimeoutError:
+                continue
             except OSError:
                 return  # closed
             self.apply(data)
