@@ -169,8 +169,26 @@ def _bound(port: int) -> bool:
 
 
 # --------------------------------------------------------------------------------------- results
+class _Spread:
+    """The median and the range of the ``us`` of each chunk, run or round."""
+
+    us: list[float]
+
+    @property
+    def median_us(self) -> float:
+        return statistics.median(self.us) if self.us else math.nan
+
+    @property
+    def min_us(self) -> float:
+        return min(self.us, default=math.nan)
+
+    @property
+    def max_us(self) -> float:
+        return max(self.us, default=math.nan)
+
+
 @dataclass
-class PatchRate:
+class PatchRate(_Spread):
     """Samples per second through one patch, and what it was measured with.
 
     ``us`` holds the µs per sample of every chunk (or run, or round) measured, in order; the figures are
@@ -197,18 +215,6 @@ class PatchRate:
         return cls(first.chain, first.how, first.samples, us, first.source_us, first.whole_process, received)
 
     @property
-    def median_us(self) -> float:
-        return statistics.median(self.us) if self.us else math.nan
-
-    @property
-    def min_us(self) -> float:
-        return min(self.us, default=math.nan)
-
-    @property
-    def max_us(self) -> float:
-        return max(self.us, default=math.nan)
-
-    @property
     def per_second(self) -> float:
         """Samples per second at the median chunk."""
         return 1e6 / self.median_us if self.median_us > 0 else math.nan
@@ -229,7 +235,7 @@ class NodeCost:
 
 
 @dataclass
-class FilterCost:
+class FilterCost(_Spread):
     """µs per update (per sensor-sample, per frame: see ``note``) of each round, in order."""
 
     name: str
@@ -238,18 +244,6 @@ class FilterCost:
     note: str = ""
     #: how the filter is called: :data:`PER_CALL`, :data:`BANK_CALLS`, :data:`BATCH` or :data:`IN_PATCH`
     calls: str = PER_CALL
-
-    @property
-    def median_us(self) -> float:
-        return statistics.median(self.us) if self.us else math.nan
-
-    @property
-    def min_us(self) -> float:
-        return min(self.us, default=math.nan)
-
-    @property
-    def max_us(self) -> float:
-        return max(self.us, default=math.nan)
 
 
 @dataclass
