@@ -489,7 +489,8 @@ dir.azimuth -> out.azimuth
         self.sent = 0
         self.failed = 0
         self.refused = 0
-        self.heard_at = -math.inf  # logical time of the last direction in
+        self.heard = 0  # directions in (a count: no clock read per sample)
+        self._heard_seen = (0, -math.inf)  # (heard, the look that saw it change)
         self.flag = "ok"  # the filter's flags, as its outlet last said
         self.status_state = ""  # the state last told
         self.statuses = 0
@@ -520,9 +521,11 @@ dir.azimuth -> out.azimuth
         if every <= 0:
             return
         now = self.now
-        if self.heard_at == -math.inf:
+        if self.heard != self._heard_seen[0]:
+            self._heard_seen = (self.heard, now)
+        if not self.heard:
             state = "waiting"
-        elif now - self.heard_at > self.p.dropout:
+        elif now - self._heard_seen[1] > self.p.dropout:
             state = "dropout"
         else:
             state = self.flag if self.flag != "ok" else "ok"
@@ -574,7 +577,7 @@ dir.azimuth -> out.azimuth
         self.state[3] = v
 
     def on_azimuth(self, msg: Message) -> None:
-        self.heard_at = self.now  # (a dropout is judged on what comes in: pacing and deadband hold updates)
+        self.heard += 1  # (a dropout is judged on what comes in: pacing and deadband hold updates)
         kind = msg.kind
         state = self.state
         if kind == "float":  # the per-sample case (a float message holds a float; the others are checked)

@@ -80,7 +80,6 @@ class Stream:
     dropouts: int = 0
     down_since: float | None = None
     down_total: float = 0.0
-    _marks: deque = field(default_factory=lambda: deque(maxlen=64))
 
     @property
     def key(self) -> str:

@@ -135,7 +135,7 @@ def _place(root: dict[str, Any], path: str, leaf: dict[str, Any]) -> None:
     contents[parts[-1]] = new
 
 
-def address_space(rt: Any, observer: Any = None, description: str = "") -> dict[str, Any]:
+def address_space(rt: Any, description: str = "") -> dict[str, Any]:
     """The whole tree, as the root's JSON (``GET /``)."""
     root = _container("/", description or "pointat: a running patch's live parameters and methods")
     for name, node in rt.nodes.items():

@@ -148,7 +148,7 @@ class MonitorServer:
         }
 
     def tree(self) -> dict[str, Any]:
-        return address_space(self.rt, self.observer, f"pointat: {self.name}")
+        return address_space(self.rt, f"pointat: {self.name}")
 
     # -- running -----------------------------------------------------------------------------------
     def start(self) -> None:
