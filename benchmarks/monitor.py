@@ -119,23 +119,15 @@ def _browser(url: str) -> Callable[[], None] | None:
     try:
         from selenium import webdriver
         from selenium.webdriver.chrome.service import Service
+
+        from pointat.testing import CHROMIUM_FLAGS
     except ImportError:
         return None
     if not (shutil.which("chromium") and shutil.which("chromedriver")):
         return None
     o = webdriver.ChromeOptions()
     o.binary_location = shutil.which("chromium")
-    for flag in (
-        "--headless=new",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--disable-dev-shm-usage",
-        "--disable-background-networking",
-        "--disable-component-update",
-        "--disable-sync",
-        "--no-first-run",
-        "--window-size=1400,1200",
-    ):
+    for flag in CHROMIUM_FLAGS:
         o.add_argument(flag)
     d = webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=o)
     d.get(url)

@@ -29,7 +29,17 @@ from .patchfile import parse_patch
 from .registry import Registry, default_registry
 from .runtime import Runtime
 
-__all__ = ["Collect", "make", "patch", "test_registry", "wait_until", "ws_connect", "ws_receive", "ws_send"]
+__all__ = [
+    "CHROMIUM_FLAGS",
+    "Collect",
+    "make",
+    "patch",
+    "test_registry",
+    "wait_until",
+    "ws_connect",
+    "ws_receive",
+    "ws_send",
+]
 
 
 class Collect(Node):
@@ -88,6 +98,22 @@ def beside(patch: str | os.PathLike[str]) -> list[str]:
 
     spec = expand(read_spec(patch))
     return [a for d in spec.nodes if d.type == "osc_in" for a in ("--set", f"{d.name}.port=0")]
+
+
+#: Headless Chromium as the monitor's tests and benchmark start it: no sandbox (root), no GPU, and none of
+#: the background connections this machine's closed network refuses.
+CHROMIUM_FLAGS = (
+    "--headless=new",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-dev-shm-usage",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--window-size=1400,1200",
+)
 
 
 # -- a plain WebSocket client (tests and benchmarks of the monitor's server) ---------------------------

@@ -23,20 +23,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pointat.testing import CHROMIUM_FLAGS
+
 ROOT = Path(__file__).resolve().parents[2]
 POINTER = np.array([0x4F, 0xC3, 0xF7])  # the first pointer's colour (monitor.js COLOURS[0])
-FLAGS = [
-    "--headless=new",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-dev-shm-usage",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--window-size=1400,1200",
-]
 
 
 def _free_udp() -> socket.socket:
@@ -84,7 +74,7 @@ def browser(require_tool, tmp_path_factory):
         require_tool(False, "selenium is not installed (pip install selenium)")
     options = webdriver.ChromeOptions()
     options.binary_location = shutil.which("chromium")
-    for flag in FLAGS:
+    for flag in CHROMIUM_FLAGS:
         options.add_argument(flag)
     options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium')}")
     driver = webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=options)
