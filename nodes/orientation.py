@@ -83,17 +83,8 @@ class SampleClock:
 
 
 def time_step(last: float | None, t: float, nominal: float, max_gap: float) -> float:
-    """The step from stamp ``last`` to ``t``: ``nominal`` when there is no usable previous stamp (none,
-    not before ``t``, or more than ``max_gap`` before it) and when the two differ by rounding only."""
-    if last is None:
-        return nominal
-    dt = t - last
-    off = abs(dt - nominal)
-    if off <= 1e-6 * nominal or off <= 4.0 * math.ulp(t):  # (the ulp for stamps many days large)
-        # sensor time from a packet counter (t0 + n / rate) differs from 1/rate by the stamps' rounding
-        # only: the nominal step keeps a filter's per-step coefficients cached, not recomputed
-        return nominal
-    return dt if 0.0 < dt <= max_gap else nominal
+    """:func:`pointat.maths.scalar.time_step`, ``None`` for no previous stamp."""
+    return sq.time_step(math.nan if last is None else last, t, nominal, max_gap)
 
 
 class Flagged:

@@ -166,6 +166,9 @@ base.1 -> nulls2 -> right
     #: middle of a frame, or losing it, leaves a partial one).
     NOISE_BYTES = 64
 
+    #: The compiled chains behind the outlets (:class:`pointat.fusion.Group`), set by the runtime.
+    _fused: Any = None
+
     def setup(self) -> None:
         self._outlet = {int(i): k for k, i in enumerate(self.p.ids)}
         self._clocks = {i: _MoteClock(self.p.rate) for i in self._outlet}
@@ -272,6 +275,8 @@ base.1 -> nulls2 -> right
         reader = self._reader
         if reader is not None and not reader.poll():
             self._reopen_later()
+        if self._fused is not None:  # the read's frames of the compiled chains (pointat.fusion)
+            self._fused.flush()
 
     def _check(self) -> None:
         self._timer = None
@@ -374,7 +379,8 @@ base.1 -> nulls2 -> right
                 log.warning("mote '%s': frames again from mote %d", self.name, frame.mote)
         self._last_frame[frame.mote] = seen
         t = self._clocks[frame.mote].time(frame, host_time)
-        self.out(k, vector(frame.channels, t))
+        if self._fused is None or not self._fused.take(k, frame.channels, t):
+            self.out(k, vector(frame.channels, t))
 
     def _event(self, event: object) -> None:
         ev = len(self.out_specs) - 1

@@ -136,6 +136,17 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     p.add_argument(
+        "--compiled",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="run each glove chain (mote -> offset -> scaling -> tqt -> reference -> azi_ele, "
+        "roll_distance -> osc_out) as one compiled function, every glove of a base station in one call, "
+        "the same datagrams to the bit (needs numba).  auto (the default): when the compiled code is "
+        "cached, else node by node while it is compiled in the background for the next run; on: compile "
+        "now if need be (seconds); off: node by node.  -v says which chains run compiled and why the "
+        "others do not",
+    )
+    p.add_argument(
         "--monitor",
         nargs="?",
         const=MONITOR_PORT,
@@ -285,6 +296,7 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     checked = _checked(args, registry)
     rt = build(checked)
     rt.spin = args.spin / 1000.0
+    rt.compiled = args.compiled
     layout = _layout(args.layout) if args.layout else None
     observer = Observer(rt, layout=layout, patch=Path(args.patch).stem, about=about(args.patch)).attach()
     if os.path.isfile(args.patch):

@@ -125,6 +125,11 @@ class Runtime:
         self._at_end: list[tuple[Node | None, Callable[[], Any]]] = []
         self._late_warned = -math.inf  # when the log last said that timers run late (time.monotonic)
         self.spin = spin
+        #: ``pointat run --compiled``: whether the glove chains run compiled (:mod:`pointat.fusion`);
+        #: off unless asked, so that a runtime built by hand never starts a compile.
+        self.compiled = "off"
+        #: The compiled chains, once started (:class:`pointat.fusion.Fusion`), or None.
+        self.fusion: Any = None
         self._input_at = -math.inf  # when a pass last served input (time.monotonic)
         #: The patch's presets (:class:`pointat.presets.Presets`), when it runs from a file.
         self.presets: Any = None
@@ -341,6 +346,8 @@ class Runtime:
         """
         if self.running:
             return
+        if self.compiled != "off":  # (before the clock starts: loading the compiled code takes a while)
+            self._fuse()
         self.clock.reset()
         self.running = True
         failures = []
@@ -359,6 +366,19 @@ class Runtime:
         # the sources whose end is the patch's end (see _finished)
         self._sources = [n for n in self.nodes.values() if n.active and not self._listens_only(n)]
         self._over_told = False
+
+    def _fuse(self) -> None:
+        """Run the glove chains compiled where the patch has them (:mod:`pointat.fusion`); the patch runs
+        node by node whatever goes wrong there."""
+        from pointat import fusion
+
+        try:
+            self.fusion = fusion.install(self, self.compiled)
+            if self.fusion is not None:
+                self.console(self.fusion.describe())
+        except Exception:  # never a reason not to play
+            log.exception("the compiled glove chain failed to start; running node by node")
+            self.fusion = None
 
     def _downstream_first(self) -> list[Node]:
         """Every node, each after the nodes it sends to (a loop's in declaration order): a sink is ready
@@ -441,6 +461,8 @@ class Runtime:
         self._closed = True
         self.stopping.set()
         self.running = False
+        if self.fusion is not None:  # the nodes' state, counters and health as if never fused
+            self._guard(None, self.fusion.close)
         for node in reversed(list(self.nodes.values())):
             self._guard(node, node.close)
         if self._selector is not None:

@@ -58,6 +58,7 @@ __all__ = [
     "accmag_quat",
     "ComplementaryFilter",
     "RollDistance",
+    "roll_distance_step",
     "PARALLEL_EPS",
 ]
 
@@ -681,12 +682,26 @@ class RollDistance:
 
     def reset(self, distance: float | None = None) -> None:
         """Back to azimuth mode; distance set to ``distance`` (clipped to 0..90) or the initial value."""
-        self.mode = "azimuth"
-        self.distance = self._initial_distance if distance is None else float(np.clip(distance, 0.0, 90.0))
-        self.azimuth: float | None = None
-        self._anchor_azimuth = 0.0
-        self._anchor_distance = self.distance
-        self._unwrapped = 0.0
+        d = self._initial_distance if distance is None else float(np.clip(distance, 0.0, 90.0))
+        #: The state :func:`roll_distance_step` carries (``R_*``): a list here, a row of an array in the
+        #: compiled chain (:mod:`pointat.fusion.kernel`).
+        self.s = [0.0, d, math.nan, 0.0, d, 0.0]
+
+    @property
+    def mode(self) -> str:
+        """``"azimuth"`` or ``"distance"``."""
+        return "distance" if self.s[R_MODE] else "azimuth"
+
+    @property
+    def distance(self) -> float:
+        """The current distance, 0 (far) .. 90 (near)."""
+        return self.s[R_DIST]
+
+    @property
+    def azimuth(self) -> float | None:
+        """The azimuth output (held in distance mode); ``None`` before the first sample."""
+        a = self.s[R_AZ]
+        return None if a != a else a
 
     def update(
         self, azimuth_deg: float, roll_deg: float, elevation_deg: float = 0.0
@@ -714,23 +729,43 @@ class RollDistance:
         az, roll = float(azimuth_deg), float(roll_deg)
         if not (math.isfinite(az) and math.isfinite(roll)):
             raise ValueError(f"azimuth and roll must be finite, got {az}, {roll}")
-        steep = abs(elevation_deg) > self.max_elevation_deg  # no roll of its own to read: the mode holds
-        if self.mode == "azimuth":
-            if abs(roll) >= self.enter_deg and not steep:
-                self.mode = "distance"
-                if self.azimuth is None:
-                    self.azimuth = az
-                self._anchor_azimuth = az
-                self._anchor_distance = self.distance
-                self._unwrapped = az
-            else:
-                self.azimuth = az
-        elif abs(roll) < self.leave_deg and not steep:
-            self.mode = "azimuth"
-            self.azimuth = az
-        if self.mode == "distance":
-            w = (az - self._unwrapped + 180.0) % 360.0 - 180.0  # unwrap_degrees, on one float
-            self._unwrapped += w - 360.0 if w >= 180.0 else w
-            delta = self._unwrapped - self._anchor_azimuth
-            self.distance = min(max(self._anchor_distance + self.gain * delta, 0.0), 90.0)
-        return self.mode, float(self.azimuth), self.distance
+        s = self.s
+        roll_distance_step(
+            s, az, roll, elevation_deg, self.enter_deg, self.leave_deg, self.gain, self.max_elevation_deg
+        )
+        return ("distance" if s[R_MODE] else "azimuth"), s[R_AZ], s[R_DIST]
+
+
+# -- roll_distance_step's state (a list, or a row of an array) ------------------------------------------
+R_MODE = 0  # 1.0 in distance mode
+R_DIST = 1  # the distance
+R_AZ = 2  # the azimuth output (NaN: none yet)
+R_ANCHOR_AZ = 3  # the azimuth when the roll began
+R_ANCHOR_DIST = 4  # the distance then
+R_UNWRAPPED = 5  # the azimuth since, unwrapped across +-180
+R_SIZE = 6
+
+
+def roll_distance_step(s, az, roll, elevation, enter, leave, gain, max_elevation):  # type: ignore[no-untyped-def]
+    """One sample of :class:`RollDistance` on its state ``s`` (``R_*``), in place: finite ``az`` and
+    ``roll``, degrees.  Plain arithmetic on floats, so that numba compiles it into the fused chain
+    (:mod:`pointat.fusion.kernel`) and the class runs the same source."""
+    steep = abs(elevation) > max_elevation  # no roll of its own to read: the mode holds
+    if s[R_MODE] == 0.0:
+        if abs(roll) >= enter and not steep:
+            s[R_MODE] = 1.0
+            if s[R_AZ] != s[R_AZ]:
+                s[R_AZ] = az
+            s[R_ANCHOR_AZ] = az
+            s[R_ANCHOR_DIST] = s[R_DIST]
+            s[R_UNWRAPPED] = az
+        else:
+            s[R_AZ] = az
+    elif abs(roll) < leave and not steep:
+        s[R_MODE] = 0.0
+        s[R_AZ] = az
+    if s[R_MODE] != 0.0:
+        w = (az - s[R_UNWRAPPED] + 180.0) % 360.0 - 180.0  # unwrap_degrees, on one float
+        s[R_UNWRAPPED] += w - 360.0 if w >= 180.0 else w
+        delta = s[R_UNWRAPPED] - s[R_ANCHOR_AZ]
+        s[R_DIST] = min(max(s[R_ANCHOR_DIST] + gain * delta, 0.0), 90.0)

@@ -35,6 +35,8 @@ __all__ = [
     "roll",
     "rotate",
     "slerp",
+    "time_step",
+    "ulp",
 ]
 
 Quat = tuple[float, float, float, float]
@@ -274,3 +276,28 @@ def axis_angle(q: Sequence[float]) -> tuple[float, float, float, float]:
     if s < 1e-15:
         return 0.0, 1.0, 0.0, 0.0
     return 2.0 * math.atan2(s, w), x / s, y / s, z / s
+
+
+def ulp(x: float) -> float:
+    """:func:`math.ulp`, in arithmetic numba compiles (it has no ``math.ulp``)."""
+    x = abs(x)
+    if x == 0.0:
+        return 5e-324
+    if not x < math.inf:  # infinity, NaN
+        return x
+    u = math.ldexp(1.0, math.frexp(x)[1] - 53)
+    return u if u > 0.0 else 5e-324  # a subnormal's
+
+
+def time_step(last: float, t: float, nominal: float, max_gap: float) -> float:
+    """The step from stamp ``last`` to ``t``: ``nominal`` when there is no usable previous stamp (NaN for
+    none, not before ``t``, or more than ``max_gap`` before it) and when the two differ by rounding only."""
+    if last != last:
+        return nominal
+    dt = t - last
+    off = abs(dt - nominal)
+    if off <= 1e-6 * nominal or off <= 4.0 * ulp(t):  # (the ulp for stamps many days large)
+        # sensor time from a packet counter (t0 + n / rate) differs from 1/rate by the stamps' rounding
+        # only: the nominal step keeps a filter's per-step coefficients cached, not recomputed
+        return nominal
+    return dt if 0.0 < dt <= max_gap else nominal

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pointat.maths.fusion import (
+    R_UNWRAPPED,
     ComplementaryFilter,
     GyroIntegrator,
     RollDistance,
@@ -394,7 +395,7 @@ def test_roll_distance_unwraps_as_unwrap_degrees_does_at_the_edges():
         az = prev + float(d)
         rd.update(az, 80.0)
         expected = float(unwrap_degrees(az, prev))
-        assert rd._unwrapped == expected, (d, rd._unwrapped, expected)
+        assert rd.s[R_UNWRAPPED] == expected, (d, rd.s[R_UNWRAPPED], expected)
         assert rd.distance == min(max(45.0 + (expected - prev), 0.0), 90.0)
 
 

@@ -1,0 +1,572 @@
+r"""Fused glove chains: a patch's per-sample work compiled into one function, as Max's gen~ or Heavy do.
+
+The glove chain of ``patches/glove_tqt.pat``, ``mote -> offset -> scaling -> tqt -> reference ->
+azi_ele, roll_distance -> osc_out``, costs about 30 µs a sample node by node, most of it in the hops
+between the nodes and the messages they pass.  When the runtime starts, :func:`install` looks for that
+chain behind each outlet of each ``mote``; the chains it finds run as one compiled function
+(:func:`pointat.fusion.kernel.chain_frames`) over all the frames of a read, every glove of a base
+station in one call, from the nine counts to the OSC datagram.
+
+Nothing about the patch changes for its user.  The nodes stay where they are, with their parameters,
+methods, OSCQuery entries and health; whatever reaches a node of a fused chain from outside it (a live
+parameter, a method such as ``recalibrate``, the reference's capture bang) first hands the chain back to
+the nodes (:meth:`Group.release`: the compiled state written into them), and the message is handled
+node by node, as ever.  The chain is taken up again with the next frame when it is in its steady state:
+the gyro nulls averaged, no capture pending, ``osc_out`` with no pacing, deadband or bundles.  Nodes
+outside the chain that listen to one of its outlets (a ``print``, the monitor) hear every value they
+would have heard.  ``tests/integration/test_fusion.py`` holds both ways to the same datagrams, bit for
+bit, on recorded takes.
+
+Where the chain is not there (another filter, a ``tqt_bank``, a profile with more than one message, a
+node fed per sample from outside the chain), the patch runs node by node, and ``pointat run -v`` says
+why.  ``pointat run --compiled off`` turns it off; ``on`` compiles at start when the cache is cold
+(seconds); ``auto``, the default, fuses when the compiled code is cached and otherwise runs node by node
+while a process of its own compiles it for the next run (:mod:`pointat.fusion.compiled`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from pointat.fusion import kernel as K
+from pointat.message import floats, make, vector
+from pointat.node import Node
+
+__all__ = ["MODES", "Fusion", "Group", "install"]
+
+log = logging.getLogger("pointat.fusion")
+
+#: ``pointat run --compiled``: ``auto`` (fused when cached; compiled meanwhile for the next run),
+#: ``on`` (fused, compiling now when it must), ``off`` (node by node).
+MODES = ("auto", "on", "off")
+
+# (node outlet -> node inlet) of the chain, by type and port name: what the compiled function replaces
+_LINKS = (
+    ("offset", "adc", "scaling", "adc"),
+    ("scaling", "gyro", "tqt", "gyro"),
+    ("scaling", "accel", "tqt", "accel"),
+    ("scaling", "mag", "tqt", "mag"),
+    ("tqt", "quat", "reference", "quat"),
+    ("reference", "quat", "azi_ele", "quat"),
+    ("reference", "quat", "roll_distance", "quat"),
+    ("azi_ele", "elevation", "osc_out", "elevation"),
+    ("roll_distance", "azimuth", "osc_out", "azimuth"),
+    ("roll_distance", "distance", "osc_out", "distance"),
+)
+_ROLES = ("offset", "scaling", "tqt", "reference", "azi_ele", "roll_distance", "osc_out")
+# inlets of the chain that nodes outside it may feed: told once (range), a bang (capture), or stored
+# for the next update (spread, flags)
+_OPEN_INLETS = {("tqt", "range"), ("reference", "capture"), ("osc_out", "spread"), ("osc_out", "flags")}
+# of those, the ones osc_out merely stores, which the chain reads: no hand-back
+_READ_INLETS = {("osc_out", "spread"), ("osc_out", "flags")}
+
+
+def _port(specs: Any, name: str) -> int:
+    return next(i for i, s in enumerate(specs) if s.name == name)
+
+
+class Chain:
+    """One glove's chain: its nodes, by role, and what hands it back when it is fused."""
+
+    def __init__(self, mote: Node, outlet: int, nodes: dict[str, Node]) -> None:
+        self.mote, self.outlet, self.nodes = mote, outlet, nodes
+        self.offset, self.scaling, self.tqt = nodes["offset"], nodes["scaling"], nodes["tqt"]
+        self.ref, self.dir, self.roll, self.out = (
+            nodes["reference"],
+            nodes["azi_ele"],
+            nodes["roll_distance"],
+            nodes["osc_out"],
+        )
+        # the links it replaces, as (node, outlet index, target node, inlet index)
+        self.links = [(mote, outlet, self.offset, 0)]
+        for src, o, dst, i in _LINKS:
+            s, d = nodes[src], nodes[dst]
+            self.links.append((s, _port(s.out_specs, o), d, _port(d.in_specs, i)))
+        self.fused = False
+        self._saved: list[tuple[Node, str, Any]] = []
+        self._mote_targets: list[tuple[Node, int]] = []
+        # (node, outlet) with listeners outside the chain while it is fused: they hear every value
+        self.taps: set[tuple[str, int]] = set()
+
+    def name(self) -> str:
+        return f"{self.mote.name}.{self.mote.out_specs[self.outlet].name} -> {self.out.name}"
+
+
+def _find(rt: Any, mote: Node, outlet: int, feeders: dict[int, list[tuple[Node, int, int]]]) -> Chain | str:
+    """The chain behind ``mote``'s ``outlet``, or why there is none."""
+    nodes: dict[str, Node] = {}
+
+    def follow(src: Node, out_name: str, kind: str, in_name: str) -> Node | str:
+        o = _port(src.out_specs, out_name)
+        found = [d for d, i in src._targets[o] if d.type_name == kind and d.in_specs[i].name == in_name]
+        if len(found) != 1:
+            return f"'{src.name}'.{out_name} goes to {len(found)} {kind} nodes, not one"
+        return found[0]
+
+    first = [d for d, i in mote._targets[outlet] if d.type_name == "offset" and i == 0]
+    if len(first) != 1:
+        return "not into one offset"
+    nodes["offset"] = first[0]
+    for src, o, dst, i in _LINKS:
+        d = follow(nodes[src], o, dst, i)
+        if isinstance(d, str):
+            return d
+        if dst in nodes and nodes[dst] is not d:
+            return f"'{src}'.{o} and another link reach two {dst} nodes"
+        nodes[dst] = d
+    ref, dir_, roll = nodes["reference"], nodes["azi_ele"], nodes["roll_distance"]
+    order = [d for d, _ in ref._targets[0]]
+    if order.index(dir_) > order.index(roll):
+        return f"'{ref.name}' feeds roll_distance before azi_ele (the elevation would be a sample late)"
+    tqt, out = nodes["tqt"], nodes["osc_out"]
+    if tqt.p.mode != "robust":
+        return f"tqt '{tqt.name}' is in {tqt.p.mode} mode (the compiled chain runs robust mode)"
+    if not _encodable(out):
+        return f"osc_out '{out.name}': profile {out.p.profile} is sent node by node"
+    if out.p.bundle:
+        return f"osc_out '{out.name}' sends bundles"
+    chain = Chain(mote, outlet, nodes)
+    inside = {(id(s), o, id(d), i) for s, o, d, i in chain.links}
+    members = {id(n) for n in nodes.values()}
+    for role, node in nodes.items():
+        for src, o, i in feeders.get(id(node), ()):
+            if (id(src), o, id(node), i) in inside or (role, node.in_specs[i].name) in _OPEN_INLETS:
+                continue
+            if id(src) in members and (role, node.in_specs[i].name) == ("osc_out", "flags"):
+                continue
+            return f"'{src.name}' feeds {role} '{node.name}'.{node.in_specs[i].name} from outside the chain"
+    return chain
+
+
+def _fields(out: Node) -> list[Any] | None:
+    """osc_out's one message's fields, when the chain can encode them all."""
+    messages = out.messages
+    if len(messages) != 1:
+        return None
+    fields = list(messages[0][1])
+    ok = all(f == "n" or not isinstance(f, str) or f in K.FIELD_CODES for f in fields)
+    return fields if ok else None
+
+
+def _encodable(out: Node) -> bool:
+    return _fields(out) is not None
+
+
+def install(rt: Any, mode: str = "auto") -> Fusion | None:
+    """Fuse the glove chains of a started runtime ``rt``; ``None`` when there are none, numba is missing
+    or ``mode`` is ``off``."""
+    if mode == "off":
+        return None
+    motes = [n for n in rt.nodes.values() if n.type_name == "mote" and not n.READ_IN_THREAD]
+    if not motes:
+        return None
+    feeders: dict[int, list[tuple[Node, int, int]]] = {}
+    for node in rt.nodes.values():
+        for o, targets in enumerate(node._targets):
+            for d, i in targets:
+                feeders.setdefault(id(d), []).append((node, o, i))
+    found: dict[Node, list[Chain]] = {}
+    taken: set[int] = set()
+    for mote in motes:
+        for k in range(len(mote.p.ids)):
+            chain = _find(rt, mote, k, feeders)
+            if isinstance(chain, str):
+                log.info("mote '%s' %s: node by node: %s", mote.name, mote.out_specs[k].name, chain)
+                continue
+            if any(id(n) in taken for n in chain.nodes.values()):
+                log.info("%s: node by node: its nodes are another chain's too", chain.name())
+                continue
+            taken.update(id(n) for n in chain.nodes.values())
+            found.setdefault(mote, []).append(chain)
+    if not found:
+        return None
+    from pointat.fusion import compiled
+
+    if not compiled.available():
+        log.info(
+            "%d glove chains run node by node: numba is not installed (pip install numba)", len(taken) // 7
+        )
+        return None
+    if mode == "auto" and not compiled.ready():
+        compiled.warm_in_background()
+        rt.console(
+            "compiling the glove chain for the next runs (a few seconds, in the background); "
+            "this run goes node by node"
+        )
+        return None
+    fn = compiled.chain_frames()
+    return Fusion([Group(rt, mote, chains, fn) for mote, chains in found.items()])
+
+
+class Fusion:
+    """The fused groups of a runtime: one per ``mote``."""
+
+    def __init__(self, groups: list[Group]) -> None:
+        self.groups = groups
+        for g in groups:
+            g.mote._fused = g
+
+    @property
+    def chains(self) -> list[Chain]:
+        return [c for g in self.groups for c in g.chains]
+
+    def describe(self) -> str:
+        """For the console: which chains run compiled."""
+        names = ", ".join(c.name() for c in self.chains)
+        return f"compiled glove chains ({len(self.chains)}): {names}"
+
+    def close(self) -> None:
+        """Hand every chain back to its nodes (their state, counters and health as if never fused)."""
+        for g in self.groups:
+            g.release_all()
+            g.mote._fused = None
+
+
+class Group:
+    """The fused chains behind one ``mote``: their state in arrays, the frames of a read waiting for
+    :meth:`flush`."""
+
+    def __init__(self, rt: Any, mote: Node, chains: list[Chain], fn: Callable[..., Any]) -> None:
+        from pointat.maths.tqt import step
+
+        self.rt, self.mote, self.chains, self.fn = rt, mote, chains, fn
+        self.by_outlet: dict[int, int] = {c.outlet: g for g, c in enumerate(chains)}
+        n = len(chains)
+        self.P = np.zeros((n, K.G_SIZE))
+        self.S = np.zeros((n, K.C_SIZE))
+        self.TS = np.zeros((n, step.STATE_SIZE))
+        self.TP = np.zeros((n, step.PARAM_SIZE + 2))  # (paper mode's two after them)
+        self.width = 64
+        self.tmpl = np.zeros((n, self.width), np.uint8)
+        self.tlen = np.zeros(n, np.int64)
+        self.slot = np.full((n, 8), -1, np.int64)
+        self.code = np.zeros((n, 8), np.int64)
+        self._grow(max(16, 2 * n))
+        self.n = 0  # frames waiting
+        self._flushing = False
+        self._later: list[int] = []  # chains handed back while a flush was telling its listeners
+        self.fused_frames = 0
+
+    def _grow(self, cap: int) -> None:
+        old = getattr(self, "cap", 0)
+        keep = self.n if old else 0
+        arrays = {
+            "idx": np.zeros(cap, np.int64),
+            "counts": np.zeros((cap, 9)),
+            "times": np.zeros(cap),
+            "spread": np.zeros(cap),
+            "R": np.zeros((cap, K.O_SIZE)),
+            "ev": np.zeros(cap, np.int64),
+            "flags": np.zeros(cap, np.int64),
+            "buf": np.zeros((cap, self.width), np.uint8),
+        }
+        for name, a in arrays.items():
+            if keep:
+                a[:keep] = getattr(self, name)[:keep]
+            setattr(self, name, a)
+        self.cap = cap
+
+    # -- frames ----------------------------------------------------------------------------------------
+    def take(self, outlet: int, counts: tuple[int, ...], t: float) -> bool:
+        """A frame of the mote's ``outlet``: queued for :meth:`flush` when its chain is fused (False: the
+        caller sends it node by node).  Nodes outside the chain listening to the outlet hear it now."""
+        g = self.by_outlet.get(outlet)
+        if g is None:
+            return False
+        chain = self.chains[g]
+        if not chain.fused and not self.adopt(g):
+            return False
+        if self.mote._targets[outlet]:
+            self.mote.out(outlet, vector(counts, t))
+        n = self.n
+        if n == self.cap:
+            self._grow(2 * self.cap)
+        self.idx[n] = g
+        self.counts[n] = counts
+        self.times[n] = t
+        self.spread[n] = chain.out.state[3]
+        self.n = n + 1
+        return True
+
+    def flush(self) -> None:
+        """Run the waiting frames through the compiled chain, tell the listeners, send the datagrams."""
+        n = self.n
+        if not n or self._flushing:
+            return
+        self._flushing = True
+        try:
+            self.fn(
+                self.idx[:n], self.counts[:n], self.times[:n], self.spread[:n], self.P, self.S, self.TS,
+                self.TP, self.R[:n], self.ev[:n], self.flags[:n], self.buf[:n], self.tmpl, self.tlen,
+                self.slot, self.code,
+            )  # fmt: skip
+            self.n = 0
+            self.fused_frames += n
+            self._after(n)
+        finally:
+            self._flushing = False
+            self.n = 0
+        later, self._later = self._later, []
+        for g in later:
+            self.release(g)
+
+    def _after(self, n: int) -> None:
+        width = self.width
+        data = self.buf[:n].tobytes()
+        tlen = self.tlen.tolist()
+        chains = self.chains
+        times = self.times[:n].tolist()
+        for f, (g, e) in enumerate(zip(self.idx[:n].tolist(), self.ev[:n].tolist(), strict=True)):
+            c = chains[g]
+            if e != K.EV_OUT or c.taps:
+                self._tell(f, g, e, c, times[f])
+                if not e & K.EV_OUT or e & K.EV_BAD:
+                    continue
+            out = c.out
+            out.heard += 1
+            out.updates += 1
+            dgram = data[f * width : f * width + tlen[g]]
+            for d in out.dests:
+                out._send_one(d, dgram)
+
+    def _tell(self, f: int, g: int, e: int, c: Chain, t: float) -> None:
+        """A frame's events and the values for the listeners outside the chain, in the nodes' order."""
+        r = self.R[f].tolist()
+        taps = c.taps
+
+        def tap(node: Node, outlet: int, value: Any) -> None:
+            if (node.name, outlet) in taps:
+                node.out(outlet, value, t)
+
+        if taps:
+            tap(c.offset, 0, floats(tuple(r[K.O_ADC : K.O_ADC + 9]), t))
+            sc = c.scaling
+            tap(sc, 2, floats(tuple(r[K.O_MAG : K.O_MAG + 3]), t))
+            tap(sc, 1, floats(tuple(r[K.O_ACCEL : K.O_ACCEL + 3]), t))
+            tap(sc, 0, floats(tuple(r[K.O_GYRO : K.O_GYRO + 3]), t))
+        tqt = c.tqt
+        if e & K.EV_FLAGS:
+            from pointat.nodes.orientation import _status
+
+            bits = int(self.flags[f]) & K.NOT_REST  # (this frame's: the state holds the batch's last)
+            tqt._bits = bits
+            tqt.time = t
+            tqt.report("ok" if not bits else _status(bits))
+        if not e & K.EV_OUT and not e & K.EV_BAD:
+            return
+        if taps:
+            tap(tqt, 0, floats(tuple(r[K.O_QUAT : K.O_QUAT + 4]), t))
+        if e & K.EV_BAD:
+            exc = ValueError("not a finite number; the last good values stay")
+            c.out.fail(0, make(r[K.O_ROLL_AZ], t), exc)
+            return
+        if taps:
+            tap(c.ref, 0, floats(tuple(r[K.O_REL : K.O_REL + 4]), t))
+            tap(c.dir, 1, r[K.O_DIR_EL])
+            tap(c.dir, 0, r[K.O_DIR_AZ])
+        if e & K.EV_MODE:
+            mode = "azimuth" if c.roll._mode == "distance" else "distance"  # (it changed at this frame)
+            c.roll._mode = mode
+            c.roll.time = t
+            c.roll.out(2, mode)
+        if taps:
+            tap(c.roll, 1, r[K.O_ROLL_DIST])
+            tap(c.roll, 0, r[K.O_ROLL_AZ])
+
+    # -- handing over ----------------------------------------------------------------------------------
+    def adopt(self, g: int) -> bool:
+        """Take chain ``g`` from its nodes when it is in its steady state; False when it is not."""
+        c = self.chains[g]
+        off, out, tqt = c.offset, c.out, c.tqt
+        if off._n < off.p.samples or not off._flowing or c.ref._capture:
+            return False
+        if out.p.rate > 0 or out.p.change or out.p.deadband > 0:
+            return False
+        from pointat.maths.tqt import step
+
+        f = tqt.filter
+        if f._step is not step.robust_step or not self._template(g, c):
+            return False
+        P, S = self.P[g], self.S[g]
+        P[K.G_NULLS : K.G_NULLS + 9] = off.nulls
+        sc = c.scaling
+        P[K.G_FACTOR : K.G_FACTOR + 9] = sc.factor
+        for at, has, m in (
+            (K.G_SOFT, K.G_HAS_SOFT, sc.soft_iron),
+            (K.G_ACCM, K.G_HAS_ACCM, sc.acc_misalignment),
+            (K.G_GYROM, K.G_HAS_GYROM, sc.gyro_misalignment),
+        ):
+            P[has] = 0.0 if m is None else 1.0
+            if m is not None:
+                P[at : at + 9] = m
+        P[K.G_NOMINAL] = 1.0 / tqt.p.rate
+        P[K.G_MAX_GAP] = tqt.MAX_GAP
+        P[K.G_REF : K.G_REF + 4] = c.ref.offset
+        P[K.G_AXIS : K.G_AXIS + 3] = c.dir.p.axis
+        P[K.G_DIR_POLE] = c.dir.p.pole
+        rd = c.roll.state
+        P[K.G_ENTER], P[K.G_LEAVE], P[K.G_GAIN] = rd.enter_deg, rd.leave_deg, rd.gain
+        P[K.G_MAX_EL], P[K.G_ROLL_POLE] = rd.max_elevation_deg, c.roll.p.pole
+        P[K.G_RADIUS] = out.p.radius
+        self.TS[g] = f._s
+        self.TP[g] = f._p
+        S[K.C_LAST_T] = math.nan if tqt._last_t is None else tqt._last_t
+        S[K.C_BITS] = tqt._bits
+        S[K.C_FLAGS] = f._flags
+        S[K.C_DIR_AZ] = math.nan if c.dir._az is None else c.dir._az
+        S[K.C_ROLL_AZ] = math.nan if c.roll._az is None else c.roll._az
+        S[K.C_ROLL : K.C_ROLL + len(rd.s)] = rd.s
+        S[K.C_OUT : K.C_OUT + 4] = out.state
+        self._hold(g, c)
+        c.fused = True
+        return True
+
+    def _template(self, g: int, c: Chain) -> bool:
+        """osc_out's message for its current source number, the fields' places in it."""
+        import struct
+
+        from pointat.osc_bridge.profiles import Source
+
+        out = c.out
+        fields = _fields(out)
+        if fields is None:
+            return False
+        n = out.p.source or out.profile.first
+        ((address, tags, getters),) = out.profile.compile(n, out.messages)
+        head = _padded(address) + _padded("," + tags)
+        blank = Source(n, 0.0, 0.0, 0.0, 0.0, out.p.radius)
+        values = [
+            0.0 if isinstance(f, str) and f != "n" else get(blank)
+            for f, get in zip(fields, getters, strict=True)
+        ]
+        data = head + struct.pack(">" + tags, *values)
+        if len(data) > self.width or len(fields) > self.slot.shape[1]:
+            return False
+        self.tmpl[g, : len(data)] = np.frombuffer(data, np.uint8)
+        self.tlen[g] = len(data)
+        self.slot[g] = -1
+        k = 0
+        for j, f in enumerate(fields):
+            if isinstance(f, str) and f != "n":
+                self.slot[g, k] = len(head) + 4 * j
+                self.code[g, k] = K.FIELD_CODES[f]
+                k += 1
+        return True
+
+    def _hold(self, g: int, c: Chain) -> None:
+        """Take the chain's links out of its nodes and watch what reaches them from outside."""
+        saved = c._saved
+        for node in c.nodes.values():
+            saved.append((node, "_targets", node._targets))
+            node._targets = [list(t) for t in node._targets]
+        c._mote_targets = self.mote._targets[c.outlet]  # (the mote's other outlets are other chains')
+        self.mote._targets[c.outlet] = list(c._mote_targets)
+        for s, o, d, i in c.links:
+            s._targets[o] = [(n, j) for n, j in s._targets[o] if not (n is d and j == i)]
+        c.taps = {
+            (node.name, o)
+            for node in c.nodes.values()
+            for o, targets in enumerate(node._targets)
+            if targets and not (node is c.tqt and o == 1)  # (flags: told by the chain, not tapped)
+        }
+        role = {id(n): r for r, n in c.nodes.items()}
+
+        def handing_back(fn: Callable[..., Any]) -> Callable[..., Any]:
+            def wrapper(*args: Any, **kwargs: Any) -> Any:
+                self.release(g)
+                return fn(*args, **kwargs)
+
+            return wrapper
+
+        def synced(fn: Callable[..., Any]) -> Callable[..., Any]:
+            def wrapper(*args: Any, **kwargs: Any) -> Any:
+                self.sync(g)  # (the monitor's thread reads health too: no flush from here)
+                return fn(*args, **kwargs)
+
+            return wrapper
+
+        for node in c.nodes.values():
+            r = role[id(node)]
+            handlers = list(node._handlers)
+            deliver = handlers if node._deliver is node._handlers else list(node._deliver)
+            for i, spec in enumerate(node.in_specs):
+                if (r, spec.name) in _READ_INLETS:
+                    continue
+                handlers[i] = handing_back(node._handlers[i])
+                if deliver is not handlers:
+                    deliver[i] = handing_back(node._deliver[i])
+            saved += [(node, "_handlers", node._handlers), (node, "_deliver", node._deliver)]
+            node._handlers, node._deliver = handlers, deliver
+            for name, wrap in (("receive", handing_back), ("set_params", handing_back), ("health", synced)):
+                saved.append((node, name, None))
+                setattr(node, name, wrap(getattr(node, name)))
+
+    def sync(self, g: int) -> None:
+        """Write chain ``g``'s compiled state into its nodes (it stays fused)."""
+        c = self.chains[g]
+        if not c.fused:
+            return
+        S = self.S[g]
+        f = c.tqt.filter
+        f._s[:] = self.TS[g].tolist()
+        f._p[:] = self.TP[g].tolist()  # (the step keeps its per-step coefficients there)
+        f._flags = int(S[K.C_FLAGS])
+        c.tqt._bits = int(S[K.C_BITS])
+        last = float(S[K.C_LAST_T])
+        c.tqt._last_t = None if last != last else last
+        az = float(S[K.C_DIR_AZ])
+        c.dir._az = None if az != az else az
+        az = float(S[K.C_ROLL_AZ])
+        c.roll._az = None if az != az else az
+        rd = c.roll.state
+        rd.s[:] = S[K.C_ROLL : K.C_ROLL + len(rd.s)].tolist()
+        c.roll._mode = rd.mode
+        out = c.out
+        out.state[:3] = S[K.C_OUT : K.C_OUT + 3].tolist()
+        out._last = tuple(out.state)
+
+    def release(self, g: int) -> None:
+        """Hand chain ``g`` back to its nodes: the frames waiting go first, then its state."""
+        c = self.chains[g]
+        if not c.fused:
+            return
+        if self._flushing:  # a listener sent something into the chain: after this flush
+            self._later.append(g)
+            return
+        self.flush()
+        self.sync(g)
+        for node, name, value in reversed(c._saved):
+            if value is None:
+                node.__dict__.pop(name, None)
+            elif name == "_targets":  # listeners added meanwhile (the monitor's) stay
+                _merge(value, node._targets)
+                node._targets = value
+            else:
+                setattr(node, name, value)
+        mine = self.mote._targets[c.outlet]
+        _merge([c._mote_targets], [mine])
+        self.mote._targets[c.outlet] = c._mote_targets
+        c._saved = []
+        c.taps = set()
+        c.fused = False
+
+    def release_all(self) -> None:
+        self.flush()
+        for g in range(len(self.chains)):
+            self.release(g)
+
+
+def _merge(into: list[list[Any]], now: list[list[Any]]) -> None:
+    """Add to the saved targets ``into`` those of ``now`` they lack (connected while the chain was fused)."""
+    for saved, current in zip(into, now, strict=True):
+        saved += [t for t in current if t not in saved]
+
+
+def _padded(s: str) -> bytes:
+    b = s.encode() + b"\0"
+    return b + b"\0" * (-len(b) % 4)

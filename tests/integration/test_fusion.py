@@ -1,0 +1,246 @@
+"""The compiled glove chain (pointat.fusion) against the nodes: the same datagrams, to the bit.
+
+Recorded takes go through one patch twice, node by node and compiled, as frames of a base station with
+three motes: the simulated glove's take (rolls into distance mode and back) and the vendored BROAD trial
+(a real IMU, its gyro scaled up so that it clips: the saturation flags come and go).  On the way, live
+control reaches the chains (a reference capture, a filter gain, new gyro nulls, a new source number):
+each hands its chain back to the nodes and the chain is taken up again.  Every datagram at a real UDP
+socket, every value a listener outside the chain hears and every flag must be equal.  The last test runs
+``pointat run`` itself on a pseudo-terminal, as a performer would, both ways.
+"""
+
+from __future__ import annotations
+
+import gzip
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pointat.control import control
+from pointat.devices.mote_frame import Frame, MoteSpec, encode_frame
+from pointat.fusion import compiled
+from pointat.maths.evaluation import load_broad
+from pointat.testing import patch
+
+DATA = Path(__file__).resolve().parents[2] / "pointat" / "data"
+
+pytestmark = pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
+
+GLOVE = """
+node nulls{i} offset samples=50
+node units{i} scaling
+node tqt{i}   tqt rate=100 mode=robust
+node ref{i}   reference mode=heading
+node dir{i}   azi_ele
+node roll{i}  roll_distance
+node out{i}   osc_out host=127.0.0.1 port={port} source={i} {out}
+base.m{i} -> nulls{i} -> units{i}
+units{i}.mag -> tqt{i}.mag
+units{i}.accel -> tqt{i}.accel
+units{i}.range -> tqt{i}.range
+units{i}.gyro -> tqt{i}.gyro
+tqt{i}.flags -> flags{i}
+tqt{i}.flags -> out{i}.flags
+tqt{i}.quat -> ref{i}
+press -> ref{i}.capture
+ref{i} -> dir{i}
+ref{i} -> roll{i}
+dir{i}.elevation -> out{i}.elevation
+roll{i}.distance -> out{i}.distance
+roll{i}.azimuth -> out{i}.azimuth
+node flags{i} collect
+"""
+
+OUTS = (
+    "profile=pointat",
+    "profile=adm",
+    "profile=generic address=/g/{n} fields=[n, spread, az, el, dist_m, dist01, az_right] radius=3",
+)
+
+
+def _patch_text(port: int) -> str:
+    text = "node base mote ids=[1, 2, 3] rate=100\nnode press msg bang\nnode show collect\nnode tag collect\n"
+    text += "".join(GLOVE.format(i=i + 1, port=port, out=o) for i, o in enumerate(OUTS))
+    # listeners outside the chains: glove 1's azimuth, glove 2's frames
+    return text + "node modes collect\nroll1.azimuth -> show\nroll1.mode -> modes\nbase.m2 -> tag\n"
+
+
+def _takes(n: int) -> np.ndarray:
+    """(n, 3, 9) counts: the simulated take, BROAD with its gyro clipping, BROAD turned about."""
+    with gzip.open(DATA / "glove_take.csv.gz", "rt") as fh:
+        sim = np.loadtxt(fh, delimiter=",", comments="#", skiprows=3)[:, 1:]
+    b = load_broad(DATA / "01_undisturbed_slow_rotation_A.csv.gz")
+    spec = MoteSpec()
+    step = 3  # 286 Hz -> about 100 Hz
+    si = np.hstack([np.degrees(b["gyr"]), b["acc"], b["mag"] / 100.0])[::step]
+    fast = np.argmax(np.abs(si[:, :3]).max(axis=1))
+    si = np.vstack([si[:200], si[fast - 1200 :]])  # at rest (the nulls), then up to its fastest turn
+    clipped = si * np.array([4.0] * 3 + [1.0] * 6)  # four times the turn rate: the gyro clips
+    turned = si[::-1].copy()
+    rows = []
+    for k in range(n):
+        rows.append(
+            [
+                sim[k % len(sim)],
+                spec.to_counts(clipped[k % len(clipped)]),
+                spec.to_counts(turned[k % len(turned)]),
+            ]
+        )
+    return np.asarray(rows, dtype=np.int64)
+
+
+EVENTS = {  # frame -> live control, as a performer sends it over OSC
+    700: ("/pointat/press/bang", []),
+    1100: ("/pointat/tqt2/k_heading", [0.2]),
+    1500: ("/pointat/nulls3/recalibrate", []),
+    1900: ("/pointat/out1/source", [7]),
+    2300: ("/pointat/roll1/enter", [60.0]),
+}
+
+
+def _run(mode: str, counts: np.ndarray, batch: int = 3) -> tuple[list[bytes], dict, object]:
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 23)
+    rx.bind(("127.0.0.1", 0))
+    rx.setblocking(False)
+    rt = patch(_patch_text(rx.getsockname()[1]))
+    rt.compiled = mode
+    rt.start()
+    mote = rt.nodes["base"]
+    got: list[bytes] = []
+
+    def drain() -> None:
+        while True:
+            try:
+                got.append(rx.recv(512))
+            except BlockingIOError:
+                return
+
+    t0 = 1000.0
+    for k in range(0, len(counts), batch):  # a read brings a few frames of every mote
+        for j in range(k, min(k + batch, len(counts))):
+            if j in EVENTS:
+                address, args = EVENTS[j]
+                assert control(rt, address, args, t0 + j / 100.0) is None
+            for m in range(3):
+                frame = Frame(m + 1, j & 0xFFFF, tuple(int(c) for c in counts[j, m]))
+                mote._frame(frame, 0.0, t0 + j / 100.0)
+        if mote._fused is not None:
+            mote._fused.flush()
+        drain()
+    fusion = rt.fusion
+    fused_frames = sum(g.fused_frames for g in fusion.groups) if fusion else 0
+    rt.shutdown()
+    drain()
+    rx.close()
+    heard = {
+        name: [(m.kind, m.value, m.time) for m in rt.nodes[name].messages]
+        for name in ("show", "tag", "modes", "flags1", "flags2", "flags3")
+    }
+    tqt = {i: (rt.nodes[f"tqt{i}"].filter._s[:], rt.nodes[f"out{i}"].updates) for i in (1, 2, 3)}
+    return got, {"heard": heard, "state": tqt}, fused_frames
+
+
+@pytest.fixture(scope="module")
+def both_ways():
+    compiled.chain_frames()  # (compiled once for the module: seconds when the cache is cold)
+    counts = _takes(3950)
+    return _run("off", counts), _run("on", counts), counts
+
+
+def test_the_compiled_chain_sends_the_nodes_datagrams_to_the_bit(both_ways):
+    (plain, _, none), (fused, _, frames), counts = both_ways
+    assert none == 0
+    # most frames went through the compiled chain; the others (nulls being averaged, a capture pending)
+    # node by node
+    assert frames > 0.9 * counts.shape[0] * 3, frames
+    assert len(plain) > 0.9 * counts.shape[0] * 3
+    # each glove's datagrams in its order (between gloves, the ones still node by node in a read go out
+    # after the compiled ones)
+    streams = {}
+    for name, got in (("plain", plain), ("fused", fused)):
+        for d in got:
+            streams.setdefault(name, {}).setdefault(d.split(b"\0", 1)[0].split(b"/")[-2:][0], []).append(d)
+    assert set(streams["plain"]) == {b"1", b"7", b"2", b"g"}, set(streams["plain"])
+    for glove, want in streams["plain"].items():
+        have = streams["fused"][glove]
+        first = next((k for k, (a, b) in enumerate(zip(want, have, strict=False)) if a != b), None)
+        assert first is None and len(have) == len(want), (glove, first, len(want), len(have))
+
+
+def test_listeners_flags_and_state_are_the_nodes(both_ways):
+    (_, plain, _), (_, fused, _), counts = both_ways
+    assert fused["heard"] == plain["heard"]
+    assert len(plain["heard"]["show"]) > 0.9 * counts.shape[0]
+    assert len(plain["heard"]["tag"]) == counts.shape[0]
+    said = {value for _kind, value, _t in plain["heard"]["flags2"]}
+    assert "gyro_saturated" in said and len(said) > 1, said  # the clipped glove's flags came and went
+    modes = [value for _kind, value, _t in plain["heard"]["modes"]]
+    assert modes[:2] == ["distance", "azimuth"], modes  # the simulated hand rolled, and back
+    assert fused["state"] == plain["state"]
+
+
+def _frames_bytes(counts: np.ndarray) -> list[bytes]:
+    return [
+        encode_frame(Frame(1, k & 0xFFFF, tuple(int(c) for c in counts[k, 0]))) for k in range(len(counts))
+    ]
+
+
+def _cli(mode: str, frames: list[bytes], tmp_path: Path) -> list[bytes]:
+    """``pointat run patches/glove_tqt.pat`` on a pseudo-terminal, the take written into it in real time."""
+    master, slave = os.openpty()
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(0.2)
+    patch_file = Path(__file__).resolve().parents[2] / "patches" / "glove_tqt.pat"
+    cmd = [
+        sys.executable, "-m", "pointat.cli", "run", str(patch_file), "--compiled", mode,
+        "--set", "glove.output=direct", "--set", f"base.device={os.ttyname(slave)}",
+        "--set", f"out.port={rx.getsockname()[1]}", "--set", "ctl.port=0", "--set", "out.status=0",
+        "--for", "8",
+    ]  # fmt: skip
+    env = {**os.environ, "XDG_CACHE_HOME": os.environ.get("XDG_CACHE_HOME", str(Path.home() / ".cache"))}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, cwd=tmp_path)
+    got: list[bytes] = []
+
+    def receive() -> None:
+        while True:
+            try:
+                got.append(rx.recv(512))
+            except TimeoutError:
+                if proc.poll() is not None:
+                    return
+
+    reader = threading.Thread(target=receive, daemon=True)
+    reader.start()
+    try:
+        time.sleep(2.0)  # started (and the mote opened its device)
+        for k in range(0, len(frames), 5):  # 5 frames every 10 ms: 500 Hz
+            os.write(master, b"".join(frames[k : k + 5]))
+            time.sleep(0.01)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+        os.close(master)
+        os.close(slave)
+    reader.join(timeout=5)
+    rx.close()
+    text = out.decode()
+    assert ("compiled glove chains (1)" in text) == (mode == "on"), text[-2000:]
+    return got
+
+
+def test_pointat_run_on_a_pseudo_terminal_sends_the_same_either_way(tmp_path):
+    frames = _frames_bytes(_takes(2000))
+    plain = _cli("off", frames, tmp_path)
+    fused = _cli("on", frames, tmp_path)
+    assert len(plain) > 1500
+    assert fused == plain
