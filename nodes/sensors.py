@@ -13,6 +13,7 @@ import time
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
 from serial import SerialException
 
 from pointat.devices.glove_sim import Burst, GloveSimulator, PtyGlove, SensorModel
@@ -45,21 +46,31 @@ class _MoteClock:
     """Sensor time of one mote from its frames: a frame is as many sample periods after the last one as its
     packet counter moved (packets lost, or dropped on the way, advance time); a counter jump (the parser's
     verdict, ``frame.jump``: a restart, or more than the mote could have sent since its last frame)
-    re-anchors on the host's time, as does the first frame."""
+    re-anchors on the host's time, as does the first frame.
 
-    def __init__(self, rate: float):
-        self.rate = rate
-        self.t0: float | None = None
-        self.count = 0
-        self.last_n = 0
+    Its state is a column of the ``mote`` node's clock array (rows: t0, NaN until the first frame; the
+    count of periods since; the last counter), which the compiled chains' scan of plain frames
+    (:func:`pointat.fusion.kernel.scan_plain`) moves on too."""
+
+    def __init__(self, clock: np.ndarray, mote: int, rate: float):
+        self.clock, self.mote, self.rate = clock, mote, rate
 
     def time(self, frame: Frame, host_time: float) -> float:
-        if self.t0 is None or frame.jump:
-            self.t0, self.count, self.last_n = host_time, 0, frame.n_pack
+        c, m = self.clock, self.mote
+        t0 = float(c[0, m])
+        if t0 != t0 or frame.jump:
+            c[0, m], c[1, m], c[2, m] = host_time, 0.0, frame.n_pack
             return host_time
-        self.count += (frame.n_pack - self.last_n) & 0xFFFF
-        self.last_n = frame.n_pack
-        return self.t0 + self.count / self.rate
+        count = float(c[1, m]) + ((frame.n_pack - int(c[2, m])) & 0xFFFF)
+        c[1, m], c[2, m] = count, frame.n_pack
+        return t0 + count / self.rate
+
+
+def _clocks(ids: Any, rate: float) -> tuple[np.ndarray, dict[int, _MoteClock]]:
+    """A clock array for mote ids 0..255 (none started), and a clock of each of ``ids``."""
+    clock = np.zeros((3, 256))
+    clock[0] = math.nan
+    return clock, {int(i): _MoteClock(clock, int(i), rate) for i in ids}
 
 
 @register("mote")
@@ -171,7 +182,7 @@ base.1 -> nulls2 -> right
 
     def setup(self) -> None:
         self._outlet = {int(i): k for k, i in enumerate(self.p.ids)}
-        self._clocks = {i: _MoteClock(self.p.rate) for i in self._outlet}
+        self._clock, self._clocks = _clocks(self._outlet, self.p.rate)
         self._reader: SerialMoteReader | None = None
         self._fd: int | None = None
         self._timer: Timer | None = None
@@ -207,7 +218,7 @@ base.1 -> nulls2 -> right
             on_event = lambda event: self.post(self._event, event, block=False)  # noqa: E731
         else:  # read on the scheduler thread itself: the callbacks run there
             on_frame, on_event = self._on_frame, self._event
-        self._clocks = {i: _MoteClock(self.p.rate) for i in self._outlet}  # a new reader: new time lines
+        self._clock, self._clocks = _clocks(self._outlet, self.p.rate)  # a new reader: new time lines
         self._reader = SerialMoteReader(
             self.p.device,
             self.p.baud,
@@ -217,6 +228,7 @@ base.1 -> nulls2 -> right
             backoff=self.BACKOFF,
             rate=self.p.rate,
             low_latency=self.p.low_latency,
+            plain=None if self.READ_IN_THREAD or self._fused is None else self._plain,
         )
         if self.READ_IN_THREAD:
             self._reader.start()  # it opens, reads and reopens by itself; the log hears of it here
@@ -302,6 +314,8 @@ base.1 -> nulls2 -> right
         for mote, last in self._last_frame.items():
             if mote not in self._silent and now - last > self.SILENT:
                 self._silent.add(mote)
+                if self._fused is not None:  # (a silent mote's frames go the node's way: it says so)
+                    self._fused.stale = True
                 n = self._silences[mote] = self._silences.get(mote, 0) + 1
                 if worth_reporting(n):  # a glove at the edge of the radio's range comes and goes
                     log.warning(
@@ -375,12 +389,33 @@ base.1 -> nulls2 -> right
         self.received += 1
         if frame.mote in self._silent:
             self._silent.discard(frame.mote)
+            if self._fused is not None:
+                self._fused.stale = True
             if worth_reporting(self._silences[frame.mote]):
                 log.warning("mote '%s': frames again from mote %d", self.name, frame.mote)
         self._last_frame[frame.mote] = seen
         t = self._clocks[frame.mote].time(frame, host_time)
         if self._fused is None or not self._fused.take(k, frame.channels, t):
             self.out(k, vector(frame.channels, t))
+
+    def _plain(
+        self, buf: bytearray, pos: int, end: int, last: np.ndarray, held: np.ndarray, now: float | None
+    ) -> tuple[int, int, dict[int, int]] | None:
+        """The reader's parser hands runs of plain frames to the compiled chains
+        (:attr:`pointat.devices.mote_frame.FrameParser.plain`): what :meth:`_frame` does for each, done
+        for all (the chains' arrays take them; the counters, the silences and the observer's counts
+        move on here)."""
+        took = self._fused.scan(buf, pos, end, last, held, self._clock, self._clocks_rate)
+        if took is not None:
+            self.received += took[0]
+            seen = time.monotonic() if now is None else now
+            for mote in took[2]:
+                self._last_frame[mote] = seen
+        return took
+
+    @property
+    def _clocks_rate(self) -> float:
+        return next(iter(self._clocks.values())).rate if self._clocks else float(self.p.rate)
 
     def _event(self, event: object) -> None:
         ev = len(self.out_specs) - 1

@@ -262,7 +262,9 @@ class UdpSender(Node):
             for dgram in datagrams:
                 self._send_one(d, dgram)
 
-    def _send_one(self, d: _Destination, dgram: bytes) -> None:
+    def _send_one(self, d: _Destination, dgram: bytes, first: OSError | None = None) -> None:
+        """Send one datagram, refusals and failures counted; ``first``: what a first send the caller tried
+        itself raised (the compiled chains send the usual case themselves, :mod:`pointat.fusion`)."""
         if d.sock is None:
             raise RuntimeError(f"{self.type_name} is not running")
         if not d.connected:  # not resolved (yet): never look a name up on the scheduler thread
@@ -272,6 +274,9 @@ class UdpSender(Node):
         refused = False
         for _attempt in range(2):
             try:
+                if first is not None:
+                    exc, first = first, None
+                    raise exc
                 d.sock.send(dgram)
                 self.sent += 1
                 if d.outage and not refused:

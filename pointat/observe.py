@@ -53,17 +53,23 @@ class _Tap(Node):
     type_name = "tap"
     inlets = (Inlet("in", ("any",), "any message"),)
 
-    def __init__(self, fn: Callable[[Message], None]):
+    def __init__(self, fn: Callable[[Message], None], bulk: Callable[[int], None] | None = None):
         super().__init__("(observer)")
         self._fn = fn
+        #: ``bulk(n)``: n messages at once, for a sender that has no messages to give (the compiled
+        #: chains, :mod:`pointat.fusion`); None when each message matters.
+        self.bulk = bulk
 
     def on_in(self, msg: Message) -> None:
         self._fn(msg)
 
 
-def tap(node: Node, outlet: int, fn: Callable[[Message], None]) -> None:
-    """Call ``fn(msg)`` for every message ``node`` sends from ``outlet`` (after its wired targets)."""
-    node._targets[outlet].append((_Tap(fn), 0))
+def tap(
+    node: Node, outlet: int, fn: Callable[[Message], None], bulk: Callable[[int], None] | None = None
+) -> None:
+    """Call ``fn(msg)`` for every message ``node`` sends from ``outlet`` (after its wired targets); a
+    sender with no messages to give calls ``bulk(n)`` for n of them, when there is one."""
+    node._targets[outlet].append((_Tap(fn, bulk), 0))
 
 
 @dataclass
@@ -85,9 +91,21 @@ class Stream:
     def key(self) -> str:
         return f"{self.node.name}.{self.outlet}"
 
+    #: Seconds without a sample that are a dropout (:attr:`Observer.DROPOUT`, or five of the stream's
+    #: periods when that is longer), set by the observer.
+    gap: float = math.inf
+
     def hit(self, _msg: Message) -> None:  # the scheduler's one call per sample
-        self.count += 1
-        self.last = time.monotonic()
+        self.hits(1)
+
+    def hits(self, n: int) -> None:
+        """``n`` samples now."""
+        now = time.monotonic()
+        if self.count and now - self.last > self.gap and self.down_since is None:  # no reading fell in it
+            self.dropouts += 1
+            self.down_total += now - self.last
+        self.count += n
+        self.last = now
 
 
 @dataclass
@@ -167,8 +185,9 @@ class Observer:
                 if pattern and re.fullmatch(pattern, spec.name):
                     nominal = getattr(node.p, "rate", 0.0) if hasattr(node.p, "rate") else 0.0
                     stream = Stream(node, spec.name, i, nominal=float(nominal or 0.0))
+                    stream.gap = max(self.DROPOUT, 5.0 / stream.nominal if stream.nominal > 0 else 0.0)
                     self.streams.append(stream)
-                    tap(node, i, stream.hit)
+                    tap(node, i, stream.hit, stream.hits)
                 elif spec.name == "flags" and spec.kind == "symbol":
                     self.flags[node.name] = ["ok", time.monotonic(), 0]
                     tap(node, i, self._flag_tap(node.name))
@@ -236,9 +255,8 @@ class Observer:
             _let_others_run()
             if span > 0.2:
                 s.rate = (s.count - before.get(s.key, 0)) / span
-            period = 1.0 / s.nominal if s.nominal > 0 else 0.0
             late = now - s.last
-            down = s.count > 0 and late > max(self.DROPOUT, 5.0 * period)
+            down = s.count > 0 and late > s.gap
             waiting = s.count == 0 and getattr(s.node, "active", True)
             if down and s.down_since is None:
                 s.down_since = s.last

@@ -111,7 +111,9 @@ import re
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
+
+import numpy as np
 
 __all__ = [
     "ADC_MAX",
@@ -613,6 +615,18 @@ class FrameParser:
         self._events: deque[FrameEvent] = deque(maxlen=max_events)
         self._garbage_run = 0
         self._stats = ParserStats()
+        #: Each mote's last packet counter, -1 for one not seen (what :meth:`_accept` keeps in its
+        #: :class:`MoteStats`, as an array for :attr:`plain`).
+        self.last = np.full(256, -1, np.int64)
+        #: A consumer's taker of plain frames, or None: ``plain(buf, pos, end, last, held, now)`` takes the
+        #: run of plain binary frames at ``buf[pos:end]`` itself (compiled:
+        #: :func:`pointat.fusion.kernel.scan_plain`) and returns ``(frames, position after them, {mote:
+        #: frames})``, or None for none.  The parser counts them as it counts its own (:meth:`_took`); they
+        #: are not in :meth:`feed`'s list.  ``held[m]`` is 1 for a mote with a frame in that list already:
+        #: its later frames go there too, so that the consumer, which handles the list's frames first,
+        #: sees every mote's frames in their order.
+        self.plain: Any = None
+        self.held = np.zeros(256, np.uint8)
 
     # -- public -----------------------------------------------------------------------------------
 
@@ -635,7 +649,14 @@ class FrameParser:
         buf += data
         frames: list[Frame] = []
         pos, n = 0, len(buf)
+        plain = self.plain if self.format != "text" else None
         while pos < n:
+            if plain is not None and buf[pos] == _SYNC0 and n - pos >= FRAME_LEN:
+                took = plain(buf, pos, n, self.last, self.held, now)
+                if took is not None:
+                    pos = self._took(pos, *took)
+                    if pos >= n:
+                        break
             m = self._candidate.search(buf, pos)
             start = n if m is None else m.start()
             if start > pos:
@@ -654,6 +675,8 @@ class FrameParser:
                 self._skip(used)
             pos += used
         del buf[:pos]
+        if frames and plain is not None:
+            self.held[:] = 0
         return frames
 
     def flush(self) -> None:
@@ -679,8 +702,26 @@ class FrameParser:
         self._garbage_run = 0
         self._stats = ParserStats()
         self._seen.clear()
+        self.last[:] = -1
 
     # -- internals --------------------------------------------------------------------------------
+
+    def _took(self, pos: int, count: int, end: int, motes: dict[int, int]) -> int:
+        """Count ``count`` plain frames that :attr:`plain` took from ``pos`` to ``end``, as
+        :meth:`_accept` counts each (their counters are in :attr:`last` already); returns ``end``."""
+        st = self._stats
+        self._report_garbage()
+        st.frames += count
+        st.frame_bytes += end - pos
+        st.binary_frames += count
+        last = self.last
+        for mote, k in motes.items():
+            ms = st.motes[mote]
+            ms.received += k
+            ms.last_n_pack = int(last[mote])
+            if self._now is not None:
+                self._seen[mote] = self._now
+        return end
 
     def _skip(self, nbytes: int) -> None:
         self._stats.garbage_bytes += nbytes
@@ -807,7 +848,8 @@ class FrameParser:
                 self._events.append(CounterJump(frame.mote, expected, frame.n_pack))
                 frame = frame._replace(jump=True)
         ms.received += 1
-        ms.last_n_pack = frame.n_pack
+        ms.last_n_pack = self.last[frame.mote] = frame.n_pack
         if self._now is not None:
             self._seen[frame.mote] = self._now
+        self.held[frame.mote] = 1
         frames.append(frame)

@@ -283,6 +283,9 @@ class SerialMoteReader:
         :func:`request_low_latency`).  A USB-serial adapter otherwise holds a short frame back: an FTDI
         chip sends what it has every 16 ms by default, 1 ms in this mode.  Devices without the mode (a
         pseudo-terminal, many adapters) open as they are; :attr:`low_latency` says what happened.
+    plain : callable, optional
+        The parser's :attr:`~pointat.devices.mote_frame.FrameParser.plain`: a consumer that takes runs of
+        plain frames itself (the ``mote`` node's compiled chains); ``on_frame`` hears the others.
 
     Notes
     -----
@@ -302,6 +305,7 @@ class SerialMoteReader:
         max_gap: int = 0x7FFF,
         rate: float | None = None,
         low_latency: bool = True,
+        plain: Any = None,
     ) -> None:
         if read_timeout <= 0:
             raise ValueError(f"read_timeout must be > 0, got {read_timeout}")
@@ -314,6 +318,7 @@ class SerialMoteReader:
         #: The reopening policy, for the reader's thread and for an event loop that drives it.
         self.reopen = Backoff(*self.backoff)
         self._parser = FrameParser(format, max_gap=max_gap, rate=rate)
+        self._parser.plain = plain  # (a consumer that takes plain frames itself: FrameParser.plain)
         self._lock = threading.Lock()  # guards the parser stats against concurrent snapshots
         self._stop = threading.Event()
         self._opened = threading.Event()

@@ -62,6 +62,20 @@ _ROLES = ("offset", "scaling", "tqt", "reference", "azi_ele", "roll_distance", "
 # inlets of the chain that nodes outside it may feed: told once (range), a bang (capture), or stored
 # for the next update (spread, flags)
 _OPEN_INLETS = {("tqt", "range"), ("reference", "capture"), ("osc_out", "spread"), ("osc_out", "flags")}
+# the outlets that send every sample (the others, events: nulls' status, scaling's range at the start, the
+# flags and the roll mode when they change, go as they go)
+_PER_SAMPLE = (
+    ("offset", 0),
+    ("scaling", 0),
+    ("scaling", 1),
+    ("scaling", 2),
+    ("tqt", 0),
+    ("reference", 0),
+    ("azi_ele", 0),
+    ("azi_ele", 1),
+    ("roll_distance", 0),
+    ("roll_distance", 1),
+)
 # of those, the ones osc_out merely stores, which the chain reads: no hand-back
 _READ_INLETS = {("osc_out", "spread"), ("osc_out", "flags")}
 
@@ -248,6 +262,15 @@ class Group:
         self.code = np.zeros((n, 8), np.int64)
         self._grow(max(16, 2 * n))
         self.n = 0  # frames waiting
+        # plain frames straight from the reader's buffer (scan): mote id -> chain, or -1 (the node's way)
+        self.plain_of = np.full(256, -1, np.int64)
+        self._per_mote = np.zeros(256, np.int64)
+        self._bulk: dict[int, list[Callable[[int], None]]] = {}
+        self.plain_taken = 0  # frames the scan took straight from the reader's buffer
+        self.stale = True  # plain_of to be worked out again (a chain taken up or handed back, a silence)
+        from pointat.fusion import compiled
+
+        self.scan_fn = compiled.scan_plain()
         self._flushing = False
         self._later: list[int] = []  # chains handed back while a flush was telling its listeners
         self.fused_frames = 0
@@ -293,6 +316,77 @@ class Group:
         self.n = n + 1
         return True
 
+    def scan(
+        self,
+        buf: bytearray,
+        pos: int,
+        end: int,
+        last: np.ndarray,
+        held: np.ndarray,
+        clock: np.ndarray,
+        rate: float,
+    ) -> tuple[int, int, dict[int, int]] | None:
+        """Take the run of plain frames at ``buf[pos:end]`` (:func:`pointat.fusion.kernel.scan_plain`):
+        the parser's hook, :attr:`pointat.devices.mote_frame.FrameParser.plain`."""
+        if self.stale:
+            self._refresh()
+        if not self._any:
+            return None
+        need = self.n + (end - pos) // 21 + 1
+        if need > self.cap:
+            self._grow(max(need, 2 * self.cap))
+        per = self._per_mote
+        view = np.frombuffer(buf, np.uint8)
+        try:
+            k, stop = self.scan_fn(
+                view,
+                pos,
+                end,
+                last,
+                held,
+                self.plain_of,
+                clock,
+                rate,
+                self.idx,
+                self.counts,
+                self.times,
+                per,
+                self.n,
+            )
+        finally:
+            del view  # (the parser's buffer may not be resized while a view of it lives)
+        self.plain_taken += k
+        if not k:
+            return None
+        n0 = self.n
+        self.n = n0 + k
+        spread = np.array([c.out.state[3] for c in self.chains])  # as osc_out holds them now
+        self.spread[n0 : n0 + k] = spread[self.idx[n0 : n0 + k]]
+        motes = np.flatnonzero(per)
+        taken = dict(zip(motes.tolist(), per[motes].tolist(), strict=True))
+        per[motes] = 0
+        for mote, count in taken.items():
+            for bulk in self._bulk[mote]:  # listeners that count (the observer's streams)
+                bulk(count)
+        return k, int(stop), taken
+
+    def _refresh(self) -> None:
+        """Which motes' frames the scan may take: a fused chain's, not silent, heard by nothing outside
+        the chain but counters."""
+        self.stale = False
+        self.plain_of[:] = -1
+        self._bulk = {}
+        mote = self.mote
+        for g, c in enumerate(self.chains):
+            m = int(mote.p.ids[c.outlet])
+            if not c.fused or m in mote._silent:
+                continue
+            counters = [getattr(node, "bulk", None) for node, _ in mote._targets[c.outlet]]
+            if all(counters):
+                self.plain_of[m] = g
+                self._bulk[m] = counters  # type: ignore[assignment]
+        self._any = bool((self.plain_of >= 0).any())
+
     def flush(self) -> None:
         """Run the waiting frames through the compiled chain, tell the listeners, send the datagrams."""
         n = self.n
@@ -316,23 +410,38 @@ class Group:
             self.release(g)
 
     def _after(self, n: int) -> None:
+        """Per frame: the listeners and events (:meth:`_tell`) where there are any, then the datagram,
+        sent at once (the usual case in a few operations; anything else osc_out's own way)."""
         width = self.width
         data = self.buf[:n].tobytes()
         tlen = self.tlen.tolist()
         chains = self.chains
         times = self.times[:n].tolist()
+        sent = [0] * len(chains)
         for f, (g, e) in enumerate(zip(self.idx[:n].tolist(), self.ev[:n].tolist(), strict=True)):
             c = chains[g]
             if e != K.EV_OUT or c.taps:
                 self._tell(f, g, e, c, times[f])
                 if not e & K.EV_OUT or e & K.EV_BAD:
                     continue
+            sent[g] += 1
             out = c.out
-            out.heard += 1
-            out.updates += 1
             dgram = data[f * width : f * width + tlen[g]]
             for d in out.dests:
-                out._send_one(d, dgram)
+                if d.connected and not d.outage:
+                    try:
+                        d.sock.send(dgram)
+                    except OSError as exc:
+                        out._send_one(d, dgram, exc)
+                    else:
+                        out.sent += 1
+                else:
+                    out._send_one(d, dgram)
+        for g, k in enumerate(sent):
+            if k:
+                out = chains[g].out
+                out.heard += k  # (what on_azimuth and _release count, one each)
+                out.updates += k
 
     def _tell(self, f: int, g: int, e: int, c: Chain, t: float) -> None:
         """A frame's events and the values for the listeners outside the chain, in the nodes' order."""
@@ -424,6 +533,7 @@ class Group:
         S[K.C_OUT : K.C_OUT + 4] = out.state
         self._hold(g, c)
         c.fused = True
+        self.stale = True
         return True
 
     def _template(self, g: int, c: Chain) -> bool:
@@ -468,12 +578,7 @@ class Group:
         self.mote._targets[c.outlet] = list(c._mote_targets)
         for s, o, d, i in c.links:
             s._targets[o] = [(n, j) for n, j in s._targets[o] if not (n is d and j == i)]
-        c.taps = {
-            (node.name, o)
-            for node in c.nodes.values()
-            for o, targets in enumerate(node._targets)
-            if targets and not (node is c.tqt and o == 1)  # (flags: told by the chain, not tapped)
-        }
+        c.taps = {(c.nodes[r].name, o) for r, o in _PER_SAMPLE if c.nodes[r]._targets[o]}
         role = {id(n): r for r, n in c.nodes.items()}
 
         def handing_back(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -554,6 +659,7 @@ class Group:
         c._saved = []
         c.taps = set()
         c.fused = False
+        self.stale = True
 
     def release_all(self) -> None:
         self.flush()

@@ -18,6 +18,7 @@ import inspect
 import os
 import subprocess
 import sys
+import time
 import types
 from collections.abc import Callable
 from pathlib import Path
@@ -89,14 +90,26 @@ def chain_frames() -> Callable[..., Any]:
     finally:
         numba.config.CACHE_DIR = saved
     fn = space["chain_frames"]
-    _exercise(fn)
+    _exercise(fn, space["scan_plain"])
     (where / "ready").touch()
     _compiled = fn
+    global _scan
+    _scan = space["scan_plain"]
     return fn
 
 
-def _exercise(fn: Callable[..., Any]) -> None:
-    """Call it once on a frame of zeros: numba compiles (or loads) for the types the runner passes."""
+_scan: Callable[..., Any] | None = None
+
+
+def scan_plain() -> Callable[..., Any]:
+    """The compiled :func:`~pointat.fusion.kernel.scan_plain` (compiled with :func:`chain_frames`)."""
+    chain_frames()
+    assert _scan is not None
+    return _scan
+
+
+def _exercise(fn: Callable[..., Any], scan: Callable[..., Any]) -> None:
+    """Call them once on zeros: numba compiles (or loads) for the types the runner passes."""
     import numpy as np
 
     from pointat.fusion import kernel as k
@@ -110,18 +123,43 @@ def _exercise(fn: Callable[..., Any]) -> None:
         np.zeros(f, np.int64), np.zeros((f, n), np.uint8), np.zeros((g, n), np.uint8),
         np.zeros(g, np.int64), np.full((g, 8), -1, np.int64), np.zeros((g, 8), np.int64),
     )  # fmt: skip
+    scan(
+        np.zeros(64, np.uint8), 0, 64, np.full(256, -1, np.int64), np.zeros(256, np.uint8),
+        np.full(256, -1, np.int64),
+        np.zeros((3, 256)), 100.0, np.zeros(f, np.int64), np.zeros((f, 9)), np.zeros(f),
+        np.zeros(256, np.int64), 0,
+    )  # fmt: skip
+
+
+#: Seconds a compile in the background is taken to be under way (its lock file's age), so that patches
+#: started meanwhile do not start compiles of their own.
+COMPILING = 120.0
 
 
 def warm() -> Path:
     """Compile the chain into the cache (what ``python -m pointat.fusion.compiled`` does)."""
-    chain_frames()
+    try:
+        chain_frames()
+    finally:
+        (cache_dir() / "compiling").unlink(missing_ok=True)
     return cache_dir()
 
 
 def warm_in_background() -> subprocess.Popen[bytes] | None:
-    """Start :func:`warm` in a process of its own, at low priority; ``None`` when numba is missing."""
+    """Start :func:`warm` in a process of its own, at low priority; ``None`` when numba is missing or a
+    compile is under way already."""
     if numba is None:
         return None
+    lock = cache_dir() / "compiling"
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        if time.time() - lock.stat().st_mtime < COMPILING:
+            return None
+        lock.touch()  # one that died long ago: this one takes over
+    else:
+        os.close(fd)
     return subprocess.Popen(
         [sys.executable, "-m", "pointat.fusion.compiled"],
         stdin=subprocess.DEVNULL,

@@ -206,3 +206,60 @@ def chain_frames(idx, counts, times, spread, P, S, TS, TP, R, ev, flags, buf, tm
             b[at + 2] = (bits32 >> 8) & 255
             b[at + 3] = bits32 & 255
         ev[f] = e | EV_OUT
+
+
+def crc16(b, start, stop):  # type: ignore[no-untyped-def]
+    """CRC-16/CCITT-FALSE of ``b[start:stop]`` (:func:`pointat.devices.mote_frame.crc16_ccitt_false`)."""
+    crc = 0xFFFF
+    for j in range(start, stop):
+        crc ^= np.int64(b[j]) << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) & 0xFFFF if crc & 0x8000 else (crc << 1) & 0xFFFF
+    return crc
+
+
+def scan_plain(b, pos, end, last, held, plain_of, clock, rate, idx, counts, times, per_mote, n0):  # type: ignore[no-untyped-def]
+    """Take the plain binary mote frames at ``b[pos:end]`` into the fused chains' arrays, up to the first
+    that is not plain; returns (frames taken, the position after them).
+
+    Plain: a whole frame (sync bytes, checksum, zero padding) of a mote ``m`` whose chain takes it
+    (``plain_of[m]``, -1 for none), its packet counter the parser's last one plus one (``last[m]``, -1 for
+    a mote not seen yet), its clock started.  What :class:`~pointat.devices.mote_frame.FrameParser` and
+    the ``mote`` node do with such a frame, for it: ``last`` and the mote's clock (``clock`` rows t0,
+    count, last counter; :class:`nodes.sensors._MoteClock`) move on, the frame's chain, counts and time
+    go to ``idx``, ``counts``, ``times`` from ``n0`` on, and ``per_mote[m]`` counts it.  Anything else
+    (a lost packet, a restart, a new or unknown mote, a damaged frame) is left to them, and so are the
+    frames of a mote the parser ``held`` (one of its frames went the parser's way in this read already)."""
+    k = 0
+    cap = idx.shape[0]
+    while pos + 21 <= end and n0 + k < cap:
+        if b[pos] != 0xA5 or b[pos + 1] != 0x5A:
+            break
+        if crc16(b, pos + 2, pos + 19) != (np.int64(b[pos + 19]) << 8 | np.int64(b[pos + 20])):
+            break
+        if b[pos + 17] & 0xF0:
+            break
+        m = np.int64(b[pos + 2])
+        g = plain_of[m]
+        n = np.int64(b[pos + 3]) << 8 | np.int64(b[pos + 4])
+        t0 = clock[0, m]
+        if g < 0 or held[m] or last[m] < 0 or n != ((last[m] + 1) & 0xFFFF) or t0 != t0:
+            break
+        last[m] = n
+        count = clock[1, m] + ((n - np.int64(clock[2, m])) & 0xFFFF)
+        clock[1, m] = count
+        clock[2, m] = n
+        f = n0 + k
+        idx[f] = g
+        times[f] = t0 + count / rate
+        c = counts[f]
+        for i in range(4):
+            j = pos + 5 + 3 * i
+            b0, b1, b2 = np.int64(b[j]), np.int64(b[j + 1]), np.int64(b[j + 2])
+            c[2 * i] = (b0 << 4) | (b1 >> 4)
+            c[2 * i + 1] = ((b1 & 15) << 8) | b2
+        c[8] = ((np.int64(b[pos + 17]) & 15) << 8) | np.int64(b[pos + 18])
+        per_mote[m] += 1
+        k += 1
+        pos += 21
+    return k, pos

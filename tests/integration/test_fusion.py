@@ -27,7 +27,7 @@ from pointat.control import control
 from pointat.devices.mote_frame import Frame, MoteSpec, encode_frame
 from pointat.fusion import compiled
 from pointat.maths.evaluation import load_broad
-from pointat.testing import patch
+from pointat.testing import patch, wait_until
 
 DATA = Path(__file__).resolve().parents[2] / "pointat" / "data"
 
@@ -244,3 +244,57 @@ def test_pointat_run_on_a_pseudo_terminal_sends_the_same_either_way(tmp_path):
     fused = _cli("on", frames, tmp_path)
     assert len(plain) > 1500
     assert fused == plain
+
+
+def _pty_run(mode: str, counts: np.ndarray) -> tuple[list[bytes], int]:
+    """The three-mote patch running (real time, its own thread), its base station a pseudo-terminal the
+    frames are written into a few ticks at a time: the reader's parser hands the plain ones to the chains."""
+    master, slave = os.openpty()
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 23)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(0.5)
+    text = _patch_text(rx.getsockname()[1])
+    rt = patch(
+        text.replace("node base mote ids", f"node base mote device={os.ttyname(slave)} ids"), realtime=True
+    )
+    rt.compiled = mode
+    thread = rt.run_in_thread()
+    got: list[bytes] = []
+    try:
+        assert wait_until(lambda: rt.nodes["base"]._fd is not None, 10.0)
+        for k in range(0, len(counts), 4):
+            ticks = range(k, min(k + 4, len(counts)))
+            os.write(master, b"".join(
+                encode_frame(Frame(m + 1, j & 0xFFFF, tuple(int(c) for c in counts[j, m])))
+                for j in ticks for m in range(3)
+            ))  # fmt: skip
+            time.sleep(0.004)
+        while True:
+            try:
+                got.append(rx.recv(512))
+            except TimeoutError:
+                break
+        group = rt.fusion.groups[0] if rt.fusion else None
+        plain = int(group.plain_taken) if group else 0
+    finally:
+        rt.stop()
+        thread.join(5.0)
+        os.close(master)
+        os.close(slave)
+        rx.close()
+    return got, plain
+
+
+def test_frames_straight_from_the_reader_give_the_same_datagrams(both_ways):
+    counts = both_ways[2][:1500]
+    plain, none = _pty_run("off", counts)
+    fused, taken = _pty_run("on", counts)
+    # gloves 1 and 3 (glove 2's frames have a listener of their own, "tag": they go one at a time)
+    assert none == 0 and taken > 0.6 * 3 * len(counts), taken
+    assert len(plain) > 0.9 * 3 * len(counts)
+    # (the heartbeats carry the rate over the last second: real time, not the take's)
+    for address in {d.split(b"\0", 1)[0] for d in plain} - {b"/pointat/1/status", b"/pointat/3/status"}:
+        mine = [d for d in fused if d.startswith(address + b"\0")]
+        theirs = [d for d in plain if d.startswith(address + b"\0")]
+        assert mine == theirs, address

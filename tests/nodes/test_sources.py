@@ -99,9 +99,9 @@ def test_a_mote_restarted_with_its_counter_past_32767_is_a_restart_not_thousands
 
 
 def test_a_mote_opened_anew_starts_a_new_time_line_and_counts_packets_by_its_counter():
-    from pointat.nodes.sensors import _MoteClock
+    from pointat.nodes.sensors import _clocks
 
-    clock = _MoteClock(100.0)
+    clock = _clocks([1], 100.0)[1][1]
     assert clock.time(Frame(1, 10, (0,) * 9), 5.0) == 5.0
     assert clock.time(Frame(1, 11, (0,) * 9), 5.01) == pytest.approx(5.01)
     # a frame dropped on the way (no verdict came with it): the counter still says how far time went
@@ -116,7 +116,7 @@ def test_a_mote_opened_anew_starts_a_new_time_line_and_counts_packets_by_its_cou
     )
     th = rt.run_in_thread()
     try:
-        assert wait_until(lambda: rt.nodes["base"]._reader.is_open)
+        assert wait_until(lambda: rt.nodes["base"]._reader is not None and rt.nodes["base"]._reader.is_open)
         os.write(masters[0], b"".join(encode_frame(Frame(1, n, (1,) * 9)) for n in range(10)))
         assert wait_until(lambda: len(rt.nodes["out"].messages) == 10)
         rt.send("base", "close")
@@ -454,7 +454,9 @@ def test_mote_tells_the_log_of_a_silence_and_sums_up_lost_and_damaged_frames(mon
     )
     th = rt.run_in_thread()
     try:
-        assert wait_until(lambda: rt.nodes["base"]._reader.is_open)  # open: what is written now is read
+        assert wait_until(
+            lambda: rt.nodes["base"]._reader is not None and rt.nodes["base"]._reader.is_open
+        )  # open: what is written now is read
         os.write(master, encode_frame(Frame(1, 0, (2048,) * 9)))
         assert wait_until(lambda: rt.nodes["one"].messages)
         assert "no frames from" not in caplog.text
