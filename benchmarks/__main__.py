@@ -211,6 +211,7 @@ def main(argv: list[str] | None = None) -> int:
 
         rounds = 2 if args.quick else 3
         run.latency = latency.run_all((100.0, 1000.0), phases, sample, progress, rounds)
+        run.costs = latency.costs(1000.0, 3.0 if args.quick else 8.0, rounds, progress)
         progress("latency: the engine's thread -> scheduler hand-off alone, 1 kHz")
         run.handoff = latency.handoff(1000.0, 3.0 if args.quick else 10.0)
         for rate in (100.0, 1000.0):

@@ -42,6 +42,7 @@ from __future__ import annotations
 import bisect
 import contextlib
 import logging
+import math
 import os
 import select
 import shutil
@@ -101,6 +102,8 @@ class LatencyResult:
     #: pointat ``--spin MS``: the scheduler polls for this many ms after each input instead of sleeping
     #: (a floor with ``--poll MS``: the relay does the same, the floor of the ``--spin`` rows)
     spin: float = 0.0
+    #: pointat ``--compiled on``: the glove chains run as one compiled function (:mod:`pointat.fusion`)
+    compiled: bool = False
     #: (p50, p99) of each round (:func:`pool`) in the order they ran; ``None`` for a round that failed
     rounds: list[tuple[float, float] | None] = field(default_factory=list)
 
@@ -297,10 +300,19 @@ def stop_process(proc: subprocess.Popen) -> None:
 
 
 def pointat_command(
-    patch: Path, overrides: list[str], seconds: float, realtime: bool = False, spin: float = 0.0
+    patch: Path,
+    overrides: list[str],
+    seconds: float,
+    realtime: bool = False,
+    spin: float = 0.0,
+    compiled: bool | None = None,
 ) -> list[str]:
-    """``pointat run [--rt] [--spin MS] PATCH --set ... --for SECONDS`` through this interpreter."""
-    cmd = [sys.executable, "-m", "pointat.cli", "run", *(["--rt"] if realtime else [])]
+    """``pointat run [--compiled on|off] [--rt] [--spin MS] PATCH --set ... --for SECONDS`` through this
+    interpreter; ``compiled`` for a patch with glove chains: a row says which way they run (``auto``
+    would fuse them whenever the compiled code is cached)."""
+    cmd = [sys.executable, "-m", "pointat.cli", "run"]
+    cmd += [] if compiled is None else ["--compiled", "on" if compiled else "off"]
+    cmd += ["--rt"] if realtime else []
     cmd += [*(["--spin", f"{spin:g}"] if spin else []), str(patch)]
     for o in overrides:
         cmd += ["--set", o]
@@ -365,7 +377,21 @@ def mote_patch_text(chain: str, motes: int) -> str:
         "torre": "the Pointing-at chain (glove_torre.pat)",
         "tqt": "the tqt chain (glove_tqt.pat)",
         "tqt_bank": "the tqt chain with one tqt_bank for all the gloves (glove_bank.pat after it)",
+        "tqt_plain": "the tqt chain (glove_tqt.pat), untagged: what a glove-sample costs, nothing added",
     }[chain]
+    if chain == "tqt_plain":
+        ids = ", ".join(str(i) for i in range(1, motes + 1))
+        lines = [
+            f"# Cost benchmark: {motes} motes on one base station (a pseudo-terminal that the benchmark writes",
+            f"# real mote frames into), each through {what}.",
+            "# Written by benchmarks.latency.mote_patch_text(); the benchmark sets base.device, base.rate and",
+            "# every gN/out.port.  No sample tag: the outputs are counted, not matched.",
+            "",
+            f"node base mote ids=[{ids}] rate=1000",
+        ]
+        lines += [f"node g{i}   glove_tqt.pat id={i} port=9000 rate=1000" for i in range(1, motes + 1)]
+        lines += [""] + [f"base.m{i} -> g{i}.adc" for i in range(1, motes + 1)]
+        return "\n".join(lines) + "\n"
     ids = ", ".join(str(i) for i in range(1, motes + 1))
     lines = [
         f"# Latency benchmark: {motes} mote{'s' if motes > 1 else ''} on one base station (a pseudo-terminal that the",
@@ -699,22 +725,147 @@ def run_pointat_mote(
     workdir: Path,
     realtime: bool = False,
     spin: float = 0.0,
+    compiled: bool = False,
 ) -> LatencyResult:
-    """pointat's mote path: frames into a pty -> ``mote`` -> chain(s) -> ``osc_out`` -> our socket."""
+    """pointat's mote path: frames into a pty -> ``mote`` -> chain(s) -> ``osc_out`` -> our socket;
+    ``compiled``: the chains fused (``pointat run --compiled on``)."""
     patch = PATCHES / f"mote_{chain}_{motes}.pat"
     sock = receiver_socket()
     src = MoteSource(rate, motes)
     port = sock.getsockname()[1]
     overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
     overrides += [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
-    cmd = pointat_command(patch, overrides, phases.lifetime, realtime, spin)
+    cmd = pointat_command(patch, overrides, phases.lifetime, realtime, spin, compiled)
     shown_mode, log_mode = _mode(realtime, spin)
+    if compiled:
+        shown_mode, log_mode = f", compiled{shown_mode}", f"_compiled{log_mode}"
     label = f"pointat {chain} (mote, pty{shown_mode})"
     res = LatencyResult(
-        label, "pointat-mote", chain, rate, motes, _shown_mote(cmd, motes), realtime=realtime, spin=spin
+        label,
+        "pointat-mote",
+        chain,
+        rate,
+        motes,
+        _shown_mote(cmd, motes),
+        realtime=realtime,
+        spin=spin,
+        compiled=compiled,
     )
     log = workdir / f"mote_{chain}_{motes}_{rate:g}{log_mode}.log"
     return _measure(res, cmd, log, src, sock, rate, phases, _pointat_key, _TAG_PERIOD, motes)
+
+
+@dataclass
+class CostResult:
+    """What a glove-sample costs the whole ``pointat run`` process: N untagged gloves at a rate, CPU time
+    over the outputs counted at our socket, in rounds."""
+
+    label: str
+    motes: int
+    rate: float
+    compiled: bool
+    command: str
+    us: list[float] = field(default_factory=list)  # per round: CPU µs per glove-sample
+    delivered: list[float] = field(default_factory=list)  # per round: outputs / inputs
+    error: str = ""
+
+    @property
+    def median_us(self) -> float:
+        return float(np.median(self.us)) if self.us else math.nan
+
+
+def run_cost(motes: int, rate: float, seconds: float, workdir: Path, compiled: bool) -> tuple[float, float]:
+    """One round of :class:`CostResult`: (CPU µs per glove-sample, outputs / inputs) over ``seconds``
+    after a warm-up; the frames written on a deadline schedule, the outputs drained as they come."""
+    patch = PATCHES / f"mote_tqt_plain_{motes}.pat"
+    sock = receiver_socket()
+    src = MoteSource(rate, motes)
+    port = sock.getsockname()[1]
+    overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
+    overrides += [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
+    cmd = pointat_command(patch, overrides, seconds + 30.0, compiled=compiled)
+    log_path = workdir / f"cost_{motes}_{'compiled' if compiled else 'nodes'}.log"
+    got = 0
+
+    def drain() -> int:
+        n = 0
+        while True:
+            try:
+                sock.recv(512)
+                n += 1
+            except BlockingIOError:
+                return n
+
+    try:
+        with child_process(cmd, log_path) as proc:
+            deadline = time.monotonic() + 20.0
+            k = 0
+            while time.monotonic() < deadline and not got:  # started: the first outputs are back
+                src.tick(k)
+                k += 1
+                time.sleep(1.0 / rate)
+                got = drain()
+                if proc.poll() is not None:
+                    raise RuntimeError(f"pointat exited: {_last_words(log_path)}")
+            t0 = time.monotonic()
+            for j in range(int(rate)):  # a second of warm-up
+                src.tick(k)
+                k += 1
+                _sleep_until(t0 + (j + 1) / rate)
+                drain()
+            cpu0, t0, got, sent = proc_cpu_seconds(proc.pid), time.monotonic(), 0, 0
+            for j in range(int(seconds * rate)):
+                if src.tick(k) is not None:
+                    sent += 1
+                k += 1
+                _sleep_until(t0 + (j + 1) / rate)
+                got += drain()
+            time.sleep(0.2)
+            got += drain()
+            cpu1 = proc_cpu_seconds(proc.pid)
+    finally:
+        sock.close()
+        src.close()
+    if cpu0 is None or cpu1 is None or not got:
+        raise RuntimeError("no CPU time or nothing out")
+    # per output: a process that falls behind (frames refused by the full pty) is not flattered
+    return (cpu1 - cpu0) * 1e6 / got, got / (sent * motes)
+
+
+def costs(
+    rate: float, seconds: float, rounds: int, progress: Callable[[str], None], workdir: Path | None = None
+) -> list[CostResult]:
+    """:func:`run_cost` for 16 and 64 untagged gloves, compiled and node by node, in alternating rounds."""
+    workdir = workdir or Path(tempfile.mkdtemp(prefix="pointat-cost-"))
+    plan = [(motes, compiled) for motes in (16, 64) for compiled in (True, False)]
+    out = {
+        key: CostResult(
+            f"pointat tqt mote x{key[0]}" + (", compiled" if key[1] else ""),
+            key[0],
+            rate,
+            key[1],
+            shown(pointat_command(PATCHES / f"mote_tqt_plain_{key[0]}.pat", [], seconds, compiled=key[1])),
+        )
+        for key in plan
+    }
+    for k in range(rounds):
+        for key in plan:
+            progress(f"cost {rate:g} Hz, round {k + 1}/{rounds}: {out[key].label}")
+            try:
+                us, delivered = run_cost(key[0], rate, seconds, workdir, key[1])
+            except (RuntimeError, OSError) as exc:
+                out[key].error = str(exc)
+                continue
+            out[key].us.append(us)
+            out[key].delivered.append(delivered)
+            progress(f"  {us:.1f} us a glove-sample, {delivered:.3f} of the inputs out")
+    return list(out.values())
+
+
+def _sleep_until(when: float) -> None:
+    left = when - time.monotonic()
+    if left > 0:
+        time.sleep(left)
 
 
 def _shown_mote(cmd: list[str], motes: int) -> str:
@@ -1212,6 +1363,23 @@ def run_all(
                     partial(run_pointat_mote, "tqt_bank", rate, 16, ph, sample, workdir),
                 )
             )
+            # many performers, at 1 kHz: the tqt chains compiled (pointat.fusion), 1, 16 and 64 gloves on
+            # one base station, one glove polling, and 64 node by node (more than one core's work)
+            if rate >= 1000:
+                for motes in (1, 16, 64):
+                    plan.append(
+                        (
+                            f"pointat tqt mote x{motes} compiled",
+                            partial(run_pointat_mote, "tqt", rate, motes, ph, sample, workdir, compiled=True),
+                        )
+                    )
+                polling = partial(
+                    run_pointat_mote, "tqt", rate, 1, ph, sample, workdir, spin=spin_for(rate), compiled=True
+                )
+                plan.append(("pointat tqt mote x1 compiled --spin", polling))
+                plan.append(
+                    ("pointat tqt mote x64", partial(run_pointat_mote, "tqt", rate, 64, ph, sample, workdir))
+                )
             runs: dict[str, list[LatencyResult]] = {name: [] for name, _ in plan}
             for k in range(rounds):
                 for name, fn in plan:

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from .accuracy import PUBLISHED_MEAN, PUBLISHED_ORDER, PUBLISHED_TRIALS, AccuracyResults
-from .latency import CallCount, LatencyResult
+from .latency import CallCount, CostResult, LatencyResult
 from .memory import MemoryResult
 from .throughput import (
     BATCH,
@@ -49,6 +49,8 @@ class Run:
     throughput: ThroughputResults | None = None
     accuracy: AccuracyResults | None = None
     memory: MemoryResult | None = None
+    #: what a glove-sample costs the whole process, untagged (:func:`benchmarks.latency.costs`)
+    costs: list[CostResult] = field(default_factory=list)
     #: benchmarks.monitor's tables (Markdown, without its title)
     monitor: str = ""
     notes: list[str] = field(default_factory=list)
@@ -90,6 +92,7 @@ def _find(
     motes: int = 1,
     realtime: bool = False,
     spin: bool = False,
+    compiled: bool = False,
 ) -> LatencyResult | None:
     for r in lat:
         if (
@@ -99,6 +102,7 @@ def _find(
             and r.motes == motes
             and r.realtime == realtime
             and bool(r.spin) == spin
+            and r.compiled == compiled
             and not r.error
         ):
             return r
@@ -829,6 +833,93 @@ def _memory_ok(mem: MemoryResult | None) -> bool | None:
     return mem.slope_kb_per_min <= max(10.0, 3.0 * mem.slope_stderr)
 
 
+#: Many performers on one core (issue 35): p99 of 64 gloves at 1 kHz, and the whole chain's cost.
+MANY_P99_US = 2000.0
+GLOVE_SAMPLE_US = 5.0
+
+
+def _many_gloves(lat: list[LatencyResult]) -> list[list[str]]:
+    """The goals of many performers on one machine: the compiled chains at 64 gloves, 1 kHz."""
+    rows = []
+    for spin in (False, True):  # one glove, compiled, against the relays, like against like
+        one = _find(lat, "pointat-mote", "tqt", 1000.0, spin=spin, compiled=True)
+        for kind, name in (("python-osc", "python-osc relay"), ("pty", "python pty relay")):
+            floor = _find(lat, "floor", kind, 1000.0, spin=spin)
+            if one and floor:
+                how = f" --spin {one.spin:g}" if spin else ""
+                rows.append(
+                    [
+                        f"tqt chain compiled{how}, mote path, 1 kHz, 1 glove: p99 ≤ 1.2 × {name}"
+                        + (", polling as --spin does" if spin else ", both asleep"),
+                        f"{one.p99 / floor.p99:.2f} × ({_ms(one.p99)} vs {_ms(floor.p99)} ms)"
+                        + _by_round(one, floor),
+                        _verdict(one.p99 <= 1.2 * floor.p99, f"{one.p99 / floor.p99:.2f} ×, goal 1.2 ×"),
+                    ]
+                )
+    r = _find(lat, "pointat-mote", "tqt", 1000.0, motes=64, compiled=True)
+    plain = _find(lat, "pointat-mote", "tqt", 1000.0, motes=64)
+    if r:
+        beside = ""
+        if plain:
+            beside = f"; node by node {_ms(plain.p99)} ms, {plain.received}/{plain.expected} out"
+        rows.append(
+            [
+                "tqt chain compiled, 64 gloves at 1 kHz on one base station, one core: p99 ≤ 2 ms",
+                f"{_ms(r.p99)} ms, {r.received}/{r.expected} out{beside}",
+                _verdict(
+                    r.p99 <= MANY_P99_US and r.received >= 0.99 * r.expected,
+                    f"{r.p99 / MANY_P99_US:.2f} × the goal",
+                ),
+            ]
+        )
+    return rows
+
+
+def _cost_rows(costs: list[CostResult]) -> list[list[str]]:
+    """The whole-chain cost goal, from the untagged rounds."""
+    mine = {(c.motes, c.compiled): c for c in costs if c.us}
+    c, plain = mine.get((64, True)), mine.get((64, False))
+    if c is None:
+        return []
+    shown = f"{c.median_us:.1f} µs (range {min(c.us):.1f}–{max(c.us):.1f})"
+    if plain:
+        shown += f"; node by node {plain.median_us:.1f} µs"
+    return [
+        [
+            "tqt chain compiled, 64 gloves at 1 kHz: ≤ 5 µs of CPU per glove-sample, whole process "
+            "(reading the pty, parsing, the chain, sending)",
+            shown,
+            _verdict(c.median_us <= GLOVE_SAMPLE_US, f"{c.median_us / GLOVE_SAMPLE_US:.2f} × the goal"),
+        ]
+    ]
+
+
+def _cost_section(run: Run) -> list[str]:
+    """The table of :func:`benchmarks.latency.costs`."""
+    if not run.costs:
+        return []
+    rows = [
+        [
+            c.label,
+            f"{c.median_us:.1f}" if c.us else "failed",
+            f"{min(c.us):.1f}–{max(c.us):.1f}" if c.us else c.error[:80],
+            f"{np.median(c.delivered):.3f}" if c.delivered else "",
+        ]
+        for c in run.costs
+    ]
+    return [
+        "### What a glove-sample costs, whole process",
+        "",
+        "Untagged gloves (`benchmarks/patches/mote_tqt_plain_N.pat`: nothing added to the chain), 1 kHz, "
+        "real mote frames into the pty; the `pointat run` process's CPU time over the datagrams counted at "
+        "our socket, per round; median and range of the rounds.  A row whose outputs fall short of its "
+        "inputs could not keep up (the pty refused frames): its figure is per datagram out.",
+        "",
+        *_table(["", "µs of CPU per glove-sample", "range", "outputs / inputs"], rows, "lrrr"),
+        "",
+    ]
+
+
 # ------------------------------------------------------------------------------------------ summary
 def _summary(run: Run) -> list[str]:
     rows = []
@@ -902,6 +993,8 @@ def _summary(run: Run) -> list[str]:
                             ),
                         ]
                     )
+    rows += _many_gloves(lat)
+    rows += _cost_rows(run.costs)
     tp = run.throughput
     if tp:
         torre = {p.how: p for p in tp.patches if p.chain == "torre"}
@@ -1031,6 +1124,7 @@ def render(run: Run) -> str:
     out += _summary(run)
     if run.latency:
         out += _latency_section(run)
+        out += _cost_section(run)
     if run.throughput:
         out += _throughput_section(run.throughput)
     if run.accuracy:

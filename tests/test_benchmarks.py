@@ -202,7 +202,16 @@ def test_the_checked_in_mote_patches_are_what_the_benchmark_writes():
     names = sorted(p.name for p in PATCHES.glob("mote_*_*.pat") if not p.name.startswith("mote_relay"))
     assert names == [
         f"mote_{c}_{n}.pat"
-        for c, n in (("torre", 1), ("torre", 16), ("tqt", 1), ("tqt", 16), ("tqt_bank", 16))
+        for c, n in (
+            ("torre", 1),
+            ("torre", 16),
+            ("tqt", 1),
+            ("tqt", 16),
+            ("tqt", 64),
+            ("tqt_bank", 16),
+            ("tqt_plain", 16),
+            ("tqt_plain", 64),
+        )
     ]
     for name in names:
         chain, motes = name[5:-4].rsplit("_", 1)
@@ -449,3 +458,42 @@ def test_the_whole_process_command_is_what_a_user_types():
         "pointat run --status 0 patches/replay_tqt.pat --set source.file=/tmp/head.csv.gz "
         "--set source.speed=0 --set out.port=9100 --for 120"
     )
+
+
+def test_many_gloves_goals_are_judged_on_the_compiled_rows_and_the_untagged_cost():
+    """64 gloves at 1 kHz: the compiled row's p99 against 2 ms (the node-by-node row beside it, never
+    mistaken for it), one compiled glove against the relays, and the cost per glove-sample from the
+    untagged rounds; a miss says by how much."""
+    from dataclasses import replace
+
+    from benchmarks.latency import CostResult
+    from benchmarks.report import Run, _cost_section, _summary
+
+    floor = replace(_round([100.0] * 100), label="python-osc relay", family="floor", chain="python-osc")
+    many = replace(_round([1500.0] * 100), label="pointat tqt (mote, pty, compiled)", compiled=True)
+    many = replace(many, family="pointat-mote", chain="tqt", motes=64, expected=100)
+    nodes = replace(many, label="pointat tqt (mote, pty)", compiled=False)
+    nodes.latencies_us = np.array([9000.0] * 100)
+    one = replace(many, motes=1, label="pointat tqt (mote, pty, compiled)")
+    one.latencies_us = np.array([110.0] * 100)
+    costs = [
+        CostResult(
+            "pointat tqt mote x64, compiled", 64, 1000.0, True, "x", us=[8.0, 8.4, 9.0], delivered=[1.0] * 3
+        ),
+        CostResult(
+            "pointat tqt mote x64", 64, 1000.0, False, "x", us=[31.0, 32.0, 33.0], delivered=[0.5] * 3
+        ),
+    ]
+    run = Run(
+        command="x", quick=True, machine={}, data_note="", started="", latency=[floor, nodes, many, one]
+    )
+    run.costs = costs
+    goals = _cells(_summary(run))
+    p99 = "tqt chain compiled, 64 gloves at 1 kHz on one base station, one core: p99 ≤ 2 ms"
+    assert goals[p99] == ["1.50 ms, 100/100 out; node by node 9.00 ms, 100/100 out", "**met**"]
+    cost = next(g for g in goals if g.startswith("tqt chain compiled, 64 gloves at 1 kHz: ≤ 5 µs"))
+    assert goals[cost] == ["8.4 µs (range 8.0–9.0); node by node 32.0 µs", "**missed**: 1.68 × the goal"]
+    relay = "tqt chain compiled, mote path, 1 kHz, 1 glove: p99 ≤ 1.2 × python-osc relay, both asleep"
+    assert goals[relay][1] == "**met**"
+    table = _cells(_cost_section(run))
+    assert table["pointat tqt mote x64"] == ["32.0", "31.0–33.0", "0.500"]
