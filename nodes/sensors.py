@@ -405,6 +405,8 @@ base.1 -> nulls2 -> right
         (:attr:`pointat.devices.mote_frame.FrameParser.plain`): what :meth:`_frame` does for each, done
         for all (the chains' arrays take them; the counters, the silences and the observer's counts
         move on here)."""
+        if self._fused is None:  # (handed back while the reader read)
+            return None
         took = self._fused.scan(buf, pos, end, last, held, self._clock, self._clocks_rate)
         if took is not None:
             self.received += took[0]

@@ -122,6 +122,8 @@ def _find(rt: Any, mote: Node, outlet: int, feeders: dict[int, list[tuple[Node, 
             return f"'{src.name}'.{out_name} goes to {len(found)} {kind} nodes, not one"
         return found[0]
 
+    if not mote._targets[outlet]:
+        return ""  # (wired to nothing)
     first = [d for d, i in mote._targets[outlet] if d.type_name == "offset" and i == 0]
     if len(first) != 1:
         return "not into one offset"
@@ -146,12 +148,9 @@ def _find(rt: Any, mote: Node, outlet: int, feeders: dict[int, list[tuple[Node, 
         return f"osc_out '{out.name}' sends bundles"
     chain = Chain(mote, outlet, nodes)
     inside = {(id(s), o, id(d), i) for s, o, d, i in chain.links}
-    members = {id(n) for n in nodes.values()}
     for role, node in nodes.items():
         for src, o, i in feeders.get(id(node), ()):
             if (id(src), o, id(node), i) in inside or (role, node.in_specs[i].name) in _OPEN_INLETS:
-                continue
-            if id(src) in members and (role, node.in_specs[i].name) == ("osc_out", "flags"):
                 continue
             return f"'{src.name}' feeds {role} '{node.name}'.{node.in_specs[i].name} from outside the chain"
     return chain
@@ -164,7 +163,10 @@ def _fields(out: Node) -> list[Any] | None:
         return None
     fields = list(messages[0][1])
     ok = all(f == "n" or not isinstance(f, str) or f in K.FIELD_CODES for f in fields)
-    return fields if ok else None
+    return fields if ok and len(fields) <= _MAX_FIELDS else None
+
+
+_MAX_FIELDS = 8  # (arguments a message may have in the compiled chain: the templates' slots)
 
 
 def _encodable(out: Node) -> bool:
@@ -189,6 +191,8 @@ def install(rt: Any, mode: str = "auto") -> Fusion | None:
     for mote in motes:
         for k in range(len(mote.p.ids)):
             chain = _find(rt, mote, k, feeders)
+            if chain == "":
+                continue
             if isinstance(chain, str):
                 log.info("mote '%s' %s: node by node: %s", mote.name, mote.out_specs[k].name, chain)
                 continue
@@ -251,15 +255,17 @@ class Group:
         self.rt, self.mote, self.chains, self.fn = rt, mote, chains, fn
         self.by_outlet: dict[int, int] = {c.outlet: g for g, c in enumerate(chains)}
         n = len(chains)
+        # a datagram's room: the longest address (a source number of up to 10 digits), tags, arguments
+        longest = max(len(c.out.messages[0][0]) + len(c.out.messages[0][1]) for c in chains)
+        self.width = 8 * (longest // 8) + 96
         self.P = np.zeros((n, K.G_SIZE))
         self.S = np.zeros((n, K.C_SIZE))
         self.TS = np.zeros((n, step.STATE_SIZE))
         self.TP = np.zeros((n, step.PARAM_SIZE + 2))  # (paper mode's two after them)
-        self.width = 64
         self.tmpl = np.zeros((n, self.width), np.uint8)
         self.tlen = np.zeros(n, np.int64)
-        self.slot = np.full((n, 8), -1, np.int64)
-        self.code = np.zeros((n, 8), np.int64)
+        self.slot = np.full((n, _MAX_FIELDS), -1, np.int64)
+        self.code = np.zeros((n, _MAX_FIELDS), np.int64)
         self._grow(max(16, 2 * n))
         self.n = 0  # frames waiting
         # plain frames straight from the reader's buffer (scan): mote id -> chain, or -1 (the node's way)
