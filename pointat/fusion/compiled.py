@@ -3,7 +3,7 @@ r""":func:`pointat.fusion.kernel.chain_frames` compiled by numba, its machine co
 numba compiles the chain with every function it calls (the filter's step, the scalar maths, the roll
 gesture, osc_out's fields) in about five seconds.  That is paid once per version of those sources: the
 code is cached in ``$XDG_CACHE_HOME/pointat/numba-KEY`` (``~/.cache/...``), ``KEY`` a hash of the sources
-compiled and of numba's and Python's versions, so that a change to any of them compiles anew (numba's own
+compiled, where they are, and numba's and Python's versions, so that a change to any of them compiles anew (numba's own
 cache looks at the file of the function it compiles only, not at the files of what it calls).
 
 ``pointat run`` never waits for a compile it has not asked for: when the cache is not ready it runs node
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import logging
 import os
 import subprocess
 import sys
@@ -24,7 +25,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["available", "cache_dir", "chain_frames", "ready", "warm", "warm_in_background"]
+__all__ = ["available", "cache_dir", "chain_frames", "ready", "scan_plain", "warm", "warm_in_background"]
+
+log = logging.getLogger("pointat.fusion")
 
 try:  # an optional dependency: without it every chain runs node by node
     import numba
@@ -49,8 +52,8 @@ def _modules() -> list[types.ModuleType]:
 def cache_dir() -> Path:
     """Where the compiled chain is cached: a folder per version of its sources, numba and Python."""
     h = hashlib.sha256()
-    for module in _modules():
-        h.update(inspect.getsource(module).encode())
+    for module in _modules():  # (numba's cache keys a function by its file too: a copy elsewhere is new)
+        h.update(f"{module.__file__}\n{inspect.getsource(module)}".encode())
     h.update(f"{getattr(numba, '__version__', '')} {sys.version}".encode())
     root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pointat"
     return root / f"numba-{h.hexdigest()[:16]}"
@@ -91,6 +94,8 @@ def chain_frames() -> Callable[..., Any]:
         numba.config.CACHE_DIR = saved
     fn = space["chain_frames"]
     _exercise(fn, space["scan_plain"])
+    hits = sum(sum(space[f].stats.cache_hits.values()) for f in ("chain_frames", "scan_plain"))
+    log.info("the compiled glove chain %s %s", "loaded from" if hits == 2 else "compiled into", where)
     (where / "ready").touch()
     _compiled = fn
     global _scan
