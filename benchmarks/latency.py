@@ -379,35 +379,27 @@ def mote_patch_text(chain: str, motes: int) -> str:
         "tqt_bank": "the tqt chain with one tqt_bank for all the gloves (glove_bank.pat after it)",
         "tqt_plain": "the tqt chain (glove_tqt.pat), untagged: what a glove-sample costs, nothing added",
     }[chain]
-    if chain == "tqt_plain":
-        ids = ", ".join(str(i) for i in range(1, motes + 1))
-        lines = [
-            f"# Cost benchmark: {motes} motes on one base station (a pseudo-terminal that the benchmark writes",
-            f"# real mote frames into), each through {what}.",
-            "# Written by benchmarks.latency.mote_patch_text(); the benchmark sets base.device, base.rate and",
-            "# every gN/out.port.  No sample tag: the outputs are counted, not matched.",
-            "",
-            f"node base mote ids=[{ids}] rate=1000",
-        ]
-        lines += [f"node g{i}   glove_tqt.pat id={i} port=9000 rate=1000" for i in range(1, motes + 1)]
-        lines += [""] + [f"base.m{i} -> g{i}.adc" for i in range(1, motes + 1)]
-        return "\n".join(lines) + "\n"
+    plain = chain == "tqt_plain"
     ids = ", ".join(str(i) for i in range(1, motes + 1))
     lines = [
-        f"# Latency benchmark: {motes} mote{'s' if motes > 1 else ''} on one base station (a pseudo-terminal that the",
+        f"# {'Cost' if plain else 'Latency'} benchmark: {motes} mote{'s' if motes > 1 else ''} on one base station"
+        " (a pseudo-terminal that the",
         f"# benchmark writes real mote frames into), each through {what}.",
         "# Written by benchmarks.latency.mote_patch_text(); the benchmark sets base.device, base.rate and",
-        "# every gN/out.port.",
-        "#",
-        f"# Sample tag: the benchmark puts {_TAG_BASE} + (k mod {_TAG_PERIOD}) into the gyro x count of frame k;",
-        "# tapN/tagN map it to 0..99.9 in osc_out's spread field, so each OSC message names its frame.",
-        "",
-        f"node base mote ids=[{ids}] rate=1000",
+        "# every gN/out.port." + ("  No sample tag: the outputs are counted, not matched." if plain else ""),
     ]
+    if not plain:
+        lines += [
+            "#",
+            f"# Sample tag: the benchmark puts {_TAG_BASE} + (k mod {_TAG_PERIOD}) into the gyro x count of frame k;",
+            "# tapN/tagN map it to 0..99.9 in osc_out's spread field, so each OSC message names its frame.",
+        ]
+    lines += ["", f"node base mote ids=[{ids}] rate=1000"]
     if chain == "tqt_bank":
         lines.append(f"node bank tqt_bank sensors={motes} rate=1000 mode=robust")
     for i in range(1, motes + 1):
-        lines += [f"node tap{i} unpack f", f"node tag{i} map {_TAG_BASE} {_TAG_BASE + _TAG_PERIOD} 0 100"]
+        if not plain:
+            lines += [f"node tap{i} unpack f", f"node tag{i} map {_TAG_BASE} {_TAG_BASE + _TAG_PERIOD} 0 100"]
         if chain == "tqt_bank":
             lines += [
                 f"node nulls{i} offset samples=150 still=0",  # the tag rides in gyro x
@@ -415,10 +407,11 @@ def mote_patch_text(chain: str, motes: int) -> str:
                 f"node g{i}   glove_bank.pat id={i} port=9000",
             ]
         else:
-            lines.append(f"node g{i}   glove_{chain}.pat id={i} port=9000 rate=1000")
+            lines.append(f"node g{i}   glove_{chain.removesuffix('_plain')}.pat id={i} port=9000 rate=1000")
     lines.append("")
     for i in range(1, motes + 1):
-        lines.append(f"base.m{i} -> tap{i} -> tag{i} -> g{i}.spread")
+        if not plain:
+            lines.append(f"base.m{i} -> tap{i} -> tag{i} -> g{i}.spread")
         if chain == "tqt_bank":
             lines.append(f"base.m{i} -> nulls{i} -> units{i}")
             lines += [f"units{i}.{s} -> bank.{s}{i}" for s in ("mag", "accel", "gyro")]
@@ -729,13 +722,10 @@ def run_pointat_mote(
 ) -> LatencyResult:
     """pointat's mote path: frames into a pty -> ``mote`` -> chain(s) -> ``osc_out`` -> our socket;
     ``compiled``: the chains fused (``pointat run --compiled on``)."""
-    patch = PATCHES / f"mote_{chain}_{motes}.pat"
-    sock = receiver_socket()
-    src = MoteSource(rate, motes)
-    port = sock.getsockname()[1]
-    overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
-    overrides += [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
-    cmd = pointat_command(patch, overrides, phases.lifetime, realtime, spin, compiled)
+    sock, src, overrides = _mote_rig(rate, motes)
+    cmd = pointat_command(
+        PATCHES / f"mote_{chain}_{motes}.pat", overrides, phases.lifetime, realtime, spin, compiled
+    )
     shown_mode, log_mode = _mode(realtime, spin)
     if compiled:
         shown_mode, log_mode = f", compiled{shown_mode}", f"_compiled{log_mode}"
@@ -777,13 +767,10 @@ class CostResult:
 def run_cost(motes: int, rate: float, seconds: float, workdir: Path, compiled: bool) -> tuple[float, float]:
     """One round of :class:`CostResult`: (CPU µs per glove-sample, outputs / inputs) over ``seconds``
     after a warm-up; the frames written on a deadline schedule, the outputs drained as they come."""
-    patch = PATCHES / f"mote_tqt_plain_{motes}.pat"
-    sock = receiver_socket()
-    src = MoteSource(rate, motes)
-    port = sock.getsockname()[1]
-    overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
-    overrides += [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
-    cmd = pointat_command(patch, overrides, seconds + 30.0, compiled=compiled)
+    sock, src, overrides = _mote_rig(rate, motes)
+    cmd = pointat_command(
+        PATCHES / f"mote_tqt_plain_{motes}.pat", overrides, seconds + 30.0, compiled=compiled
+    )
     log_path = workdir / f"cost_{motes}_{'compiled' if compiled else 'nodes'}.log"
     got = 0
 
@@ -866,6 +853,16 @@ def _sleep_until(when: float) -> None:
     left = when - time.monotonic()
     if left > 0:
         time.sleep(left)
+
+
+def _mote_rig(rate: float, motes: int) -> tuple[socket.socket, MoteSource, list[str]]:
+    """Our receiving socket, the pty the frames go into, and the ``--set``s that connect a mote patch
+    to them."""
+    sock = receiver_socket()
+    src = MoteSource(rate, motes)
+    port = sock.getsockname()[1]
+    overrides = [f"base.device={src.device}", f"base.rate={rate:g}"]
+    return sock, src, overrides + [f"g{i}/out.port={port}" for i in range(1, motes + 1)]
 
 
 def _shown_mote(cmd: list[str], motes: int) -> str:

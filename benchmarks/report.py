@@ -838,6 +838,16 @@ MANY_P99_US = 2000.0
 GLOVE_SAMPLE_US = 5.0
 
 
+def _ratio_goal(goal: str, r: LatencyResult, floor: LatencyResult) -> list[str]:
+    """A goal row: ``r``'s p99 at most 1.2 × ``floor``'s, with both figures and each round's ratio."""
+    ratio = r.p99 / floor.p99
+    return [
+        goal,
+        f"{ratio:.2f} × ({_ms(r.p99)} vs {_ms(floor.p99)} ms)" + _by_round(r, floor),
+        _verdict(ratio <= 1.2, f"{ratio:.2f} ×, goal 1.2 ×"),
+    ]
+
+
 def _many_gloves(lat: list[LatencyResult]) -> list[list[str]]:
     """The goals of many performers on one machine: the compiled chains at 64 gloves, 1 kHz."""
     rows = []
@@ -847,14 +857,9 @@ def _many_gloves(lat: list[LatencyResult]) -> list[list[str]]:
             floor = _find(lat, "floor", kind, 1000.0, spin=spin)
             if one and floor:
                 how = f" --spin {one.spin:g}" if spin else ""
+                goal = f"tqt chain compiled{how}, mote path, 1 kHz, 1 glove: p99 ≤ 1.2 × {name}"
                 rows.append(
-                    [
-                        f"tqt chain compiled{how}, mote path, 1 kHz, 1 glove: p99 ≤ 1.2 × {name}"
-                        + (", polling as --spin does" if spin else ", both asleep"),
-                        f"{one.p99 / floor.p99:.2f} × ({_ms(one.p99)} vs {_ms(floor.p99)} ms)"
-                        + _by_round(one, floor),
-                        _verdict(one.p99 <= 1.2 * floor.p99, f"{one.p99 / floor.p99:.2f} ×, goal 1.2 ×"),
-                    ]
+                    _ratio_goal(goal + (", polling as --spin does" if spin else ", both asleep"), one, floor)
                 )
     r = _find(lat, "pointat-mote", "tqt", 1000.0, motes=64, compiled=True)
     plain = _find(lat, "pointat-mote", "tqt", 1000.0, motes=64)
@@ -971,15 +976,10 @@ def _summary(run: Run) -> list[str]:
                 )
             pty_floor = _find(lat, "floor", "pty", 1000.0, spin=spin)
             if pty_floor and m and not realtime:
-                rows.append(
-                    [
-                        f"{rt_name}, mote path, 1 kHz: p99 ≤ 1.2 × python pty relay (the same pty, a bare reader"
-                        + (", polling as --spin does)" if spin else ")"),
-                        f"{m.p99 / pty_floor.p99:.2f} × ({_ms(m.p99)} vs {_ms(pty_floor.p99)} ms)"
-                        + _by_round(m, pty_floor),
-                        _verdict(m.p99 <= 1.2 * pty_floor.p99, f"{m.p99 / pty_floor.p99:.2f} ×, goal 1.2 ×"),
-                    ]
+                goal = (
+                    f"{rt_name}, mote path, 1 kHz: p99 ≤ 1.2 × python pty relay (the same pty, a bare reader"
                 )
+                rows.append(_ratio_goal(goal + (", polling as --spin does)" if spin else ")"), m, pty_floor))
             for pd_kind, pd_name in (("pd", "Pd default"), ("pd-sg0.1", "Pd -sleepgrain 0.1")):
                 pd = _find(lat, "floor", pd_kind, 1000.0)
                 if pd and u:

@@ -1,5 +1,5 @@
-# Cost benchmark: 16 motes on one base station (a pseudo-terminal that the benchmark writes
-# real mote frames into), each through the tqt chain (glove_tqt.pat), untagged: what a glove-sample costs, nothing added.
+# Cost benchmark: 16 motes on one base station (a pseudo-terminal that the
+# benchmark writes real mote frames into), each through the tqt chain (glove_tqt.pat), untagged: what a glove-sample costs, nothing added.
 # Written by benchmarks.latency.mote_patch_text(); the benchmark sets base.device, base.rate and
 # every gN/out.port.  No sample tag: the outputs are counted, not matched.
 
