@@ -1005,6 +1005,17 @@ def _summary(run: Run) -> list[str]:
             if how in torre:
                 figure, verdict = _rate_goal(torre[how])
                 rows.append([f"Pointing-at chain: ≥ 20,000 samples/s on one core, {what}", figure, verdict])
+        run_up = next((st for st in tp.startup if st.label.startswith("pointat run") and st.seconds), None)
+        if run_up:
+            m = statistics.median(run_up.seconds)
+            rows.append(
+                [
+                    f"start-up warm, {run_up.label} (the compiled glove chain loaded from its cache): < 1 s",
+                    f"{m:.2f} s (median of {len(run_up.seconds)}; range {min(run_up.seconds):.2f}–"
+                    f"{max(run_up.seconds):.2f})",
+                    _verdict(m < 1.0, f"{m:.2f} × the goal"),
+                ]
+            )
         f = next((x for x in tp.filters if x.name == "TQTFilter robust"), None)
         if f:
             rows.append(
