@@ -469,12 +469,16 @@ fuse.flags -> state
             as_floats(mag, 3) if mag is not None else nan3,
             self.step(msg.time),
         )
-        bits = self.filter.flag_bits & _NOT_REST
-        if bits != self._bits:  # the status text only when it changes
-            self._bits = bits
-            self.report("ok" if not bits else _status(bits))
+        self.tell_flags(self.filter.flag_bits & _NOT_REST)
         if self.filter.initialised:
             self.out(0, floats(q, msg.time))
+
+    def tell_flags(self, bits: int) -> None:
+        """The filter's flag bits (rest apart) of this sample: the status text only when they change
+        (:mod:`pointat.fusion` tells them too)."""
+        if bits != self._bits:
+            self._bits = bits
+            self.report("ok" if not bits else _status(bits))
 
     def do_reset(self) -> None:
         self.filter.reset()
@@ -1002,11 +1006,15 @@ class RollDistanceNode(Node):
         q = _as_quat(msg)
         self._az, el = _pointing(q, _HAND_X, self._az, self.p.pole)
         mode, az_out, dist = self.state.update(self._az, math.degrees(sq.roll(q)), el)
+        self.tell_mode(mode)
+        self.out(1, dist)  # right to left, as emit does
+        self.out(0, az_out)
+
+    def tell_mode(self, mode: str) -> None:
+        """The gesture's mode of this sample, told when it changes (:mod:`pointat.fusion` tells it too)."""
         if mode != self._mode:
             self._mode = mode
             self.out(2, mode)
-        self.out(1, dist)  # right to left, as emit does
-        self.out(0, az_out)
 
 
 _FRAMES = {

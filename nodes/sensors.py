@@ -407,17 +407,13 @@ base.1 -> nulls2 -> right
         move on here)."""
         if self._fused is None:  # (handed back while the reader read)
             return None
-        took = self._fused.scan(buf, pos, end, last, held, self._clock, self._clocks_rate)
+        took = self._fused.scan(buf, pos, end, last, held, self._clock, self.p.rate)  # (rate is not live)
         if took is not None:
             self.received += took[0]
             seen = time.monotonic() if now is None else now
             for mote in took[2]:
                 self._last_frame[mote] = seen
         return took
-
-    @property
-    def _clocks_rate(self) -> float:
-        return next(iter(self._clocks.values())).rate if self._clocks else float(self.p.rate)
 
     def _event(self, event: object) -> None:
         ev = len(self.out_specs) - 1

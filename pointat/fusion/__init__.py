@@ -142,7 +142,7 @@ def _find(rt: Any, mote: Node, outlet: int, feeders: dict[int, list[tuple[Node, 
     tqt, out = nodes["tqt"], nodes["osc_out"]
     if tqt.p.mode != "robust":
         return f"tqt '{tqt.name}' is in {tqt.p.mode} mode (the compiled chain runs robust mode)"
-    if not _encodable(out):
+    if _fields(out) is None:
         return f"osc_out '{out.name}': profile {out.p.profile} is sent node by node"
     if out.p.bundle:
         return f"osc_out '{out.name}' sends bundles"
@@ -167,10 +167,6 @@ def _fields(out: Node) -> list[Any] | None:
 
 
 _MAX_FIELDS = 8  # (arguments a message may have in the compiled chain: the templates' slots)
-
-
-def _encodable(out: Node) -> bool:
-    return _fields(out) is not None
 
 
 def install(rt: Any, mode: str = "auto") -> Fusion | None:
@@ -206,9 +202,8 @@ def install(rt: Any, mode: str = "auto") -> Fusion | None:
     from pointat.fusion import compiled
 
     if not compiled.available():
-        log.info(
-            "%d glove chains run node by node: numba is not installed (pip install numba)", len(taken) // 7
-        )
+        chains = sum(len(c) for c in found.values())
+        log.info("%d glove chains run node by node: numba is not installed (pip install numba)", chains)
         return None
     if mode == "auto" and not compiled.ready():
         compiled.warm_in_background()
@@ -217,8 +212,7 @@ def install(rt: Any, mode: str = "auto") -> Fusion | None:
             "this run goes node by node"
         )
         return None
-    fn = compiled.chain_frames()
-    return Fusion([Group(rt, mote, chains, fn) for mote, chains in found.items()])
+    return Fusion([Group(rt, mote, chains) for mote, chains in found.items()])
 
 
 class Fusion:
@@ -249,10 +243,12 @@ class Group:
     """The fused chains behind one ``mote``: their state in arrays, the frames of a read waiting for
     :meth:`flush`."""
 
-    def __init__(self, rt: Any, mote: Node, chains: list[Chain], fn: Callable[..., Any]) -> None:
+    def __init__(self, rt: Any, mote: Node, chains: list[Chain]) -> None:
+        from pointat.fusion import compiled
         from pointat.maths.tqt import step
 
-        self.rt, self.mote, self.chains, self.fn = rt, mote, chains, fn
+        self.rt, self.mote, self.chains = rt, mote, chains
+        self.fn, self.scan_fn = compiled.chain_frames(), compiled.scan_plain()
         self.by_outlet: dict[int, int] = {c.outlet: g for g, c in enumerate(chains)}
         n = len(chains)
         # a datagram's room: the longest address (a source number of up to 10 digits), tags, arguments
@@ -274,9 +270,6 @@ class Group:
         self._bulk: dict[int, list[Callable[[int], None]]] = {}
         self.plain_taken = 0  # frames the scan took straight from the reader's buffer
         self.stale = True  # plain_of to be worked out again (a chain taken up or handed back, a silence)
-        from pointat.fusion import compiled
-
-        self.scan_fn = compiled.scan_plain()
         self._flushing = False
         self._later: list[int] = []  # chains handed back while a flush was telling its listeners
         self.fused_frames = 0
@@ -405,7 +398,6 @@ class Group:
                 self.TP, self.R[:n], self.ev[:n], self.flags[:n], self.buf[:n], self.tmpl, self.tlen,
                 self.slot, self.code,
             )  # fmt: skip
-            self.n = 0
             self.fused_frames += n
             self._after(n)
         finally:
@@ -466,12 +458,10 @@ class Group:
             tap(sc, 0, floats(tuple(r[K.O_GYRO : K.O_GYRO + 3]), t))
         tqt = c.tqt
         if e & K.EV_FLAGS:
-            from pointat.nodes.orientation import _status
-
-            bits = int(self.flags[f]) & K.NOT_REST  # (this frame's: the state holds the batch's last)
-            tqt._bits = bits
             tqt.time = t
-            tqt.report("ok" if not bits else _status(bits))
+            tqt.tell_flags(
+                int(self.flags[f]) & K.NOT_REST
+            )  # (this frame's: the state holds the batch's last)
         if not e & K.EV_OUT and not e & K.EV_BAD:
             return
         if taps:
@@ -485,10 +475,10 @@ class Group:
             tap(c.dir, 1, r[K.O_DIR_EL])
             tap(c.dir, 0, r[K.O_DIR_AZ])
         if e & K.EV_MODE:
-            mode = "azimuth" if c.roll._mode == "distance" else "distance"  # (it changed at this frame)
-            c.roll._mode = mode
             c.roll.time = t
-            c.roll.out(2, mode)
+            c.roll.tell_mode(
+                "azimuth" if c.roll._mode == "distance" else "distance"
+            )  # (changed at this frame)
         if taps:
             tap(c.roll, 1, r[K.O_ROLL_DIST])
             tap(c.roll, 0, r[K.O_ROLL_AZ])
@@ -543,25 +533,17 @@ class Group:
         return True
 
     def _template(self, g: int, c: Chain) -> bool:
-        """osc_out's message for its current source number, the fields' places in it."""
-        import struct
-
+        """osc_out's message for its current source number (its own encoder's bytes, the fields the
+        kernel writes left as they come), the fields' places in it."""
         from pointat.osc_bridge.profiles import Source
 
         out = c.out
         fields = _fields(out)
         if fields is None:
             return False
-        n = out.p.source or out.profile.first
-        ((address, tags, getters),) = out.profile.compile(n, out.messages)
-        head = _padded(address) + _padded("," + tags)
-        blank = Source(n, 0.0, 0.0, 0.0, 0.0, out.p.radius)
-        values = [
-            0.0 if isinstance(f, str) and f != "n" else get(blank)
-            for f, get in zip(fields, getters, strict=True)
-        ]
-        data = head + struct.pack(">" + tags, *values)
-        if len(data) > self.width or len(fields) > self.slot.shape[1]:
+        ((head, _, _),) = out._encoder.parts  # address and type tags, padded
+        (data,) = out._encoder.encode(Source(out.p.source or out.profile.first, 0.0))
+        if len(data) > self.width:
             return False
         self.tmpl[g, : len(data)] = np.frombuffer(data, np.uint8)
         self.tlen[g] = len(data)
@@ -668,7 +650,6 @@ class Group:
         self.stale = True
 
     def release_all(self) -> None:
-        self.flush()
         for g in range(len(self.chains)):
             self.release(g)
 
@@ -677,8 +658,3 @@ def _merge(into: list[list[Any]], now: list[list[Any]]) -> None:
     """Add to the saved targets ``into`` those of ``now`` they lack (connected while the chain was fused)."""
     for saved, current in zip(into, now, strict=True):
         saved += [t for t in current if t not in saved]
-
-
-def _padded(s: str) -> bytes:
-    b = s.encode() + b"\0"
-    return b + b"\0" * (-len(b) % 4)
