@@ -46,6 +46,7 @@ examples:
   pointat help tqt                                  a node's inlets, outlets, parameters, example
   pointat graph my.pat -o my.dot                    Graphviz (also my.svg when dot is installed)
   pointat convert my.pat my.pd                      to Pure Data (and back: my.pd my.pat)
+  pointat gestures evaluate --train A --test B     gesture recognition on labelled recordings (DIR/LABEL/*.csv)
   pointat send 9001 /pointat/press/bang             live control of a running patch (OSC to port 9001)
   pointat plot take.csv                             a recorded take as take.png and take.html
 """
@@ -213,7 +214,16 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="dot file to write (default: standard output)")
 
     sub.add_parser("nodes", help="list the node types")
-    sub.add_parser("patches", help="list the patches pointat ships (run one by name: pointat run glove_tqt)")
+    p = sub.add_parser(
+        "patches", help="list the patches pointat ships (run one by name: pointat run glove_tqt)"
+    )
+    p.add_argument(
+        "--copy",
+        metavar="NAME",
+        help="copy shipped patch NAME into --to (with the examples or settings it loads, and its lib/ "
+        "abstractions) to make it your own: what it saves then lands beside your copy",
+    )
+    p.add_argument("--to", metavar="DIR", default=".", help="where --copy puts it (default: this folder)")
     p = sub.add_parser("help", help="show a node type's inlets, outlets, parameters and an example")
     p.add_argument("node", help="node type name")
 
@@ -227,6 +237,26 @@ def _parser() -> argparse.ArgumentParser:
         help="write Pd stub abstractions (right inlets and outlets) for every node type Pd does not have",
     )
     p.add_argument("folder")
+
+    p = sub.add_parser("gestures", help="evaluate gesture recognition on folders of labelled recordings")
+    gsub = p.add_subparsers(dest="gestures_command", metavar="ACTION")
+    g = gsub.add_parser(
+        "evaluate",
+        help="train on one folder, test on another: accuracy, recall, confusion, decision latency",
+        description="Train the gesture node's recognizer on --train and test it on --test, each laid out as "
+        "DIR/<label>/<example>.csv (columns t and any of acc_x..z, gyr_x..z, mag_x..z, qw..qz). Each test "
+        "recording is fed frame by frame, bracketed as one movement, as the gesture node runs it.",
+    )
+    g.add_argument("--train", required=True, metavar="DIR", help="labelled recordings to learn from")
+    g.add_argument("--test", required=True, metavar="DIR", help="labelled recordings to test on")
+    g.add_argument(
+        "--channels",
+        nargs="+",
+        choices=("acc", "gyr", "mag", "q"),
+        help="channel groups to use (default: every group all the recordings have)",
+    )
+    g.add_argument("--json", action="store_true", help="print the evaluation as JSON (with every decision)")
+    g.add_argument("--no-early", action="store_true", help="decide only when each movement has ended")
 
     p = sub.add_parser(
         "send", help="send one OSC message over UDP: live control of a running patch from a shell"
@@ -500,6 +530,15 @@ def cmd_nodes(args: argparse.Namespace, registry: Registry) -> int:
 
 
 def cmd_patches(args: argparse.Namespace, registry: Registry) -> int:
+    if args.copy:
+        try:
+            written = shipped.copy_patch(args.copy, Path(args.to))
+        except (ValueError, OSError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        for path in written:
+            print(path)
+        return 0
     for name in shipped.patch_names():
         path = shipped.find_patch(name)
         first = next((line[1:].strip() for line in path.read_text().splitlines() if line.startswith("#")), "")
@@ -618,7 +657,25 @@ def cmd_send(args: argparse.Namespace, registry: Registry) -> int:
 SEND_WAIT = 0.2
 
 
+def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
+    from . import gesture_eval
+
+    if args.gestures_command != "evaluate":
+        print("usage: pointat gestures evaluate --train DIR --test DIR [--json]", file=sys.stderr)
+        return 2
+    try:
+        ev = gesture_eval.evaluate_folders(
+            args.train, args.test, args.channels, recognizer_options={"early": not args.no_early}
+        )
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(gesture_eval.to_json(ev) if args.json else gesture_eval.format_report(ev))
+    return 0
+
+
 COMMANDS = {
+    "gestures": cmd_gestures,
     "run": cmd_run,
     "check": cmd_check,
     "plot": cmd_plot,

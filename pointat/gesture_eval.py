@@ -1,0 +1,185 @@
+"""``pointat gestures evaluate``: train on one folder of labelled recordings, test on another.
+
+The model and the recognizer are the ``gesture`` node's own (:class:`~pointat.maths.gestures.GestureModel`,
+:class:`~pointat.maths.gestures.Recognizer`), with the node's defaults.  Each test recording is fed to
+the recognizer frame by frame between a gate's opening and closing (a recording is one movement, as a
+button held would bracket it), so early decisions happen as they would on stage.
+
+Reported: accuracy (a test movement rejected as no gesture counts as wrong), recall per class, the
+confusion matrix (rows: the truth; columns: the decision, ``none`` for a rejection), and two latencies:
+*when* (the decision's time minus the movement's last sample, ms: negative for an early decision) and
+*compute* (the wall time the recognizer took on the frame that decided, ms).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pointat.gesture_files import COLUMNS, Recording, read_folder
+from pointat.maths.gestures import NULL, GestureModel, Recognizer
+
+__all__ = ["Evaluation", "evaluate", "evaluate_folders", "format_report", "shared_channels"]
+
+#: The channel groups taken when a folder has several, in this order.
+ORDER = ("gyr", "acc", "q", "mag")
+
+
+@dataclass
+class Evaluation:
+    """The outcome of an evaluation (see the module's docstring); ``decisions`` per test recording:
+    (path, truth, decided label or None, early, when ms, compute ms)."""
+
+    channels: tuple[str, ...]
+    labels: list[str]
+    decisions: list[tuple[str, str, str | None, bool, float, float]] = field(default_factory=list)
+
+    @property
+    def accuracy(self) -> float:
+        scored = [d for d in self.decisions if d[1] != NULL]
+        return sum(d[1] == d[2] for d in scored) / len(scored) if scored else float("nan")
+
+    def recall(self) -> dict[str, float]:
+        out = {}
+        for label in self.labels:
+            mine = [d for d in self.decisions if d[1] == label]
+            out[label] = sum(d[2] == label for d in mine) / len(mine) if mine else float("nan")
+        return out
+
+    def confusion(self) -> tuple[list[str], list[str], list[list[int]]]:
+        """Rows (true labels), columns (decisions, ``none`` last) and counts."""
+        rows = sorted({d[1] for d in self.decisions} | set(self.labels))
+        cols = [*sorted(set(rows) - {NULL}), "none"]
+        counts = [[0] * len(cols) for _ in rows]
+        for d in self.decisions:
+            counts[rows.index(d[1])][cols.index(d[2] if d[2] is not None else "none")] += 1
+        return rows, cols, counts
+
+    def latency(self) -> dict[str, float]:
+        when = np.array([d[4] for d in self.decisions if d[2] is not None])
+        compute = np.array([d[5] for d in self.decisions])
+        early = sum(d[3] for d in self.decisions)
+
+        def q(a: np.ndarray, p: float) -> float:
+            return float(np.percentile(a, p)) if a.size else float("nan")
+
+        return {
+            "when_median_ms": q(when, 50),
+            "when_p95_ms": q(when, 95),
+            "compute_median_ms": q(compute, 50),
+            "compute_p95_ms": q(compute, 95),
+            "early": early,
+        }
+
+    def as_dict(self) -> dict[str, Any]:
+        rows, cols, counts = self.confusion()
+        return {
+            "channels": list(self.channels),
+            "tested": len(self.decisions),
+            "accuracy": self.accuracy,
+            "recall": self.recall(),
+            "confusion": {"rows": rows, "columns": cols, "counts": counts},
+            "latency": self.latency(),
+            "decisions": [
+                {
+                    "file": d[0],
+                    "truth": d[1],
+                    "decided": d[2],
+                    "early": d[3],
+                    "when_ms": d[4],
+                    "compute_ms": d[5],
+                }
+                for d in self.decisions
+            ],
+        }
+
+
+def shared_channels(recordings: Sequence[Recording]) -> tuple[str, ...]:
+    """The channel groups every recording has, in :data:`ORDER`."""
+    common = set(COLUMNS)
+    for r in recordings:
+        common &= set(r.groups)
+    if not common:
+        raise ValueError("the recordings share no channel group (acc_*, gyr_*, mag_*, q*)")
+    return tuple(c for c in ORDER if c in common)
+
+
+def evaluate(
+    train: Sequence[Recording],
+    test: Sequence[Recording],
+    channels: Sequence[str] | None = None,
+    model_options: dict[str, Any] | None = None,
+    recognizer_options: dict[str, Any] | None = None,
+) -> Evaluation:
+    """Train on ``train``, feed each of ``test`` through the recognizer between a gate's open and close."""
+    channels = tuple(channels) if channels else shared_channels([*train, *test])
+    model = GestureModel(channels, **(model_options or {}))
+    model.train([r.example(channels) for r in train])
+    rec = Recognizer(model, **(recognizer_options or {}))
+    out = Evaluation(channels, model.classes)
+    for r in test:
+        example = r.example(channels)
+        found: tuple[Any, ...] | None = None
+        found_at, compute = 0.0, 0.0
+        rec.reset()  # a recording is a take of its own: its clock may start again at 0
+        rec.gate(True, float(example.t[0]))
+        for t, frame in zip(example.t, example.frames, strict=True):
+            start = time.perf_counter()
+            events = rec.push(float(t), frame)
+            spent = time.perf_counter() - start
+            for e in events:
+                if e[0] == "decision" and found is None:
+                    found, found_at, compute = e, float(t), spent
+        start = time.perf_counter()
+        events = rec.gate(False, float(example.t[-1]))
+        spent = time.perf_counter() - start
+        for e in events:
+            if e[0] == "decision" and found is None:
+                found, found_at, compute = e, float(example.t[-1]), spent
+        label = found[1].label if found is not None else None
+        early = bool(found is not None and found[1].early)
+        when = (found_at - float(example.t[-1])) * 1000.0 if found is not None else float("nan")
+        out.decisions.append((r.path, r.label, label, early, when, compute * 1000.0))
+    return out
+
+
+def evaluate_folders(
+    train_dir: str, test_dir: str, channels: Sequence[str] | None = None, **options: Any
+) -> Evaluation:
+    """:func:`evaluate` on two folders laid out as ``DIR/<label>/<example>.csv``."""
+    return evaluate(read_folder(train_dir), read_folder(test_dir), channels, **options)
+
+
+def format_report(ev: Evaluation) -> str:
+    """The evaluation as a person reads it."""
+    rows, cols, counts = ev.confusion()
+    lat = ev.latency()
+    lines = [
+        f"channels: {' '.join(ev.channels)}; {len(ev.decisions)} test recordings",
+        f"accuracy: {100 * ev.accuracy:.1f} %",
+        "recall:",
+    ]
+    for label, r in ev.recall().items():
+        lines.append(f"  {label:<16} {100 * r:5.1f} %")
+    width = max(6, *(len(c) for c in cols), *(len(r) for r in rows)) + 1
+    lines.append("confusion (rows: truth, columns: decision):")
+    lines.append(" " * (width + 2) + "".join(f"{c:>{width}}" for c in cols))
+    for r, row in zip(rows, counts, strict=True):
+        lines.append(f"  {r:<{width}}" + "".join(f"{n:>{width}}" for n in row))
+    lines.append(
+        f"decision time after the last sample: median {lat['when_median_ms']:.0f} ms, p95 {lat['when_p95_ms']:.0f} ms"
+        f" ({lat['early']} decided early, before the end)"
+    )
+    lines.append(
+        f"compute on the deciding sample: median {lat['compute_median_ms']:.2f} ms, p95 {lat['compute_p95_ms']:.2f} ms"
+    )
+    return "\n".join(lines)
+
+
+def to_json(ev: Evaluation) -> str:
+    return json.dumps(ev.as_dict(), indent=2, allow_nan=True)

@@ -1,0 +1,283 @@
+"""Gesture files: folders of labelled recordings (CSV), and the model files the gesture nodes keep.
+
+A folder of recordings holds one folder per label, and one CSV file per example in it::
+
+    DIR/circle/1.csv   DIR/circle/2.csv   DIR/flick/take-3.csv ...
+
+Each CSV has a header and a row per sample: ``t`` (seconds, increasing) and any of the channel groups
+``acc_x,acc_y,acc_z`` (m/s², +g up at rest), ``gyr_x,gyr_y,gyr_z`` (rad/s), ``mag_x,mag_y,mag_z``
+and ``qw,qx,qy,qz`` (the orientation, sensor -> earth); other columns are ignored, as are blank lines and
+lines starting with ``#``.  ``.csv.gz`` is read too.
+
+A model file is JSON: ``{"format": "pointat-gestures", "version": 1, "kind": ..., "channels": [...],
+"size": N, "examples": [{"label": ..., "t": [...], "frames": [[...], ...]}, ...]}``: the examples
+themselves, from which the node trains again as it loads (training takes well under a second), so a
+file stays readable whatever the training becomes.
+
+Every error names the file, and the line or the example, and says what was expected and what was found.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pointat.maths.gestures import CHANNELS, Example
+
+__all__ = [
+    "COLUMNS",
+    "FORMAT",
+    "Recording",
+    "dump_model",
+    "load_model",
+    "read_folder",
+    "read_recording",
+    "write_recording",
+]
+
+#: The CSV columns of each channel group.
+COLUMNS: dict[str, tuple[str, ...]] = {
+    "acc": ("acc_x", "acc_y", "acc_z"),
+    "gyr": ("gyr_x", "gyr_y", "gyr_z"),
+    "mag": ("mag_x", "mag_y", "mag_z"),
+    "q": ("qw", "qx", "qy", "qz"),
+}
+
+FORMAT = "pointat-gestures"
+VERSION = 1
+
+#: Limits that keep a hostile or broken file from taking the machine: an example this long is no
+#: gesture (a minute at 1 kHz), and no model holds more examples than a performer records.
+MOST_SAMPLES = 60_000
+MOST_EXAMPLES = 10_000
+
+
+class Recording:
+    """One labelled recording: its label, path, times (s) and channel groups (name -> (T, k) array)."""
+
+    def __init__(self, label: str, path: str, t: np.ndarray, groups: dict[str, np.ndarray]):
+        self.label, self.path, self.t, self.groups = label, path, t, groups
+
+    def example(self, channels: Sequence[str]) -> Example:
+        """The recording as an :class:`~pointat.maths.gestures.Example` of these channels."""
+        missing = [c for c in channels if c not in self.groups]
+        if missing:
+            cols = ", ".join(col for c in missing for col in COLUMNS.get(c, (c,)))
+            raise ValueError(f"{self.path}: no column(s) {cols} (channels {' '.join(channels)})")
+        return Example(self.label, self.t, np.column_stack([self.groups[c] for c in channels]))
+
+
+def _open_text(path: Path) -> io.TextIOBase:
+    if path.name.endswith(".gz"):
+        return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8", newline="")
+    return open(path, encoding="utf-8", newline="")
+
+
+def read_recording(path: str | os.PathLike[str], label: str = "") -> Recording:
+    """Read one CSV recording; ``ValueError`` naming the file and line for anything amiss."""
+    path = Path(path)
+    try:
+        with _open_text(path) as f:
+            text = f.read(64 * 1024 * 1024 + 1)
+    except (OSError, UnicodeDecodeError, EOFError) as exc:
+        raise ValueError(f"{path}: cannot read ({exc})") from None
+    if len(text) > 64 * 1024 * 1024:
+        raise ValueError(f"{path}: more than 64 MB of text; a gesture recording is far smaller")
+    reader = csv.reader(io.StringIO(text, newline=""))
+    rows = []
+    try:
+        for r in reader:
+            if r and not r[0].lstrip().startswith("#"):
+                rows.append((reader.line_num, r))
+    except csv.Error as exc:  # a stray carriage return, a NUL, an unclosed quote
+        raise ValueError(f"{path}:{reader.line_num}: not CSV ({exc})") from None
+    rows = [(n, r) for n, r in rows if any(c.strip() for c in r)]
+    if not rows:
+        raise ValueError(f"{path}: empty (expected a header: t and channel columns such as acc_x)")
+    header_line, header = rows[0]
+    names = [h.strip() for h in header]
+    if "t" not in names:
+        raise ValueError(f"{path}:{header_line}: no column 't' in the header (got {', '.join(names)[:200]})")
+    where = {name: i for i, name in enumerate(names)}
+    groups: dict[str, list[int]] = {}
+    for group, cols in COLUMNS.items():
+        present = [c for c in cols if c in where]
+        if present and len(present) < len(cols):
+            lacking = [c for c in cols if c not in where]
+            raise ValueError(f"{path}:{header_line}: {', '.join(present)} without {', '.join(lacking)}")
+        if present:
+            groups[group] = [where[c] for c in cols]
+    if not groups:
+        raise ValueError(
+            f"{path}:{header_line}: no channel columns (expected acc_x..z, gyr_x..z, mag_x..z or qw..qz)"
+        )
+    body = rows[1:]
+    if not body:
+        raise ValueError(f"{path}: a header and no samples")
+    if len(body) > MOST_SAMPLES:
+        raise ValueError(f"{path}: {len(body)} samples; at most {MOST_SAMPLES} in a gesture recording")
+    wanted = [where["t"]] + [i for cols in groups.values() for i in cols]
+    data = np.empty((len(body), len(wanted)))
+    for k, (n, row) in enumerate(body):
+        if len(row) != len(names):
+            raise ValueError(f"{path}:{n}: {len(row)} values, the header has {len(names)}")
+        for j, i in enumerate(wanted):
+            cell = row[i].strip()
+            try:
+                v = float(cell)
+            except ValueError:
+                raise ValueError(
+                    f"{path}:{n}: column {names[i]}: expected a number, got {cell[:40]!r}"
+                ) from None
+            if not math.isfinite(v):
+                raise ValueError(
+                    f"{path}:{n}: column {names[i]}: expected a finite number, got {cell[:40]!r}"
+                )
+            data[k, j] = v
+        if k and not data[k, 0] > data[k - 1, 0]:
+            raise ValueError(
+                f"{path}:{n}: t = {data[k, 0]:g} does not increase (the sample before: {data[k - 1, 0]:g})"
+            )
+    out, at = {}, 1
+    for group in groups:
+        out[group] = data[:, at : at + CHANNELS[group]]
+        at += CHANNELS[group]
+    return Recording(label, str(path), data[:, 0].copy(), out)
+
+
+def _is_recording(p: Path) -> bool:
+    return p.is_file() and (p.name.endswith(".csv") or p.name.endswith(".csv.gz"))
+
+
+def read_folder(folder: str | os.PathLike[str]) -> list[Recording]:
+    """Every recording of a folder laid out as ``DIR/<label>/<example>.csv``, labels and files sorted."""
+    root = Path(folder)
+    if not root.is_dir():
+        raise ValueError(f"{root}: not a folder (expected DIR/<label>/<example>.csv)")
+    out = []
+    for sub in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        for f in sorted(p for p in sub.iterdir() if _is_recording(p)):
+            out.append(read_recording(f, sub.name))
+    if not out:
+        loose = [p.name for p in root.iterdir() if _is_recording(p)][:3]
+        hint = f" ({', '.join(loose)} lie in it without a label folder)" if loose else ""
+        raise ValueError(f"{root}: no recordings in DIR/<label>/<example>.csv{hint}")
+    return out
+
+
+def write_recording(path: str | os.PathLike[str], t: Sequence[float], groups: dict[str, Any]) -> None:
+    """Write one recording as CSV (the layout :func:`read_recording` reads)."""
+    cols = ["t"] + [c for g in groups for c in COLUMNS[g]]
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        arrays = [np.asarray(groups[g], dtype=float) for g in groups]
+        for k, tk in enumerate(t):
+            w.writerow([repr(float(tk))] + [repr(float(v)) for a in arrays for v in a[k]])
+
+
+# ------------------------------------------------------------------------------------------ models
+def dump_model(
+    path: str | os.PathLike[str], kind: str, channels: Sequence[str], size: int, examples: Sequence[Example]
+) -> None:
+    """Write a model file (atomically: a crash mid-write leaves the old file whole)."""
+    doc = {
+        "format": FORMAT,
+        "version": VERSION,
+        "kind": kind,
+        "channels": list(channels),
+        "size": int(size),
+        "examples": [{"label": e.label, "t": e.t.tolist(), "frames": e.frames.tolist()} for e in examples],
+    }
+    target = Path(path)
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(doc, separators=(",", ":")), encoding="utf-8")
+    os.replace(tmp, target)
+
+
+def _label(value: Any, where: str) -> str:
+    if not isinstance(value, str) or not value.strip() or len(value) > 100 or any(c.isspace() for c in value):
+        raise ValueError(f"{where}: label: expected a word of 1 to 100 characters, got {str(value)[:40]!r}")
+    return value
+
+
+def load_model(path: str | os.PathLike[str], kind: str) -> tuple[tuple[str, ...], int, list[Example]]:
+    """Read a model file written by :func:`dump_model`: (channels, size, examples); ``ValueError``
+    naming the file and the example for anything amiss."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+        doc = json.loads(text)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{p}: cannot read ({exc})") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{p}:{exc.lineno}: not JSON ({exc.msg})") from None
+    except RecursionError:
+        raise ValueError(f"{p}: nested too deep to be a model file") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise ValueError(f'{p}: not a pointat gesture model (expected "format": "{FORMAT}")')
+    if doc.get("version") != VERSION:
+        raise ValueError(f"{p}: version {doc.get('version')!r}; this pointat reads version {VERSION}")
+    if doc.get("kind") != kind:
+        raise ValueError(f"{p}: a model of kind {doc.get('kind')!r}; this node learns {kind!r}")
+    channels = doc.get("channels")
+    if (
+        not isinstance(channels, list)
+        or not channels
+        or not all(isinstance(c, str) and c in CHANNELS for c in channels)
+    ):
+        raise ValueError(f"{p}: channels: expected a list of {', '.join(CHANNELS)}; got {str(channels)[:80]}")
+    if len(set(channels)) != len(channels):
+        raise ValueError(f"{p}: channels: {channels} names one twice")
+    size = doc.get("size", 0)
+    if (
+        not isinstance(size, int)
+        or isinstance(size, bool)
+        or not 0 <= size <= 1000
+        or (("x" in channels) != (size > 0))
+    ):
+        raise ValueError(f"{p}: size: expected 1..1000 with channel x, 0 without; got {str(size)[:40]}")
+    width = sum(CHANNELS[c] or size for c in channels)
+    items = doc.get("examples")
+    if not isinstance(items, list):
+        raise ValueError(f"{p}: examples: expected a list")
+    if len(items) > MOST_EXAMPLES:
+        raise ValueError(f"{p}: {len(items)} examples; at most {MOST_EXAMPLES}")
+    examples = []
+    for i, item in enumerate(items):
+        where = f"{p}: examples[{i}]"
+        if not isinstance(item, dict):
+            raise ValueError(f"{where}: expected an object with label, t and frames")
+        label = _label(item.get("label"), where)
+        t, frames = item.get("t"), item.get("frames")
+        if not isinstance(t, list) or not isinstance(frames, list) or not t or len(t) != len(frames):
+            raise ValueError(f"{where}: expected t and frames, lists of the same length, at least one")
+        if len(t) > MOST_SAMPLES:
+            raise ValueError(f"{where}: {len(t)} samples; at most {MOST_SAMPLES}")
+        for k, row in enumerate(frames):
+            if not isinstance(row, list) or len(row) != width:
+                got = len(row) if isinstance(row, list) else type(row).__name__
+                raise ValueError(
+                    f"{where}.frames[{k}]: expected {width} numbers ({' '.join(channels)}); got {got}"
+                )
+        try:
+            ta = np.array(t, dtype=float)
+            fa = np.array(frames, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f"{where}: t and frames must hold numbers only") from None
+        if any(isinstance(v, bool) for v in t) or any(isinstance(v, bool) for r in frames for v in r):
+            raise ValueError(f"{where}: t and frames must hold numbers, not true or false")
+        try:
+            examples.append(Example(label, ta, fa))
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+    return tuple(channels), size, examples
