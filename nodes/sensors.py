@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from serial import SerialException
 
+from pointat.devices.gesture_sim import performance
 from pointat.devices.glove_sim import Burst, GloveSimulator, PtyGlove, SensorModel
 from pointat.devices.mote_frame import (
     CorruptFrame,
@@ -506,7 +507,10 @@ class PacedSource(Node):
 class Simulate(PacedSource):
     """A virtual Pointing-at glove: scripted hand motion through a realistic sensor model.
 
-    Pointing sweeps, holds at loudspeaker directions, raising and lowering, a 90 deg roll gesture; gyro
+    Pointing sweeps, holds at loudspeaker directions, raising and lowering, a 90 deg roll gesture
+    (``script=pointing``), or a performer who points, rests and makes the three gestures of
+    ``pointat.devices.gesture_sim`` in turn, circle, flick and nod, one every 4 s or so
+    (``script=gestures``: what ``patches/gestures.pat`` is taught); gyro
     bias and noise, accelerometer and magnetometer noise, the Earth field with dip, 12-bit counts.  The
     script loops (``duration`` ends it).  ``output=direct`` sends the counts from the ``adc`` outlet;
     ``output=pty`` writes real mote frames into a pseudo-terminal instead and sends its path from the
@@ -578,6 +582,13 @@ class Simulate(PacedSource):
             "vertical, pointing (along the pointing axis) or both (the diagonal between them)",
             choices=("vertical", "pointing", "both"),
         ),
+        Param(
+            "script",
+            "symbol",
+            "pointing",
+            "the hand's motion: pointing (sweeps, holds, the roll gesture) or gestures (circle, flick, nod)",
+            choices=("pointing", "gestures"),
+        ),
     )
     example = """
 node glove simulate rate=100
@@ -622,7 +633,9 @@ glove -> nulls -> cal
 
     def setup(self) -> None:
         sensor = SensorModel(seed=self.p.seed) if self.p.noise else SensorModel.ideal()
+        script = performance(self.p.seed, 30, loop=True, lead=3.0)[0] if self.p.script == "gestures" else None
         self.sim = GloveSimulator(
+            script,
             rate_hz=self.p.rate,
             mote_id=self.p.mote,
             seed=self.p.seed,

@@ -20,6 +20,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from pointat.control import control
 from pointat.devices.osc_wire import (
     F32_MAX,
@@ -39,7 +41,7 @@ from pointat.runtime import Timer
 
 from .profiles import FIELDS, PROFILES, SENSORS, Profile, Rule, Source, check_fields, parse_rule
 
-__all__ = ["OscIn", "OscOut", "UpdateEncoder", "destinations"]
+__all__ = ["OscIn", "OscOut", "OscSend", "UpdateEncoder", "destinations"]
 
 log = logging.getLogger("pointat.osc")
 
@@ -646,6 +648,76 @@ dir.azimuth -> out.azimuth
         self._encoder = UpdateEncoder(self.profile, self.p.source or self.profile.first, self.messages)
 
     # sending -------------------------------------------------------------------
+
+
+@register("osc_send")
+class OscSend(UdpSender):
+    """Send any message as OSC: a gesture's label, a stroke, a cue, to whatever listens.
+
+    What reaches the inlet goes to ``address`` with its values as the arguments: ``circle 0.93`` (a
+    ``gesture`` node's) leaves as ``/pointat/gesture "circle" 0.93``; a number as one argument, a bang
+    with none.  A message whose selector is an address (``/cue/go 3``, from a ``msg`` box) goes to that
+    address instead; one whose selector is a word (``next``) goes to ``address/next``.  Numbers go as
+    float32 (whole numbers as int32), symbols as strings: what Pd's ``[oscparse]``, Max's ``udpreceive``
+    and every DAW read.  ``to`` adds destinations; sending never blocks, and an absent receiver is counted
+    and said once, as ``osc_out`` does.
+    """
+
+    inlets = (
+        Inlet("in", ("any",), "values to send (a list, a number, a symbol, a bang), or /address values"),
+    )
+    params = (
+        Param("address", "symbol", "/pointat/gesture", "where the values go: an OSC address"),
+        Param("host", "symbol", "127.0.0.1", "receiver address (name or IP)"),
+        Param("port", "int", 9000, "receiver UDP port", minimum=1, maximum=65535),
+        Param("to", "list", (), "more destinations: host:port, or a port on the same host"),
+        Param("bundle", "bool", False, "send each message as a bundle"),
+    )
+    example = """
+node go   msg circle 1
+node tell osc_send address=/pointat/gesture port=9000
+go -> tell
+"""
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        address = str(values["address"])
+        if not address.startswith("/") or any(c in address for c in " #*,?[]{}"):
+            raise ValueError(f"address {address!r}: expected an OSC address such as /pointat/gesture")
+
+    def setup(self) -> None:
+        self.dests = [_Destination(h, p) for h, p in destinations(self.p.host, self.p.port, self.p.to)]
+        self._outbox: list[bytes] = []
+        self.sent = self.failed = self.refused = 0
+
+    def receive(self, index: int, msg: Message) -> None:
+        self.time = msg.time
+        kind, value = msg.kind, msg.value
+        address = self.p.address
+        if kind == "bang":
+            args: list[Any] = []
+        elif kind in ("list", "vector"):
+            args = list(value)
+        elif kind in ("float", "int", "symbol"):
+            args = [value]
+        else:  # a method message: its selector names the address, or a word under it
+            address = kind if kind.startswith("/") else f"{address.rstrip('/')}/{kind}"
+            args = list(value or ())
+        self.send([encode_message(address, [_osc_arg(a) for a in args])])
+
+    def health(self) -> dict[str, Any]:
+        return {"sent": self.sent, "refused": self.refused, "failed": self.failed}
+
+
+def _osc_arg(a: Any) -> Any:
+    """A value as an OSC argument: a whole float stays a float (float32), numpy numbers become Python's."""
+    if isinstance(a, (bool, np.bool_)):
+        return int(a)
+    if isinstance(a, np.integer):
+        return int(a)
+    if isinstance(a, np.floating):
+        return float(a)
+    return a
 
 
 def _refuse(what: str, value: float) -> None:

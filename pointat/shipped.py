@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["PREFIX", "find_patch", "folder", "patch_names", "resolve"]
+__all__ = ["PREFIX", "copy_patch", "find_patch", "folder", "patch_names", "resolve"]
 
 #: The package's own folder.
 PACKAGE = Path(__file__).resolve().parent
@@ -72,3 +72,31 @@ def patch_names() -> list[str]:
             str(p.relative_to(base).with_suffix("")) for p in base.rglob("*.pat") if "lib" not in p.parts
         )
     return names
+
+
+def copy_patch(name: str, target: Path) -> list[Path]:
+    """Copy shipped patch ``name`` into folder ``target`` to be one's own, with what lies beside it under
+    its name (``gestures.json``: the examples it loads) and the abstractions of ``lib/`` it uses; a file
+    already there is never replaced.  Returns the files written; ``ValueError`` says what stood in the way.
+    """
+    found = find_patch(name)
+    if found is None:
+        raise ValueError(f"no shipped patch {name!r} (pointat patches lists them)")
+    if not target.is_dir():
+        raise ValueError(f"{target}: not a folder")
+    text = found.read_text(encoding="utf-8")
+    wanted = [
+        found,
+        *sorted(p for p in found.parent.glob(found.stem + ".*") if p != found and p.suffix == ".json"),
+    ]
+    wanted += sorted(p for p in (found.parent / "lib").glob("*.pat") if f"lib/{p.name}" in text)
+    plan = [(p, target / p.relative_to(found.parent)) for p in wanted]
+    there = [str(dest) for _, dest in plan if dest.exists()]
+    if there:
+        raise ValueError(
+            f"{', '.join(there)} already there: nothing copied (move it away, or copy elsewhere)"
+        )
+    for src, dest in plan:
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        dest.write_bytes(src.read_bytes())
+    return [dest for _, dest in plan]

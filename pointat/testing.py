@@ -70,9 +70,12 @@ def test_registry() -> Registry:
 test_registry.__test__ = False  # type: ignore[attr-defined]  # not a pytest test
 
 
-def patch(text: str, *, realtime: bool = False, registry: Registry | None = None) -> Runtime:
-    """Parse, check and build native patch text; a manual clock unless ``realtime``."""
-    checked = check(parse_patch(text, "<test>"), registry or test_registry())
+def patch(
+    text: str, *, realtime: bool = False, registry: Registry | None = None, file: str = "<test>"
+) -> Runtime:
+    """Parse, check and build native patch text; a manual clock unless ``realtime``.  ``file``: where the
+    text is taken to be written (its abstractions and relative paths are found beside it)."""
+    checked = check(parse_patch(text, file), registry or test_registry())
     rt = build(checked, realtime=realtime)
     return rt
 

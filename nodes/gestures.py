@@ -1,0 +1,749 @@
+"""Gestures a performer teaches the glove: trained movements, postures, strokes, and following.
+
+``gesture``, ``posture`` and ``follow`` learn from examples, with one workflow, from the patch or over
+OSC (``osc_in``'s live control, ``/pointat/NODE/...``):
+
+* ``record LABEL`` -- the next movement (``gesture``, ``follow``) or the next ``samples`` frames held
+  (``posture``) become an example of LABEL; ``record LABEL N``: the next N.  ``record null``: movements
+  that are *no* gesture (ordinary pointing), so that they are rejected.  Recognition pauses meanwhile.
+* ``train`` -- learn from every example, and run.  ``run`` -- recognise again (after ``record``),
+  ``stop`` -- stop recording or recognising.
+* ``clear`` -- forget every example (``clear LABEL``: that label's).
+* ``save``, ``load`` -- to and from ``file`` (JSON, beside the patch); a patch that starts with the file
+  there loads it and runs: teach in rehearsal, perform with it.
+
+The maths is :mod:`pointat.maths.gestures`; ``pointat gestures evaluate`` runs the same recognizer over
+folders of recordings.  ``stroke`` needs no teaching: a percussive stroke, its direction in the room and
+its strength.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from pointat.gesture_files import dump_model, load_model
+from pointat.maths.gestures import (
+    CHANNELS,
+    NULL,
+    WARPS,
+    Example,
+    Follower,
+    GestureModel,
+    PostureModel,
+    Recognizer,
+    Segmenter,
+    StrokeDetector,
+    channel_slices,
+)
+from pointat.message import Message, as_floats, bang
+from pointat.node import Inlet, Node, Outlet, Param, names_path
+from pointat.registry import register
+
+log = logging.getLogger("pointat.gestures")
+
+_CHANNEL_DOC = {
+    "acc": "specific force, m/s² (scaling's accel)",
+    "gyr": "angular rate, rad/s (scaling's gyro)",
+    "mag": "magnetic field (scaling's mag)",
+    "q": "orientation quaternion w x y z (tqt's quat)",
+    "x": "any other features, size numbers",
+}
+
+
+def _channels_param(default: tuple[str, ...]) -> Param:
+    return Param(
+        "channels",
+        "list",
+        default,
+        "what a frame holds, one inlet each, the first hot: acc gyr mag q x",
+    )
+
+
+class _Learner(Node):
+    """What ``gesture``, ``posture`` and ``follow`` share: inlets per channel, the record / train / run
+    workflow, and the model file."""
+
+    kind: ClassVar[str] = ""
+    needs_input = True
+
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        channels = [str(c) for c in values["channels"]]
+        channel_slices(channels, int(values["size"]))  # unknown, repeated, x without size
+
+    @classmethod
+    def layout(cls, values: Mapping[str, Any]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
+        channels = [str(c) for c in values["channels"]]
+        inlets = tuple(
+            Inlet(
+                c,
+                ("vector", "list") if i else ("vector", "list", "bang"),
+                _CHANNEL_DOC.get(c, "") + (" (hot; methods here)" if i == 0 else ""),
+            )
+            for i, c in enumerate(channels)
+            if c in CHANNELS
+        )
+        return inlets, tuple(cls.outlets)
+
+    def setup(self) -> None:
+        self.channels = tuple(str(c) for c in self.p.channels)
+        self.slices = channel_slices(self.channels, self.p.size)
+        self.width = sum(s.stop - s.start for s in self.slices.values())
+        self._latest: dict[str, tuple[float, ...]] = {}
+        self.examples: list[Example] = []
+        self.recording: str | None = None
+        self.to_record = 0
+        self.running = False
+        self._unread: str | None = None
+        self._warned_missing = False
+        self._handlers = [self._make_input(i, c) for i, c in enumerate(self.channels)]
+        if type(self).receive is Node.receive:
+            self._deliver = self._handlers
+        self.build()
+
+    # the model: subclasses ------------------------------------------------------------------------
+    def build(self) -> None:
+        """Make the (untrained) model from the parameters."""
+
+    def fit(self) -> None:
+        """Train the model on ``self.examples``; ``ValueError`` when it cannot."""
+
+    def frame(self, t: float, x: np.ndarray) -> None:
+        """One frame of every channel, at time ``t``."""
+
+    # inputs ---------------------------------------------------------------------------------------
+    def _make_input(self, index: int, name: str):
+        size = self.slices[name].stop - self.slices[name].start
+
+        def store(msg: Message) -> None:
+            if msg.kind == "bang":
+                raise TypeError(f"'{name}' takes {size} numbers, not a bang")
+            values = as_floats(msg, size)
+            if not all(math.isfinite(v) for v in values):
+                raise ValueError(f"'{name}': a value is not a finite number: {values}")
+            self._latest[name] = values
+            if index == 0:
+                self._hot(msg.time)
+
+        return store
+
+    def _hot(self, t: float) -> None:
+        latest = self._latest
+        if len(latest) < len(self.channels):
+            if not self._warned_missing:
+                self._warned_missing = True
+                missing = [c for c in self.channels if c not in latest]
+                log.warning(
+                    "%s '%s': no %s yet: waiting (wire every channel of channels=%s)",
+                    self.type_name,
+                    self.name,
+                    ", ".join(missing),
+                    " ".join(self.channels),
+                )
+            return
+        x = np.fromiter((v for c in self.channels for v in latest[c]), float, self.width)
+        self.frame(t, x)
+
+    # the workflow ---------------------------------------------------------------------------------
+    def tell(self, *what: Any) -> None:
+        self.out(len(self.out_specs) - 1, tuple(what))
+
+    def do_record(self, label: Any = None, count: Any = 1) -> None:
+        """Record the next example(s) of ``label``."""
+        if label is None:
+            raise TypeError("record needs a label: record circle (or record null for no gesture)")
+        label = str(label)
+        if not label or any(c.isspace() for c in label) or len(label) > 100:
+            raise ValueError(f"record: a label is one word of up to 100 characters; got {label[:40]!r}")
+        try:
+            n = int(float(count))
+        except (TypeError, ValueError):
+            n = 0
+        if not 1 <= n <= 1000:
+            raise ValueError(f"record: the count is 1..1000; got {count!r}")
+        self.recording, self.to_record = label, n
+        self.running = False
+        self.start_recording()
+        self.tell("recording", label, n)
+
+    def start_recording(self) -> None:
+        """The node starts watching for an example."""
+
+    def took(self, example: Example) -> None:
+        """An example was recorded."""
+        self.examples.append(example)
+        n = sum(e.label == example.label for e in self.examples)
+        self.tell("example", example.label, n)
+        self.to_record -= 1
+        if self.to_record <= 0:
+            self.recording = None
+            self.tell("recorded", example.label, n)
+
+    def do_stop(self) -> None:
+        """Stop recording, or recognising."""
+        self.recording, self.running = None, False
+        self.tell("stopped")
+
+    def do_train(self) -> None:
+        """Learn from the examples, and run."""
+        self.recording = None
+        self.fit()
+        self.running = True
+        labels = sorted({e.label for e in self.examples} - {NULL})
+        counts = {lab: sum(e.label == lab for e in self.examples) for lab in labels}
+        self.tell("trained", len(labels), len(self.examples))
+        few = [lab for lab, n in counts.items() if n < 2]
+        if few and self.kind != "follow":
+            log.warning(
+                "%s '%s': one example only of %s: record two or more of each, so that the node learns how"
+                " far a performance may stray",
+                self.type_name,
+                self.name,
+                ", ".join(few),
+            )
+
+    def do_run(self) -> None:
+        """Recognise (after record or stop); the model must be trained."""
+        if not self.trained:
+            raise ValueError("run: nothing trained yet (record examples, then train; or load)")
+        self.recording = None
+        self.running = True
+        self.tell("running")
+
+    @property
+    def trained(self) -> bool:
+        return False
+
+    def do_clear(self, label: Any = None) -> None:
+        """Forget every example, or those of ``label`` (train again to take it into account)."""
+        if label is None:
+            self.examples = []
+            self._unread = None
+        else:
+            self.examples = [e for e in self.examples if e.label != str(label)]
+        self.tell("cleared", *(() if label is None else (str(label),)), len(self.examples))
+
+    @names_path
+    def do_save(self, path: Any = None) -> None:
+        target = str(path) if path is not None else self.p.file
+        if self._unread is not None and os.path.realpath(target) == os.path.realpath(self._unread):
+            raise ValueError(
+                f"save: {target} did not read at the start (see the warning then), and its examples would be"
+                " lost: mend it and send load, send clear to replace it, or save PATH elsewhere"
+            )
+        if not self.examples:
+            raise ValueError("save: no examples to save (record some first)")
+        dump_model(target, self.kind, self.channels, self.p.size, self.examples)
+        self.tell("saved", target, len(self.examples))
+
+    @names_path
+    def do_load(self, path: Any = None) -> None:
+        target = str(path) if path is not None else self.p.file
+        channels, size, examples = load_model(target, self.kind)
+        if channels != self.channels or size != self.p.size:
+            raise ValueError(
+                f"load: {target} holds channels {' '.join(channels)}"
+                f"{f' (size {size})' if size else ''}; this node takes {' '.join(self.channels)}"
+            )
+        old = self.examples
+        self.examples = examples
+        try:
+            self.fit()
+        except ValueError:
+            self.examples = old
+            raise
+        self._unread = None
+        self.running = True
+        self.tell("loaded", target, len(examples))
+
+    def loadbang(self) -> None:
+        """Start from the examples in ``file`` when it is there, recognising."""
+        path = self.p.file
+        if not path or not os.path.exists(path):
+            return
+        try:
+            self.do_load()
+        except ValueError as exc:
+            self._unread = path
+            log.warning(
+                "%s '%s': %s; starting with nothing learnt (save refuses to replace the file until clear)",
+                self.type_name,
+                self.name,
+                exc,
+            )
+            return
+        log.info("%s '%s': %d examples from %s, running", self.type_name, self.name, len(self.examples), path)
+
+    def health(self) -> dict[str, Any]:
+        labels = sorted({e.label for e in self.examples})
+        mode = f"recording {self.recording}" if self.recording else "running" if self.running else "idle"
+        return {"mode": mode, "examples": len(self.examples), "labels": " ".join(labels) or "none"}
+
+
+_COMMON = (
+    Param(
+        "file", "path", "gestures.json", "the examples: save and load go here, loaded at start", writes=True
+    ),
+    Param("size", "int", 0, "how many numbers channel x holds (0: no x)", minimum=0, maximum=1000),
+)
+STATUS = Outlet("status", "list", "what the node did: recording, example, trained, saved, loaded...")
+
+
+@register("gesture")
+class GestureNode(_Learner):
+    """Trained movements: teach a few examples of each, and the node names each movement it sees.
+
+    Movements are cut from rest to rest (a movement starts when the hand moves faster than ``start``
+    times the examples' typical peak, and ends ``settle`` ms after it slows), or by a gate: ``gate 1``
+    ... ``gate 0`` (a button or a pedal held while the gesture is made).  Each is compared to every
+    example by dynamic time warping (1-NN DTW, each feature warped on its own), with a null class: a
+    movement farther than ``reject`` times its nearest class's spread from it, or nearest to an example
+    recorded as ``null``, is no gesture (``none``).  A gesture is told as soon as the evidence allows
+    (``early``: most of an example matched, every other class far behind), else as the movement ends;
+    then nothing for ``refractory`` ms.
+
+    ``gesture`` says ``LABEL SCORE`` (score 1 at an example, 0 at the rejection's edge): wire it to a
+    ``route`` of the labels.  ``none`` says the nearest label and its distance.  ``motion`` says 1 when
+    a movement starts and 0 when it ends.
+    """
+
+    kind = "gesture"
+    outlets = (
+        Outlet("gesture", "list", "LABEL SCORE, once a movement is recognised"),
+        Outlet("none", "list", "NEAREST DISTANCE: a movement that is no gesture"),
+        Outlet("motion", "int", "1 as a movement starts, 0 as it ends"),
+        STATUS,
+    )
+    params = (
+        _channels_param(("gyr", "acc")),
+        *_COMMON,
+        Param(
+            "reject",
+            "float",
+            2.0,
+            "no gesture beyond this many spreads of its class (0: never)",
+            live=True,
+            minimum=0.0,
+        ),
+        Param(
+            "start",
+            "float",
+            0.3,
+            "a movement starts above this share of the examples' peak motion",
+            live=True,
+            above=0.0,
+            maximum=1.0,
+        ),
+        Param(
+            "settle", "float", 100.0, "a movement ends after this long slow", unit="ms", live=True, above=0.0
+        ),
+        Param(
+            "refractory",
+            "float",
+            250.0,
+            "after a gesture, none for this long",
+            unit="ms",
+            live=True,
+            minimum=0.0,
+        ),
+        Param("early", "bool", True, "tell a gesture before it ends when the evidence allows", live=True),
+        Param("band", "float", 0.2, "DTW's band, a share of the longer movement", minimum=0.0, maximum=1.0),
+        Param("warp", "symbol", "each", "each feature warped on its own, or all together", choices=WARPS),
+    )
+    example = """
+node glove simulate rate=100 script=gestures
+node nulls offset samples=150
+node units scaling
+node moves gesture channels=[gyr acc] file=moves.json
+node which route circle flick nod
+node cue   print prefix="a circle"
+glove.adc -> nulls -> units
+units.accel -> moves.acc
+units.gyro -> moves.gyr
+moves.gesture -> which
+which.0 -> cue
+"""
+
+    def build(self) -> None:
+        self.model = GestureModel(
+            self.channels, size=self.p.size, band=self.p.band, reject=self.p.reject, warp=self.p.warp
+        )
+        self.rec = Recognizer(
+            self.model,
+            start=self.p.start,
+            settle=self.p.settle / 1000.0,
+            refractory=self.p.refractory / 1000.0,
+            early=self.p.early,
+        )
+        self._moving = False
+
+    @property
+    def trained(self) -> bool:
+        return self.model.trained
+
+    def fit(self) -> None:
+        self.model.train(self.examples)
+        self.rec.retune()
+
+    def param_changed(self, name: str) -> None:
+        self.model.reject = self.p.reject
+        rec = self.rec
+        rec.start, rec.settle = self.p.start, self.p.settle / 1000.0
+        rec.refractory, rec.use_early = self.p.refractory / 1000.0, self.p.early
+        if name in ("start", "settle"):
+            rec.retune()
+
+    def start_recording(self) -> None:
+        self.rec.record = self.recording
+        self.rec.retune()
+
+    def do_gate(self, on: Any = 1) -> None:
+        """``gate 1``: a movement starts now; ``gate 0``: it ends; ``gate auto``: cut from rest to rest."""
+        if str(on) == "auto":
+            state = None
+        else:
+            try:
+                state = float(on) != 0.0
+            except (TypeError, ValueError):
+                raise ValueError(f"gate: expected 1, 0 or auto; got {str(on)[:40]!r}") from None
+        self._events(self.rec.gate(state, self.time))
+
+    def frame(self, t: float, x: np.ndarray) -> None:
+        if not (self.running or self.recording):
+            return
+        self.rec.record = self.recording
+        self._events(self.rec.push(t, x))
+
+    def _events(self, events: list[tuple[Any, ...]]) -> None:
+        for e in events:
+            what = e[0]
+            if what == "start":
+                self._moving = True
+                self.out(2, 1)
+            elif what in ("end", "drop"):
+                if self._moving:
+                    self._moving = False
+                    self.out(2, 0)
+            elif what == "example":
+                self.took(e[1])
+                if self.recording is None:
+                    self.rec.record = None
+            elif what == "decision":
+                d = e[1]
+                if d.label is not None:
+                    self.out(0, (d.label, round(d.score, 4)))
+                else:
+                    self.out(1, (d.nearest, round(d.distance, 4)))
+
+
+@register("posture")
+class PostureNode(_Learner):
+    """Postures: hold the hand a way, teach it a name, and the node names it whenever the hand is so.
+
+    By default a posture is the hand's attitude (the direction of gravity in the hand, from the
+    orientation ``q``: where the performer faces does not matter; ``heading=true`` takes that in too),
+    and any other features wired to ``x`` (flex sensors...).  ``record LABEL`` takes the next
+    ``samples`` frames (hold the posture meanwhile; move a little about it to teach its breadth).
+    Each frame is named by its ``k`` nearest example frames (k-NN), none when the nearest is farther
+    than ``reject`` times the posture's spread.  A new posture is told once it has held ``hold`` ms:
+    ``posture`` says ``LABEL`` as it is taken, ``none`` bangs as the hand leaves every posture.
+    """
+
+    kind = "posture"
+    outlets = (
+        Outlet("posture", "symbol", "the posture's label, when the hand takes it"),
+        Outlet("none", "bang", "the hand left every posture"),
+        STATUS,
+    )
+    params = (
+        _channels_param(("q",)),
+        Param(
+            "file",
+            "path",
+            "postures.json",
+            "the examples: save and load go here, loaded at start",
+            writes=True,
+        ),
+        _COMMON[1],
+        Param("samples", "int", 50, "frames taken by one record", minimum=1, maximum=60000),
+        Param("k", "int", 5, "neighbours that vote", minimum=1, maximum=100),
+        Param(
+            "reject",
+            "float",
+            3.0,
+            "none beyond this many spreads of the nearest posture (0: never)",
+            live=True,
+            minimum=0.0,
+        ),
+        Param(
+            "hold",
+            "float",
+            100.0,
+            "a posture must hold this long to be told",
+            unit="ms",
+            live=True,
+            minimum=0.0,
+        ),
+        Param("heading", "bool", False, "q: where the hand faces counts too"),
+    )
+    example = """
+node glove simulate rate=100
+node nulls offset samples=150
+node units scaling
+node tqt   tqt rate=100
+node hand  posture channels=[q] file=hand.json
+node show  print prefix=posture
+glove.adc -> nulls -> units
+units.mag -> tqt.mag
+units.accel -> tqt.accel
+units.gyro -> tqt.gyro
+tqt.quat -> hand.q
+hand.posture -> show
+"""
+
+    def build(self) -> None:
+        self.model = PostureModel(
+            self.channels, size=self.p.size, k=self.p.k, reject=self.p.reject, heading=self.p.heading
+        )
+        self._buffer: list[np.ndarray] = []
+        self._times: list[float] = []
+        self._current: str | None = None
+        self._candidate: str | None = None
+        self._since = 0.0
+
+    @property
+    def trained(self) -> bool:
+        return self.model.trained
+
+    def fit(self) -> None:
+        self.model.train(self.examples)
+        self._current = self._candidate = None
+
+    def param_changed(self, name: str) -> None:
+        self.model.reject = self.p.reject
+
+    def start_recording(self) -> None:
+        self._buffer, self._times = [], []
+
+    def frame(self, t: float, x: np.ndarray) -> None:
+        if self.recording:
+            self._buffer.append(x)
+            self._times.append(t)
+            if len(self._buffer) >= self.p.samples:
+                times = np.array(self._times)
+                if not np.all(np.diff(times) > 0):  # frames of one instant: spaced as they came
+                    times = np.arange(len(times), dtype=float)
+                self.took(Example(self.recording, times, np.array(self._buffer)))
+                self._buffer, self._times = [], []
+            return
+        if not self.running:
+            return
+        label, _ = self.model.classify(x)
+        if label != self._candidate:
+            self._candidate, self._since = label, t
+        if label != self._current and t - self._since >= self.p.hold / 1000.0:
+            self._current = label
+            if label is None:
+                self.out(1, bang(t))
+            else:
+                self.out(0, label)
+
+
+@register("stroke")
+class StrokeNode(Node):
+    """Percussive strokes: the onset of each, the direction the hand struck towards, and its strength.
+
+    From the accelerometer (``acc``, m/s², scaling's accel) and, wired to ``q``, the fused orientation
+    (tqt's quat): the acceleration is turned into the room and gravity taken off, so a stroke's
+    direction is the room's (azimuth + left, elevation + up, degrees: a strike down on a drum is
+    elevation -90; one forward at the front loudspeaker, azimuth 0 elevation 0).  Without ``q`` the
+    direction is in the hand's frame.  A stroke is a sharp peak of the linear acceleration over
+    ``threshold`` g (it rises from under half its peak within 20 ms: an impact, not the swing of the
+    arm), told one sample after its peak; the next may follow ``gap`` ms later, once the hand has calmed
+    under half the threshold.  ``stroke`` says ``AZIMUTH ELEVATION STRENGTH`` (g).
+    """
+
+    needs_input = True
+    inlets = (
+        Inlet("acc", ("vector", "list"), "specific force, m/s² (hot)"),
+        Inlet("q", ("vector", "list"), "orientation w x y z (tqt's quat): directions in the room"),
+    )
+    outlets = (Outlet("stroke", "list", "AZIMUTH ELEVATION STRENGTH: degrees, degrees, g"),)
+    params = (
+        Param(
+            "threshold",
+            "float",
+            1.5,
+            "a stroke peaks above this linear acceleration",
+            unit="g",
+            live=True,
+            above=0.0,
+        ),
+        Param("gap", "float", 60.0, "the least time between strokes", unit="ms", live=True, minimum=0.0),
+    )
+    example = """
+node glove simulate rate=100 burst=strokes burst_g=5 burst_every=10 burst_length=2
+node nulls offset samples=150
+node units scaling
+node tqt   tqt rate=100
+node hit   stroke threshold=1.5
+node show  print prefix="stroke (azimuth elevation g)"
+glove.adc -> nulls -> units
+units.mag -> tqt.mag
+units.accel -> tqt.accel
+units.gyro -> tqt.gyro
+units.accel -> hit.acc
+tqt.quat -> hit.q
+hit.stroke -> show
+"""
+
+    def setup(self) -> None:
+        self.detector = StrokeDetector(self.p.threshold, self.p.gap / 1000.0)
+        self._q: np.ndarray | None = None
+        self.strokes = 0
+
+    def param_changed(self, name: str) -> None:
+        self.detector.threshold, self.detector.gap = self.p.threshold, self.p.gap / 1000.0
+
+    def on_q(self, msg: Message) -> None:
+        q = np.array(as_floats(msg, 4))
+        if not np.all(np.isfinite(q)) or not np.linalg.norm(q) > 0:
+            raise ValueError(f"q: expected a rotation quaternion, got {tuple(q)}")
+        self._q = q
+
+    def on_acc(self, msg: Message) -> None:
+        a = np.array(as_floats(msg, 3))
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"acc: a value is not a finite number: {tuple(a)}")
+        s = self.detector.push(msg.time, a, self._q)
+        if s is not None:
+            self.strokes += 1
+            self.out(0, (round(s.azimuth, 2), round(s.elevation, 2), round(s.strength, 3)))
+
+    def health(self) -> dict[str, Any]:
+        return {"strokes": self.strokes}
+
+
+@register("follow")
+class FollowNode(_Learner):
+    """Follow one trained movement as it unfolds: how far through it the hand is (0..1), and how fast.
+
+    Record a few examples of the movement (``record LABEL``; every example counts, whatever its label),
+    ``train``, and move: as a movement starts (from rest, as ``gesture`` cuts them) the node follows it
+    against the example nearest the others, as XMM and GVF do (a left-to-right model, one state per
+    frame), telling ``progress`` 0..1 and ``speed`` (1: as fast as the example, 2: twice) every 20 ms
+    until the hand rests again.  ``bang`` starts following at once (without waiting for a movement).
+    """
+
+    kind = "follow"
+    outlets = (
+        Outlet("progress", "float", "0 .. 1 through the movement"),
+        Outlet("speed", "float", "1 as fast as the example, 2 twice, 0.5 half"),
+        STATUS,
+    )
+    params = (
+        _channels_param(("gyr", "acc")),
+        Param(
+            "file", "path", "follow.json", "the examples: save and load go here, loaded at start", writes=True
+        ),
+        _COMMON[1],
+        Param(
+            "start",
+            "float",
+            0.3,
+            "a movement starts above this share of the examples' peak motion",
+            live=True,
+            above=0.0,
+            maximum=1.0,
+        ),
+        Param(
+            "settle",
+            "float",
+            200.0,
+            "following stops after the hand has been slow this long",
+            unit="ms",
+            live=True,
+            above=0.0,
+        ),
+    )
+    example = """
+node glove simulate rate=100 script=gestures
+node nulls offset samples=150
+node units scaling
+node bow   follow channels=[gyr acc] file=bow.json
+node show  print prefix=progress
+glove.adc -> nulls -> units
+units.accel -> bow.acc
+units.gyro -> bow.gyr
+bow.progress -> show
+"""
+
+    def build(self) -> None:
+        self.model = GestureModel(self.channels, size=self.p.size, reject=0.0)
+        self.follower: Follower | None = None
+        self._rec = Recognizer(self.model, start=self.p.start, settle=self.p.settle / 1000.0, early=False)
+        self._following = False
+
+    @property
+    def trained(self) -> bool:
+        return self.follower is not None
+
+    def fit(self) -> None:
+        examples = [Example("movement", e.t, e.frames) for e in self.examples]
+        if not examples:
+            raise ValueError("no examples to train on (record some first: record LABEL, then move)")
+        self.model.train(examples)
+        self.follower = Follower(self.model)
+        self._rec.retune()
+        self._segmenter()
+
+    def _segmenter(self) -> None:
+        on = self.model.motion_level(self.p.start)
+        self.segmenter = Segmenter(on, 0.5 * on, self.p.settle / 1000.0, longest=math.inf)
+
+    def param_changed(self, name: str) -> None:
+        self._rec.start, self._rec.settle = self.p.start, self.p.settle / 1000.0
+        self._rec.retune()
+        if self.follower is not None:
+            self._segmenter()
+
+    def start_recording(self) -> None:
+        self._rec.record = self.recording
+        self._rec.retune()
+
+    def receive(self, index: int, msg: Message) -> None:
+        if index == 0 and msg.kind == "bang":
+            self.time = msg.time
+            if self.follower is not None:
+                self.follower.reset()
+                self._following = True
+            return
+        super().receive(index, msg)
+
+    def frame(self, t: float, x: np.ndarray) -> None:
+        if self.recording:
+            self._rec.record = self.recording
+            for e in self._rec.push(t, x):
+                if e[0] == "example":
+                    self.took(e[1])
+            if self.recording is None:
+                self._rec.record = None
+            return
+        if not self.running or self.follower is None:
+            return
+        what = self.segmenter.push(t, self._rec.energy(t, x))
+        if what == "start" and not self._following:
+            self.follower.reset()
+            self._following = True
+        elif what in ("end", "drop"):
+            self._following = False
+        if self._following:
+            out = self.follower.push(t, x)
+            if out is not None:
+                self.emit(out[0], out[1])
