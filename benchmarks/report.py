@@ -53,6 +53,9 @@ class Run:
     costs: list[CostResult] = field(default_factory=list)
     #: benchmarks.monitor's tables (Markdown, without its title)
     monitor: str = ""
+    #: benchmarks.gestures' tables (Markdown, without its title) and its goals' rows
+    gestures: str = ""
+    gesture_goals: list[list[str]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
 
@@ -1107,6 +1110,7 @@ def _summary(run: Run) -> list[str]:
                 _ok(_memory_ok(mem)),
             ]
         )
+    rows += run.gesture_goals
     return ["## Goals", ""] + _table(["goal", "measured", ""], rows, "lll")
 
 
@@ -1144,6 +1148,8 @@ def render(run: Run) -> str:
         out += _memory_section(run.memory)
     if run.monitor:
         out += ["## 5. The monitor and OSCQuery (`python -m benchmarks.monitor`)", "", run.monitor, ""]
+    if run.gestures:
+        out += ["## 6. Gesture recognition (`python -m benchmarks.gestures`)", "", run.gestures, ""]
     out += ["## Commands", ""]
     out += [
         "The benchmark: `"

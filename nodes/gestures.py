@@ -303,8 +303,11 @@ class GestureNode(_Learner):
     times the examples' typical peak, and ends ``settle`` ms after it slows), or by a gate: ``gate 1``
     ... ``gate 0`` (a button or a pedal held while the gesture is made).  Each is compared to every
     example by dynamic time warping (1-NN DTW, each feature warped on its own), with a null class: a
-    movement farther than ``reject`` times its nearest class's spread from it, or nearest to an example
-    recorded as ``null``, is no gesture (``none``).  A gesture is told as soon as the evidence allows
+    movement is no gesture (``none``) when it is farther from its nearest class than ``reject`` times
+    the class's reach (how far its examples stray from one another, or a quarter of the way to the next
+    class or to the hand held still, whichever is more) and no nearer to it than to the others by 2.5
+    times, or faster or slower than its examples by half again, or nearest to an example recorded as
+    ``null``.  A gesture is told as soon as the evidence allows
     (``early``: most of an example matched, every other class far behind), else as the movement ends;
     then nothing for ``refractory`` ms.
 
@@ -327,7 +330,7 @@ class GestureNode(_Learner):
             "reject",
             "float",
             2.0,
-            "no gesture beyond this many spreads of its class (0: never)",
+            "no gesture beyond this many times its class's reach (0: never)",
             live=True,
             minimum=0.0,
         ),

@@ -509,3 +509,61 @@ def test_the_warm_start_up_of_pointat_run_is_a_goal_of_its_own():
     )
     (row,) = [g for g in goals if g.startswith("start-up warm")]
     assert goals[row] == ["0.70 s (median of 3; range 0.66–1.20)", "**met**"]
+
+
+def _fake_uwave(root, people=3, days=3, reps=3):
+    """uWave's layout (``U<p> (<d>)/<prefix><gesture>-<repeat>.txt``, lines x y z in g): two gestures a
+    person (a bump along x or along y), each person with their own amplitude."""
+    rng = np.random.default_rng(0)
+    for p in range(1, people + 1):
+        for d in range(1, days + 1):
+            folder = root / f"U{p} ({d})"
+            folder.mkdir(parents=True)
+            for g, axis in ((1, 0), (2, 1)):
+                for r in range(1, reps + 1):
+                    x = np.zeros((60, 3))
+                    x[:, 2] = 1.0
+                    x[:, axis] += (0.8 + 0.1 * p) * np.sin(np.linspace(0, np.pi, 60)) + rng.normal(
+                        0, 0.02, 60
+                    )
+                    np.savetxt(folder / f"A_Template_Acceleration{g}-{r}.txt", x)
+    (root / "readme.txt").write_text("not a recording")
+
+
+def test_uwave_is_read_from_its_own_layout_and_both_protocols_run(tmp_path):
+    from benchmarks.gestures import uwave_recordings, uwave_table
+
+    _fake_uwave(tmp_path)
+    data = uwave_recordings(tmp_path)
+    assert sorted(data) == [(p, d) for p in (1, 2, 3) for d in (1, 2, 3)]
+    assert sorted({r.label for r in data[(2, 3)]}) == ["g1", "g2"] and len(data[(2, 3)]) == 6
+    goals = []
+    text = uwave_table(tmp_path, lambda s: None, goals)
+    assert "| pointat's defaults | 100.0 % | 100.0 % | 100.0 % | 100.0 % |" in text
+    assert "plain 1-NN DTW" in text and [g[2] for g in goals] == ["**met**", "**met**"]
+
+
+def test_a_gesture_latency_round_runs_a_real_patch_and_reports_goals(tmp_path):
+    """One short round of each latency path: pointat run, OSC in at 100 Hz, the gesture and stroke
+    messages back; every gated gesture is told, and the table and goal rows say so."""
+    from benchmarks.gestures import latency_rounds, latency_table
+
+    res = latency_rounds(1, 3, lambda s: None, auto=1, bursts=1)
+    assert res.gated[0].size == 3 and np.all(res.gated[0] > 0) and np.all(res.gated[0] < 500)
+    assert res.strokes[0].size == 8 and res.strokes_found[0] == 1.0
+    goals = []
+    text = latency_table(res, goals)
+    assert (
+        "gesture, gated" in text and len(goals) == 2 and all(g[2] in ("**met**", "**missed**") for g in goals)
+    )
+
+
+def test_the_gesture_section_and_its_goals_are_in_the_report():
+    from benchmarks.report import Run, render
+
+    run = Run("python -m benchmarks --only gestures", False, {"CPU": "x"}, "", "now")
+    run.gestures = "### Accuracy\n\nrows"
+    run.gesture_goals = [["BasicMotions (UEA) >= 97.5 %", "100.0 %", "**met**"]]
+    text = render(run)
+    assert "## 6. Gesture recognition (`python -m benchmarks.gestures`)" in text
+    assert "| BasicMotions (UEA) >= 97.5 % | 100.0 % | **met** |" in text

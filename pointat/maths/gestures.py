@@ -343,13 +343,14 @@ class GestureModel:
         DTW's band, a fraction of the longer series.
     reject : float
         A movement is no gesture when its nearest template is more than ``reject`` times its class's
-        spread away (0: never rejected, but by ``null`` examples).
+        reach away (:meth:`threshold`; 0: never rejected, but by ``null`` examples).
     """
 
     #: The least spread of a class, as a share of the median class's.
     FLOOR = 0.25
-    #: A movement is taken for its nearest class up to this share of the way to the next class...
-    GAP = 0.5
+    #: A class's reach is at least this share of the way to the next class (or to the hand held
+    #: still), per unit of ``reject``: at the default 2, half the way...
+    REACH = 0.25
     #: ... or when every other class is this many times farther than the nearest.
     MARGIN = 2.5
     #: A movement is no performance of a class when it is this many times faster than its fastest
@@ -404,7 +405,7 @@ class GestureModel:
         A class's spread is the largest of its examples' distances to their nearest other example of
         the class (leave one out), at least :attr:`FLOOR` of the median class's: examples all alike (a
         hand held still) would otherwise reject the next performance, however alike.  A class with one
-        example learns no spread: it is rejected beyond :attr:`GAP` of its gap.  A class's gap is the median
+        example learns no spread: its reach is :attr:`REACH` of its gap alone.  A class's gap is the median
         distance of its examples to the nearest example of another class, or to the hand held still
         (the example's first frame held as long, the gyro at 0), whichever is nearer.  Raises ``ValueError`` with no
         gesture example.
@@ -482,8 +483,8 @@ class GestureModel:
             for c in spread:  # near-identical examples (a hand held still) must not reject the next one
                 spread[c] = max(spread[c], self.FLOOR * typical)
         self.learned = set(spread)  # classes whose spread was measured, not stood in for
-        if not spread:  # one example a class: half the way to the nearest other class, or to stillness
-            typical = self.GAP * float(np.median(list(self.gap.values())))
+        if not spread:  # one example a class: a share of the way to the nearest other class, or to stillness
+            typical = self.REACH * float(np.median(list(self.gap.values())))
         for c in self.classes:
             spread.setdefault(c, typical)
         self.spread = spread
@@ -492,13 +493,14 @@ class GestureModel:
         return dtw_many(x, templates, self.band, each=self.warp == "each")
 
     def threshold(self, label: str) -> float:
-        """The distance beyond which a movement nearest to ``label`` is no gesture."""
+        """The distance beyond which a movement nearest to ``label`` is no gesture: ``reject`` times the
+        class's reach, the larger of its spread and :attr:`REACH` of its gap (the gap alone for a class
+        of one example: how far a performance may stray from it is not known)."""
         if self.reject <= 0:
             return math.inf
-        gap = self.GAP * self.gap[label]
-        if label not in self.learned:  # one example: how far a performance may stray is not known
-            return gap
-        return max(self.reject * self.spread[label], gap)
+        gap = self.REACH * self.gap[label]
+        reach = max(self.spread[label], gap) if label in self.learned else gap
+        return self.reject * reach
 
     def fits(self, label: str, duration: float) -> bool:
         """Whether a movement of ``duration`` s could be a performance of ``label``: within
