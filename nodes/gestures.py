@@ -292,6 +292,15 @@ _COMMON = (
     ),
     Param("size", "int", 0, "how many numbers channel x holds (0: no x)", minimum=0, maximum=1000),
 )
+_START = Param(
+    "start",
+    "float",
+    0.3,
+    "a movement starts above this share of the examples' peak motion",
+    live=True,
+    above=0.0,
+    maximum=1.0,
+)
 STATUS = Outlet("status", "list", "what the node did: recording, example, trained, saved, loaded...")
 
 
@@ -334,15 +343,7 @@ class GestureNode(_Learner):
             live=True,
             minimum=0.0,
         ),
-        Param(
-            "start",
-            "float",
-            0.3,
-            "a movement starts above this share of the examples' peak motion",
-            live=True,
-            above=0.0,
-            maximum=1.0,
-        ),
+        _START,
         Param(
             "settle", "float", 100.0, "a movement ends after this long slow", unit="ms", live=True, above=0.0
         ),
@@ -656,15 +657,7 @@ class FollowNode(_Learner):
             "file", "path", "follow.json", "the examples: save and load go here, loaded at start", writes=True
         ),
         _COMMON[1],
-        Param(
-            "start",
-            "float",
-            0.3,
-            "a movement starts above this share of the examples' peak motion",
-            live=True,
-            above=0.0,
-            maximum=1.0,
-        ),
+        _START,
         Param(
             "settle",
             "float",

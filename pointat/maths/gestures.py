@@ -12,9 +12,10 @@ Conventions
   ``size`` numbers given by the model).  Times are seconds, strictly increasing.
 * A gesture is the frames of one movement, from rest to rest (:class:`Segmenter`) or between a
   gate's on and off.  Its features (:func:`segment_features`) are resampled at a fixed ``rate`` (50 Hz),
-  so that templates recorded at one sample rate match performances at another; ``acc`` in g, ``mag`` as
-  a unit vector, ``q`` as the rotation since the gesture began (a rotation vector, radians: where the
-  performer faces does not matter), each channel group then divided by its spread over the examples
+  so that templates recorded at one sample rate match performances at another; ``acc`` as its change
+  since the gesture began, in g (whether the hand was raised or level as it began does not matter),
+  ``mag`` as a unit vector, ``q`` as the rotation since the gesture began (a rotation vector, radians:
+  where the performer faces does not matter), each channel group then divided by its spread over the examples
   (:attr:`GestureModel.scales`), so that no unit outweighs another.
 * Distances are dynamic time warping's (:mod:`pointat.maths.dtw`), nearest template wins (1-NN DTW,
   the baseline the literature holds every newer method against).
@@ -141,13 +142,15 @@ def resample(t: np.ndarray, x: np.ndarray, rate: float) -> np.ndarray:
 
 
 def transform(frames: np.ndarray, channels: Sequence[str], size: int = 0) -> np.ndarray:
-    """Feature frames of a movement's frames (T, F), unscaled and not resampled: ``acc`` in g, ``mag``
-    a unit vector, ``q`` the rotation since the first frame (a rotation vector, radians)."""
+    """Feature frames of a movement's frames (T, F), unscaled and not resampled: ``acc`` its change
+    since the first frame, in g; ``mag`` a unit vector; ``q`` the rotation since the first frame (a
+    rotation vector, radians).  Both are relative to how the movement began, so that a gesture made with
+    the hand raised or level, facing any way, gives the same features."""
     parts = []
     for name, sl in channel_slices(channels, size).items():
         v = frames[:, sl]
         if name == "acc":
-            v = v / GRAVITY
+            v = (v - v[0]) / GRAVITY
         elif name == "mag":
             v = _unit_rows(v)
         elif name == "q":
@@ -369,8 +372,7 @@ class GestureModel:
     ) -> None:
         self.channels = tuple(channels)
         self.size = int(size)
-        self.width = sum(CHANNELS[c] or self.size for c in self.channels)
-        channel_slices(self.channels, self.size)  # checks them
+        self.width = channel_slices(self.channels, self.size)[self.channels[-1]].stop
         self.rate, self.band, self.reject = float(rate), float(band), float(reject)
         self.frame_rate = self.rate  # the examples' own rate when it is lower (train)
         if warp not in WARPS:
@@ -777,8 +779,7 @@ class PostureModel:
         heading: bool = False,
     ) -> None:
         self.channels, self.size = tuple(channels), int(size)
-        self.width = sum(CHANNELS[c] or self.size for c in self.channels)
-        channel_slices(self.channels, self.size)
+        self.width = channel_slices(self.channels, self.size)[self.channels[-1]].stop
         self.k, self.reject, self.floor, self.heading = int(k), float(reject), float(floor), bool(heading)
         self.examples: list[Example] = []
         self.points = np.zeros((0, 0))
