@@ -245,6 +245,10 @@ class _Learner(Node):
     @names_path
     def do_load(self, path: Any = None) -> None:
         target = str(path) if path is not None else self.p.file
+        self._load(target)
+        self.tell("loaded", target, len(self.examples))
+
+    def _load(self, target: str) -> None:
         channels, size, examples = load_model(target, self.kind)
         if channels != self.channels or size != self.p.size:
             raise ValueError(
@@ -260,15 +264,16 @@ class _Learner(Node):
             raise
         self._unread = None
         self.running = True
-        self.tell("loaded", target, len(examples))
 
-    def loadbang(self) -> None:
-        """Start from the examples in ``file`` when it is there, recognising."""
+    def prepare(self) -> None:
+        """Read and learn the examples in ``file`` when it is there (before the clock starts: the first
+        training of a process compiles the DTW)."""
+        self._loaded: tuple[Any, ...] | None = None
         path = self.p.file
         if not path or not os.path.exists(path):
             return
         try:
-            self.do_load()
+            self._load(path)
         except ValueError as exc:
             self._unread = path
             log.warning(
@@ -278,7 +283,13 @@ class _Learner(Node):
                 exc,
             )
             return
+        self._loaded = ("loaded", path, len(self.examples))
         log.info("%s '%s': %d examples from %s, running", self.type_name, self.name, len(self.examples), path)
+
+    def loadbang(self) -> None:
+        """Say what :meth:`prepare` loaded: the node recognises from the first sample."""
+        if getattr(self, "_loaded", None) is not None:
+            self.tell(*self._loaded)
 
     def health(self) -> dict[str, Any]:
         labels = sorted({e.label for e in self.examples})

@@ -459,6 +459,10 @@ class Node:
     def setup(self) -> None:
         """Build the node's state from ``self.p`` (no I/O here)."""
 
+    def prepare(self) -> None:
+        """Heavy one-time work before the patch's clock starts (a model read and trained, compiled code
+        loaded), so that it holds no timer up.  No output here.  Called once, before :meth:`start`."""
+
     def start(self) -> None:
         """Open ports, start threads or timers. Called once when the patch starts running."""
 

@@ -348,9 +348,19 @@ class Runtime:
             return
         if self.compiled != "off":  # (before the clock starts: loading the compiled code takes a while)
             self._fuse()
+        failures = []
+        for node in self.nodes.values():  # heavy one-time work, before the clock starts too
+            try:
+                node.prepare()
+            except Exception as exc:
+                failures.append(
+                    Problem(node.where, f"node '{node.name}' ({node.type_name}): cannot start: {exc}")
+                )
+        if failures:
+            self.shutdown()
+            raise StartError(failures)
         self.clock.reset()
         self.running = True
-        failures = []
         for node in self._downstream_first():
             try:
                 node.start()
