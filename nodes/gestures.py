@@ -28,6 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pointat.gesture_files import dump_model, load_model
+from pointat.maths.dtw import warm
 from pointat.maths.gestures import (
     CHANNELS,
     NULL,
@@ -269,6 +270,8 @@ class _Learner(Node):
         """Read and learn the examples in ``file`` when it is there (before the clock starts: the first
         training of a process compiles the DTW)."""
         self._loaded: tuple[Any, ...] | None = None
+        if self.kind != "posture":
+            warm()  # every DTW kernel compiled or loaded now, not at the first gesture
         path = self.p.file
         if not path or not os.path.exists(path):
             return
