@@ -192,9 +192,9 @@ class _Learner(Node):
         self.tell("stopped")
 
     def do_train(self) -> None:
-        """Learn from the examples, and run."""
-        self.recording = None
+        """Learn from the examples, and run (a recording under way stops; one that cannot train goes on)."""
         self.fit()
+        self.recording = None
         self.running = True
         labels = sorted({e.label for e in self.examples} - {NULL})
         counts = {lab: sum(e.label == lab for e in self.examples) for lab in labels}

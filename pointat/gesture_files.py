@@ -215,6 +215,10 @@ def load_model(path: str | os.PathLike[str], kind: str) -> tuple[tuple[str, ...]
     naming the file and the example for anything amiss."""
     p = Path(path)
     try:
+        if p.stat().st_size > 256 * 1024 * 1024:
+            raise ValueError(
+                f"{p}: more than 256 MB; a model of {MOST_EXAMPLES} long examples is far smaller"
+            )
         text = p.read_text(encoding="utf-8")
         doc = json.loads(text)
     except (OSError, UnicodeDecodeError) as exc:

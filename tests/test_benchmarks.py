@@ -554,7 +554,7 @@ def test_a_gesture_latency_round_runs_a_real_patch_and_reports_goals(tmp_path):
     goals = []
     text = latency_table(res, goals)
     assert (
-        "gesture, gated" in text and len(goals) == 2 and all(g[2] in ("**met**", "**missed**") for g in goals)
+        "gesture, gated" in text and len(goals) == 3 and all(g[2] in ("**met**", "**missed**") for g in goals)
     )
 
 
