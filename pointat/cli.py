@@ -257,6 +257,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     g.add_argument("--json", action="store_true", help="print the evaluation as JSON (with every decision)")
     g.add_argument("--no-early", action="store_true", help="decide only when each movement has ended")
+    g = gsub.add_parser(
+        "export",
+        help="a model file's examples (what a gesture node saved) as DIR/<label>/<n>.csv, for evaluate",
+    )
+    g.add_argument("model", help="a model file: what gesture, posture or follow saved (gestures.json)")
+    g.add_argument("folder", help="where the recordings go (DIR/<label>/<n>.csv); files there stay")
 
     p = sub.add_parser(
         "send", help="send one OSC message over UDP: live control of a running patch from a shell"
@@ -660,8 +666,21 @@ SEND_WAIT = 0.2
 def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
     from . import gesture_eval
 
+    if args.gestures_command == "export":
+        from .gesture_files import export_model
+
+        try:
+            written = export_model(args.model, args.folder)
+        except (ValueError, OSError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        print(f"{len(written)} recordings into {args.folder}")
+        return 0
     if args.gestures_command != "evaluate":
-        print("usage: pointat gestures evaluate --train DIR --test DIR [--json]", file=sys.stderr)
+        print(
+            "usage: pointat gestures evaluate --train DIR --test DIR [--json]  |  pointat gestures export MODEL DIR",
+            file=sys.stderr,
+        )
         return 2
     try:
         ev = gesture_eval.evaluate_folders(

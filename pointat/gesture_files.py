@@ -35,6 +35,8 @@ from pointat.maths.gestures import CHANNELS, Example
 
 __all__ = [
     "COLUMNS",
+    "KINDS",
+    "export_model",
     "FORMAT",
     "Recording",
     "dump_model",
@@ -210,9 +212,12 @@ def _label(value: Any, where: str) -> str:
     return value
 
 
-def load_model(path: str | os.PathLike[str], kind: str) -> tuple[tuple[str, ...], int, list[Example]]:
+KINDS = ("gesture", "posture", "follow")
+
+
+def load_model(path: str | os.PathLike[str], kind: str | None) -> tuple[tuple[str, ...], int, list[Example]]:
     """Read a model file written by :func:`dump_model`: (channels, size, examples); ``ValueError``
-    naming the file and the example for anything amiss."""
+    naming the file and the example for anything amiss.  ``kind``: the node's, or None for any."""
     p = Path(path)
     try:
         if p.stat().st_size > 256 * 1024 * 1024:
@@ -231,7 +236,7 @@ def load_model(path: str | os.PathLike[str], kind: str) -> tuple[tuple[str, ...]
         raise ValueError(f'{p}: not a pointat gesture model (expected "format": "{FORMAT}")')
     if doc.get("version") != VERSION:
         raise ValueError(f"{p}: version {doc.get('version')!r}; this pointat reads version {VERSION}")
-    if doc.get("kind") != kind:
+    if doc.get("kind") not in KINDS or (kind is not None and doc.get("kind") != kind):
         raise ValueError(f"{p}: a model of kind {doc.get('kind')!r}; this node learns {kind!r}")
     channels = doc.get("channels")
     if (
@@ -285,3 +290,29 @@ def load_model(path: str | os.PathLike[str], kind: str) -> tuple[tuple[str, ...]
         except ValueError as exc:
             raise ValueError(f"{where}: {exc}") from None
     return tuple(channels), size, examples
+
+
+def export_model(path: str | os.PathLike[str], folder: str | os.PathLike[str]) -> list[Path]:
+    """A model file's examples as recordings, ``folder/<label>/<n>.csv`` (what ``pointat gestures
+    evaluate`` reads): examples taught in rehearsal become a test set, or a training set, of their own.
+    Files already there are never replaced; ``ValueError`` says what stood in the way."""
+    channels, _, examples = load_model(path, None)
+    if "x" in channels:
+        raise ValueError(f"{path}: channel x has no CSV columns; only acc, gyr, mag and q export")
+    root = Path(folder)
+    counts: dict[str, int] = {}
+    plan = []
+    for e in examples:
+        counts[e.label] = counts.get(e.label, 0) + 1
+        plan.append((root / e.label / f"{counts[e.label]}.csv", e))
+    there = [str(dest) for dest, _ in plan if dest.exists()]
+    if there:
+        raise ValueError(f"{there[0]} already there ({len(there)} files): nothing written")
+    for dest, e in plan:
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        groups, at = {}, 0
+        for c in channels:
+            groups[c] = e.frames[:, at : at + CHANNELS[c]]
+            at += CHANNELS[c]
+        write_recording(dest, e.t, groups)
+    return [dest for dest, _ in plan]

@@ -267,3 +267,36 @@ def test_read_folder_takes_labels_from_folders(tmp_path):
         write_recording(tmp_path / label / "1.csv", [0.0, 0.1], {"gyr": np.zeros((2, 3))})
     (tmp_path / "a" / "notes.txt").write_text("ignored")
     assert [(r.label, Path(r.path).name) for r in read_folder(tmp_path)] == [("a", "1.csv"), ("b", "1.csv")]
+
+
+def test_a_saved_model_exports_as_recordings_that_evaluate_reads(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    t = np.arange(40) / 50.0
+    shapes = {"up": np.sin(np.pi * t / t[-1]), "down": -np.sin(np.pi * t / t[-1])}
+    examples = []
+    for label, s in shapes.items():
+        for _ in range(3):
+            x = np.zeros((40, 6))
+            x[:, 2] = 4.0 * s + rng.normal(0, 0.1, 40)  # gyro z
+            x[:, 5] = 9.8
+            examples.append(Example(label, t, x))
+    dump_model(tmp_path / "m.json", "gesture", ("gyr", "acc"), 0, examples)
+    assert main(["gestures", "export", str(tmp_path / "m.json"), str(tmp_path / "takes")]) == 0
+    assert sorted(
+        p.relative_to(tmp_path / "takes").as_posix() for p in (tmp_path / "takes").rglob("*.csv")
+    ) == ["down/1.csv", "down/2.csv", "down/3.csv", "up/1.csv", "up/2.csv", "up/3.csv"]
+    back = read_recording(tmp_path / "takes" / "up" / "2.csv", "up")
+    assert np.allclose(back.groups["gyr"], examples[1].frames[:, :3]) and np.allclose(back.t, t)
+    capsys.readouterr()
+    args = [
+        "gestures",
+        "evaluate",
+        "--train",
+        str(tmp_path / "takes"),
+        "--test",
+        str(tmp_path / "takes"),
+        "--json",
+    ]
+    assert main(args) == 0 and json.loads(capsys.readouterr().out)["accuracy"] == 1.0
+    assert main(["gestures", "export", str(tmp_path / "m.json"), str(tmp_path / "takes")]) == 2
+    assert "already there (6 files): nothing written" in capsys.readouterr().err
