@@ -238,7 +238,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("folder")
 
-    p = sub.add_parser("gestures", help="evaluate gesture recognition on folders of labelled recordings")
+    p = sub.add_parser(
+        "gestures",
+        help="evaluate gesture recognition on folders of labelled recordings (evaluate), or turn a gesture "
+        "node's saved examples into such a folder (export)",
+    )
     gsub = p.add_subparsers(dest="gestures_command", metavar="ACTION")
     g = gsub.add_parser(
         "evaluate",
