@@ -57,6 +57,18 @@ _CHANNEL_DOC = {
 }
 
 
+def _file_param(default: str) -> Param:
+    return Param(
+        "file",
+        "path",
+        default,
+        "the examples: save and load go here, loaded at start when there",
+        reads=True,
+        writes=True,
+        optional=True,
+    )
+
+
 def _channels_param(default: tuple[str, ...]) -> Param:
     return Param(
         "channels",
@@ -77,6 +89,18 @@ class _Learner(Node):
     def validate(cls, values: Mapping[str, Any]) -> None:
         channels = [str(c) for c in values["channels"]]
         channel_slices(channels, int(values["size"]))  # unknown, repeated, x without size
+
+    @classmethod
+    def check_files(cls, values: Mapping[str, Any]) -> None:
+        """Read the examples' file as the patch's start will (``pointat check``): a hand edit gone wrong,
+        or examples of other channels, are found before the show."""
+        path = str(values["file"])
+        if not path or not os.path.exists(path):
+            return
+        channels, size, _ = load_model(path, cls.kind)
+        want = tuple(str(c) for c in values["channels"])
+        if channels != want or size != int(values["size"]):
+            raise ValueError(f"{path} holds channels {' '.join(channels)}; this node takes {' '.join(want)}")
 
     @classmethod
     def layout(cls, values: Mapping[str, Any]) -> tuple[tuple[Inlet, ...], tuple[Outlet, ...]]:
@@ -301,9 +325,7 @@ class _Learner(Node):
 
 
 _COMMON = (
-    Param(
-        "file", "path", "gestures.json", "the examples: save and load go here, loaded at start", writes=True
-    ),
+    _file_param("gestures.json"),
     Param("size", "int", 0, "how many numbers channel x holds (0: no x)", minimum=0, maximum=1000),
 )
 _START = Param(
@@ -481,13 +503,7 @@ class PostureNode(_Learner):
     )
     params = (
         _channels_param(("q",)),
-        Param(
-            "file",
-            "path",
-            "postures.json",
-            "the examples: save and load go here, loaded at start",
-            writes=True,
-        ),
+        _file_param("postures.json"),
         _COMMON[1],
         Param("samples", "int", 50, "frames taken by one record", minimum=1, maximum=60000),
         Param("k", "int", 5, "neighbours that vote", minimum=1, maximum=100),
@@ -667,9 +683,7 @@ class FollowNode(_Learner):
     )
     params = (
         _channels_param(("gyr", "acc")),
-        Param(
-            "file", "path", "follow.json", "the examples: save and load go here, loaded at start", writes=True
-        ),
+        _file_param("follow.json"),
         _COMMON[1],
         _START,
         Param(

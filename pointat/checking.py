@@ -274,7 +274,8 @@ def _node_files(run: _Run, decl: NodeDecl, cls: type[Node], values: dict[str, An
     label = f"node '{decl.name}' ({decl.type})"
     files = [p.name for p in cls.params if p.reads and values.get(p.name)]
     kinds = {name: path_kind(values[name]) for name in files}
-    missing = [name for name in files if kinds[name] == "missing"]
+    optional = {p.name for p in cls.params if p.optional}
+    missing = [name for name in files if kinds[name] == "missing" and name not in optional]
     for name in files:
         if kinds[name] not in ("file", "missing"):  # a folder, a device or a pipe (which would hang)...
             what = "not a regular file" if kinds[name] in ("folder", "other") else kinds[name]

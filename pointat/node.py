@@ -113,8 +113,9 @@ class Param:
     collects every remaining positional creation argument (``trigger b b f``).  ``live`` parameters can be
     set while the patch runs (by a message to the node, or from outside by name).  ``reads`` marks a
     ``path`` the node reads when it starts: ``pointat check`` warns when nothing is there, and reads it
-    when it is (:meth:`Node.check_files`); ``writes`` marks one it writes: ``check`` refuses a folder, or
-    a file in a folder that does not exist.  A ``float``
+    when it is (:meth:`Node.check_files`), unless it is ``optional`` (a file the node starts without,
+    such as examples still to be taught: read when there, never missed); ``writes`` marks one it writes:
+    ``check`` refuses a folder, or a file in a folder that does not exist.  A ``float``
     is a finite number, or NaN where NaN is the default (its "none", such as a dip still to learn);
     ``minimum``, ``above`` and ``maximum`` bound a number (``pointat help`` shows them, ``check`` and live
     changes refuse a value outside).
@@ -131,6 +132,7 @@ class Param:
     size: int | None = None
     reads: bool = False
     writes: bool = False
+    optional: bool = False
     #: Bounds of a number: ``minimum`` it may equal, ``above`` it must exceed, ``maximum`` it may equal
     #: (``None``: unbounded).
     minimum: float | None = None

@@ -761,7 +761,7 @@ class _Checker:
                 return False
             for p in r.cls.params:
                 value = r.values.get(p.name)
-                if p.type == "path" and value and not p.reads:
+                if p.type == "path" and value and (not p.reads or p.writes):
                     real = os.path.realpath(Path(r.decl.where.file).parent / str(value))
                     if os.path.commonpath([real, box]) != box and real != "/dev/null":
                         return False

@@ -273,3 +273,41 @@ def test_record_refuses_a_label_that_is_no_word():
     with pytest.raises(ValueError, match="count is 1..1000"):
         g.receive(0, method("record", "circle", 0))
     rt.shutdown()
+
+
+def test_check_reads_the_examples_file_when_it_is_there(tmp_path):
+    """`pointat check` finds a spoilt examples file before the show; a missing one is no problem (the
+    examples are still to be taught)."""
+    from pointat.cli import main
+
+    pat = tmp_path / "moves.pat"
+    pat.write_text("node g gesture channels=[gyr acc] file=moves.json\nnode p print\ng.gesture -> p\n")
+    assert main(["check", str(pat)]) == 0
+    (tmp_path / "moves.json").write_text(
+        '{"format": "pointat-gestures", "version": 1, "kind": "gesture",\n oops'
+    )
+    assert main(["check", str(pat)]) == 2
+    (tmp_path / "moves.json").write_text(
+        json.dumps(
+            {
+                "format": "pointat-gestures",
+                "version": 1,
+                "kind": "gesture",
+                "channels": ["acc"],
+                "size": 0,
+                "examples": [],
+            }
+        )
+    )
+    assert main(["check", str(pat)]) == 2
+
+
+def test_check_names_the_spoilt_file_and_its_line(tmp_path, capsys):
+    from pointat.cli import main
+
+    pat = tmp_path / "moves.pat"
+    pat.write_text("node g gesture file=moves.json\nnode p print\ng.gesture -> p\n")
+    (tmp_path / "moves.json").write_text('{"format": "pointat-gestures",\n "version": 1 "kind"}')
+    assert main(["check", str(pat)]) == 2
+    err = capsys.readouterr().err
+    assert "moves.pat:1" in err and "moves.json:2: not JSON" in err
