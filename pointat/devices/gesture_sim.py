@@ -28,7 +28,16 @@ import numpy as np
 from pointat.devices.glove_sim import GloveSimulator, MotionScript, Segment, SensorModel, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
 
-__all__ = ["GESTURES", "gesture_segments", "performance", "sensor_stream"]
+__all__ = [
+    "GESTURES",
+    "gesture_segments",
+    "perform",
+    "performance",
+    "performed",
+    "rehearse",
+    "score",
+    "sensor_stream",
+]
 
 GESTURES = ("circle", "flick", "nod")
 
@@ -110,6 +119,26 @@ def sensor_stream(
         acc[k] = units[3:6]
         q[k] = s.q
     return t, gyr, acc, q
+
+
+def performed(seed: int, count: int = 30, rate: float = 100.0):
+    """Performance ``seed`` (:func:`performance`) as a gesture node with ``channels=[gyr acc]`` gets it:
+    times (s), frames (gyro rad/s, then accelerometer m/s²), and the truth."""
+    script, truth = performance(seed, count)
+    t, gyr, acc, _ = sensor_stream(script, rate, seed)
+    return t, np.column_stack([gyr, acc]), truth
+
+
+def perform(recognizer, t: np.ndarray, frames: np.ndarray) -> list:
+    """Feed a stream to ``recognizer`` (a :class:`~pointat.maths.gestures.Recognizer`) from its start,
+    frame by frame: its decisions, as (time of the frame that made it, decision)."""
+    recognizer.reset()
+    out = []
+    for k in range(len(t)):
+        for e in recognizer.push(float(t[k]), frames[k]):
+            if e[0] == "decision":
+                out.append((float(t[k]), e[1]))
+    return out
 
 
 def rehearse(recognizer, seed: int = 1, per_gesture: int = 3, rate: float = 100.0) -> list:

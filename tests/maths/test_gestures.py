@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from pointat.devices.gesture_sim import performance, rehearse, score, sensor_stream
+from pointat.devices.gesture_sim import perform, performed, rehearse, score, sensor_stream
 from pointat.devices.glove_sim import Burst, GloveSimulator, MotionScript, Segment, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
 from pointat.maths.dtw import dtw_distance, dtw_many, dtw_prefix, dtw_prefix_many
@@ -70,20 +70,8 @@ def test_dtw_refuses_what_it_cannot_compare():
 
 
 # ------------------------------------------------------------------------------ the recognizer
-def _stream(seed: int):
-    script, truth = performance(seed, 30)
-    t, gyr, acc, _ = sensor_stream(script, 100.0, seed)
-    return t, np.column_stack([gyr, acc]), truth
-
-
 def _perform(rec: Recognizer, t, frames):
-    rec.reset()
-    decisions = []
-    for k in range(len(t)):
-        for e in rec.push(float(t[k]), frames[k]):
-            if e[0] == "decision":
-                decisions.append((float(t[k]), e[1].label))
-    return decisions
+    return [(when, d.label) for when, d in perform(rec, t, frames)]
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +88,7 @@ def test_gestures_between_rest_and_pointing_are_found_and_pointing_is_not(taught
     <= 5 % of the decisions false (on pointing, or a gesture's second)."""
     right = wrong = missed = false = decided = 0
     for seed in (21, 22, 23):
-        t, frames, truth = _stream(seed)
+        t, frames, truth = performed(seed)
         decisions = [d for d in _perform(taught, t, frames) if d[1] is not None]
         r, w, m, f = score(decisions, truth)
         right, wrong, missed, false = right + r, wrong + w, missed + m, false + f
@@ -111,7 +99,7 @@ def test_gestures_between_rest_and_pointing_are_found_and_pointing_is_not(taught
 
 def test_without_the_null_class_pointing_fires(taught):
     """The rejection is what keeps ordinary pointing out: switched off, pointing fires gestures."""
-    t, frames, truth = _stream(21)
+    t, frames, truth = performed(21)
     taught.model.reject = 0.0
     try:
         decisions = [d for d in _perform(taught, t, frames) if d[1] is not None]
@@ -138,7 +126,7 @@ def test_null_examples_are_rejected(taught):
 
 
 def test_early_decisions_come_before_the_end_and_are_right(taught):
-    t, frames, truth = _stream(22)
+    t, frames, truth = performed(22)
     taught.reset()
     early = []
     for k in range(len(t)):
