@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from pointat.maths.gestures import CHANNELS, Example
+from pointat.maths.gestures import CHANNELS, Example, channel_slices
 
 __all__ = [
     "COLUMNS",
@@ -255,7 +255,7 @@ def load_model(path: str | os.PathLike[str], kind: str | None) -> tuple[tuple[st
         or (("x" in channels) != (size > 0))
     ):
         raise ValueError(f"{p}: size: expected 1..1000 with channel x, 0 without; got {str(size)[:40]}")
-    width = sum(CHANNELS[c] or size for c in channels)
+    width = channel_slices(channels, size)[channels[-1]].stop
     items = doc.get("examples")
     if not isinstance(items, list):
         raise ValueError(f"{p}: examples: expected a list")
@@ -296,7 +296,7 @@ def export_model(path: str | os.PathLike[str], folder: str | os.PathLike[str]) -
     """A model file's examples as recordings, ``folder/<label>/<n>.csv`` (what ``pointat gestures
     evaluate`` reads): examples taught in rehearsal become a test set, or a training set, of their own.
     Files already there are never replaced; ``ValueError`` says what stood in the way."""
-    channels, _, examples = load_model(path, None)
+    channels, size, examples = load_model(path, None)
     if "x" in channels:
         raise ValueError(f"{path}: channel x has no CSV columns; only acc, gyr, mag and q export")
     root = Path(folder)
@@ -310,9 +310,5 @@ def export_model(path: str | os.PathLike[str], folder: str | os.PathLike[str]) -
         raise ValueError(f"{there[0]} already there ({len(there)} files): nothing written")
     for dest, e in plan:
         dest.parent.mkdir(parents=True, exist_ok=True)
-        groups, at = {}, 0
-        for c in channels:
-            groups[c] = e.frames[:, at : at + CHANNELS[c]]
-            at += CHANNELS[c]
-        write_recording(dest, e.t, groups)
+        write_recording(dest, e.t, {c: e.frames[:, sl] for c, sl in channel_slices(channels, size).items()})
     return [dest for dest, _ in plan]

@@ -106,7 +106,7 @@ def _many(
     for t in range(starts.shape[0] - 1):
         b = bank[starts[t] : starts[t + 1]]
         m = b.shape[0]
-        w = max(1, abs(n - m), int(math.ceil(fraction * max(n, m))))
+        w = band(n, m, fraction)
         if each:
             total = 0.0
             for k in range(a.shape[1]):
@@ -154,7 +154,7 @@ def _kernel(name: str) -> Callable[..., Any]:
         jit = numba.njit(cache=True, nogil=True)
         glb = globals()
         space: dict[str, Any] = {"np": np, "math": math, "__name__": __name__}
-        for each in ("_cumulative", "_distance", "_prefix", "_many", "_prefix_many"):
+        for each in ("band", "_cumulative", "_distance", "_prefix", "_many", "_prefix_many"):
             code = glb[each]
             space[each] = jit(type(code)(code.__code__, space, each))
         _compiled.update({k: space[k] for k in ("_distance", "_prefix", "_many", "_prefix_many")})

@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from pointat.maths.dtw import dtw_many, dtw_prefix_many
+from pointat.maths.quaternion import quat_conjugate, quat_multiply, quat_to_matrix, quat_to_rotvec
 
 __all__ = [
     "CHANNELS",
@@ -118,15 +119,7 @@ def _unit_rows(v: np.ndarray) -> np.ndarray:
 def _relative_rotation(q: np.ndarray) -> np.ndarray:
     r"""Rotation vectors (radians) of :math:`q_0^* \otimes q_t`: the turn since the first frame, in the
     sensor's frame at the start (the same gesture facing any way gives the same values)."""
-    q = _unit_rows(q)
-    w0, v0 = q[0, 0], -q[0, 1:]
-    w, v = q[:, 0], q[:, 1:]
-    rw = w0 * w - v @ v0
-    rv = w0 * v + w[:, None] * v0 + np.cross(v0, v)
-    rv = np.where((rw < 0)[:, None], -rv, rv)
-    s = np.linalg.norm(rv, axis=1)
-    angle = 2.0 * np.arctan2(s, np.abs(rw))
-    return rv * np.where(s > 1e-12, angle / np.where(s > 1e-12, s, 1.0), 2.0)[:, None]
+    return quat_to_rotvec(quat_multiply(quat_conjugate(q[0]), q))
 
 
 def resample(t: np.ndarray, x: np.ndarray, rate: float) -> np.ndarray:
@@ -734,19 +727,8 @@ def posture_features(
     for name, sl in channel_slices(channels, size).items():
         v = np.asarray(frame[sl], dtype=float)
         if name == "q":
-            w, x, y, z = v / max(float(np.linalg.norm(v)), 1e-12)
-            down = [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]
-            if heading:
-                down = [
-                    *down,
-                    1 - 2 * (y * y + z * z),
-                    2 * (x * y + w * z),
-                    2 * (x * z - w * y),
-                    2 * (x * y - w * z),
-                    1 - 2 * (x * x + z * z),
-                    2 * (y * z + w * x),
-                ]
-            v = np.array(down)
+            r = quat_to_matrix(v)  # gravity's direction in the hand is its third row (R^T z)
+            v = np.concatenate([r[2], r[:, 0], r[:, 1]]) if heading else r[2]
         elif name in ("acc", "mag"):
             v = v / max(float(np.linalg.norm(v)), 1e-12)
         parts.append(v)
@@ -884,15 +866,7 @@ class StrokeDetector:
     def linear(self, t: float, acc: np.ndarray, q: np.ndarray | None) -> np.ndarray:
         """The linear acceleration (m/s²), room frame with ``q``, else sensor frame."""
         if q is not None:
-            w, x, y, z = q / max(float(np.linalg.norm(q)), 1e-12)
-            r = np.array(
-                [
-                    [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                    [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                    [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-                ]
-            )
-            return r @ acc - np.array([0.0, 0.0, GRAVITY])
+            return quat_to_matrix(q) @ acc - np.array([0.0, 0.0, GRAVITY])
         dt = t - self._t
         if self._mean is None or not 0.0 < dt < 1.0:
             self._mean = acc.copy()
