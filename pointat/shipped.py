@@ -64,14 +64,24 @@ def find_patch(name: str) -> Path | None:
 
 
 def patch_names() -> list[str]:
-    """Every shipped patch's name, as ``pointat run NAME`` takes it (patches first, then examples)."""
+    """Every shipped patch's name, as ``pointat run NAME`` takes it (patches first, then examples).
+
+    >>> names = patch_names()
+    >>> "glove_tqt" in names, "pd/glove_to_pd_vbap" in names, any(n.startswith("lib/") for n in names)
+    (True, True, False)
+    """
     names = []
     for top in PATCH_FOLDERS:
-        base = folder(top)
-        names += sorted(
-            str(p.relative_to(base).with_suffix("")) for p in base.rglob("*.pat") if "lib" not in p.parts
-        )
+        names += names_in(folder(top))
     return names
+
+
+def names_in(base: Path) -> list[str]:
+    """The patches under folder ``base`` by name (``pd/glove_to_pd_vbap``), sorted, without its
+    ``lib/`` of abstractions: only the parts below ``base`` count (an installed package's own path
+    has a ``lib`` in it, ``.venv/lib/python3.11/site-packages``)."""
+    found = (p.relative_to(base) for p in base.rglob("*.pat"))
+    return sorted(p.with_suffix("").as_posix() for p in found if p.parts[0] != "lib")
 
 
 def copy_patch(name: str, target: Path) -> list[Path]:
@@ -82,7 +92,7 @@ def copy_patch(name: str, target: Path) -> list[Path]:
     found = find_patch(name)
     if found is None:
         raise ValueError(f"no shipped patch {name!r} (pointat patches lists them)")
-    if not target.is_dir():
+    if target.exists() and not target.is_dir():
         raise ValueError(f"{target}: not a folder")
     text = found.read_text(encoding="utf-8")
     wanted = [
@@ -96,7 +106,7 @@ def copy_patch(name: str, target: Path) -> list[Path]:
         raise ValueError(
             f"{', '.join(there)} already there: nothing copied (move it away, or copy elsewhere)"
         )
-    for src, dest in plan:
+    for src, dest in plan:  # (the folder made too, as cp -r or mkdir -p would)
         dest.parent.mkdir(parents=True, exist_ok=True)
         dest.write_bytes(src.read_bytes())
     return [dest for _, dest in plan]
