@@ -166,7 +166,11 @@ def warm_in_background() -> subprocess.Popen[bytes] | None:
     else:
         os.close(fd)
     return subprocess.Popen(
-        [sys.executable, "-m", "pointat.fusion.compiled"],
+        [sys.executable, "-m", "pointat.fusion.compiled", str(cache_dir())],
+        # from the folder that holds this very package: ``-m`` puts the working folder first on the
+        # path, and a run from a checkout's folder would otherwise compile the checkout's pointat (for
+        # another cache key) while the installed one waits for its own forever
+        cwd=_ROOT,
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -175,5 +179,21 @@ def warm_in_background() -> subprocess.Popen[bytes] | None:
     )
 
 
-if __name__ == "__main__":
+#: The folder that holds the ``pointat`` package this module belongs to (site-packages, or a checkout).
+_ROOT = Path(__file__).resolve().parents[2]
+
+
+def main(argv: list[str]) -> int:
+    """``python -m pointat.fusion.compiled [CACHE]``: compile into the cache; with ``CACHE`` (the folder
+    the run that started it waits on), only when this process computes the same one: a compile of
+    another copy of pointat would fill a folder nobody reads."""
+    if argv and Path(argv[0]) != cache_dir():
+        print(f"error: this pointat ({_ROOT}) caches into {cache_dir()}, not {argv[0]}", file=sys.stderr)
+        (Path(argv[0]) / "compiling").unlink(missing_ok=True)
+        return 2
     print(warm())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

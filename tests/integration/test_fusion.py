@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import gzip
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -334,3 +335,47 @@ def test_the_first_run_compiles_in_the_background_and_the_next_starts_compiled(t
     assert "compiled glove chains (1): base.m1 -> out" in second.stdout
     assert "compiling" not in second.stdout
     assert f"the compiled glove chain loaded from {ready[0]}" in second.stdout + second.stderr
+
+
+def test_a_run_from_a_checkouts_folder_compiles_for_the_pointat_it_runs(tmp_path):
+    """``pointat run`` (the installed program) started from a folder that holds another pointat, as a
+    repository checkout does: the compile in the background is of the pointat that runs, into the cache
+    folder it reads, so that the next run from that folder starts compiled.  (``python -m`` puts the
+    working folder first on the path: the compile used to import the checkout's pointat, fill a cache
+    nobody read, and every run from the repository said it was compiling.)"""
+    program = Path(sys.executable).with_name("pointat")
+    if not program.exists():
+        pytest.skip(f"no pointat program beside {sys.executable}")
+    checkout = tmp_path / "checkout"
+    root = Path(__file__).resolve().parents[2]
+    skip = shutil.ignore_patterns("__pycache__", "data", "monitor")
+    for folder in ("pointat", "nodes", "osc_bridge"):
+        shutil.copytree(root / folder, checkout / folder, ignore=skip)
+    with open(checkout / "pointat" / "fusion" / "kernel.py", "a") as fh:
+        fh.write("# another version of the kernel: another cache key\n")
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    cmd = [str(program), "run", "glove_tqt", "--set", "ctl.port=0", "--for", "1"]
+    first = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=checkout, timeout=60)
+    assert first.returncode == 0, first.stderr
+    assert "compiling the glove chain for the next runs" in first.stdout
+    [mine] = (tmp_path / "cache" / "pointat").glob("numba-*")
+    assert wait_until(lambda: (mine / "ready").exists(), 120.0, poll=0.2), sorted(mine.parent.iterdir())
+    assert wait_until(lambda: not (mine / "compiling").exists(), 10.0)
+    assert [p.name for p in mine.parent.iterdir()] == [mine.name]  # (no compile of the checkout's)
+    second = subprocess.run([*cmd, "-v"], capture_output=True, text=True, env=env, cwd=checkout, timeout=60)
+    assert second.returncode == 0, second.stderr
+    assert "compiled glove chains (1): base.m1 -> out" in second.stdout
+    assert "compiling" not in second.stdout
+
+
+def test_the_compile_refuses_to_fill_a_cache_of_another_pointat(tmp_path):
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    other = tmp_path / "numba-0123456789abcdef"
+    other.mkdir()
+    (other / "compiling").touch()
+    cmd = [sys.executable, "-m", "pointat.fusion.compiled", str(other)]
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=60)
+    assert out.returncode == 2
+    assert f"caches into {tmp_path / 'cache' / 'pointat'}" in out.stderr and str(other) in out.stderr
+    assert not (other / "compiling").exists()  # (the run that waits on it may start one again)
+    assert not (tmp_path / "cache" / "pointat").exists()
