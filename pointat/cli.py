@@ -161,7 +161,15 @@ def _parser() -> argparse.ArgumentParser:
         default="127.0.0.1",
         metavar="HOST",
         help="address the monitor listens on (default 127.0.0.1, this machine only; 0.0.0.0: every "
-        "interface, for a tablet on the stage's network)",
+        "interface, for a tablet on the stage's network: needs --monitor-allow, and the printed URL "
+        "carries the token a browser there needs)",
+    )
+    p.add_argument(
+        "--monitor-allow",
+        default="",
+        metavar="ADDRESSES",
+        help="with --monitor-host beyond this machine: the machines that may connect to the monitor and "
+        "its OSC port, addresses or networks, comma-separated (192.168.1.20,10.0.0.0/24)",
     )
     p.add_argument(
         "--layout",
@@ -475,15 +483,18 @@ def _layout(text: str) -> Any:
 
 def _monitor(rt: Any, observer: Any, args: argparse.Namespace) -> Any:
     name = f"pointat {Path(args.patch).stem}"
+    allow = [a.strip() for a in args.monitor_allow.split(",") if a.strip()]
     try:
-        return MonitorServer(rt, observer, args.monitor_host, args.monitor, name=name)
+        return MonitorServer(rt, observer, args.monitor_host, args.monitor, name=name, allow=allow)
+    except ValueError as exc:  # no allow-list beyond loopback, or a bad one
+        raise PointatError(str(exc)) from None
     except OSError as exc:
         if args.monitor == 0:
             raise PointatError(f"--monitor: cannot listen on {args.monitor_host}: {exc}") from None
         log.warning(
             "--monitor: port %d is taken (%s): serving on a free port instead", args.monitor, exc.strerror
         )
-        return MonitorServer(rt, observer, args.monitor_host, 0, name=name)
+        return MonitorServer(rt, observer, args.monitor_host, 0, name=name, allow=allow)
 
 
 def cmd_check(args: argparse.Namespace, registry: Registry) -> int:

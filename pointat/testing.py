@@ -126,7 +126,7 @@ def ws_connect(port: int, host: str = "127.0.0.1") -> socket.socket:
     key = base64.b64encode(os.urandom(16)).decode()
     s.sendall(
         (
-            "GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"GET / HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
             f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
         ).encode()
     )

@@ -27,6 +27,7 @@ import logging
 import socket
 import threading
 import time
+from collections.abc import Sequence
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
@@ -37,6 +38,7 @@ from .control import PREFIX, control
 from .devices.osc_wire import decode_packet, encode_message
 from .oscquery import EXTENSIONS, address_space, find, value_of
 from .scheduling import quiet_thread
+from .webaccess import Access, LogLimit
 from .websocket import BINARY, CLOSE, PING, PONG, TEXT, FrameReader, WebSocketError, accept_key, encode_frame
 
 __all__ = ["MonitorServer"]
@@ -56,6 +58,16 @@ class _Server(ThreadingHTTPServer):
     (``--spin``) must not pause for them (:func:`pointat.scheduling.quiet_thread`)."""
 
     daemon_threads = True
+
+    monitor: MonitorServer
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A client gone mid-answer (or any other failure of one request): a line, rate-limited, no
+        traceback."""
+        import sys
+
+        exc = sys.exc_info()[1]
+        self.monitor.gone(f"{client_address[0]}:{client_address[1]}", exc)
 
     def process_request(self, request: Any, client_address: Any) -> None:
         th = threading.Thread(
@@ -100,6 +112,8 @@ class MonitorServer:
         *,
         name: str = "pointat",
         advertise: bool = True,
+        allow: Sequence[str] = (),
+        token: str | None = None,
     ):
         self.rt = rt
         self.observer = observer
@@ -116,7 +130,18 @@ class MonitorServer:
             monitor = server
 
         self.http = _Server((host, port), Handler)
+        self.http.monitor = self
         self.port = self.http.server_address[1]
+        try:
+            self.access = Access(host, self.port, allow=allow, token=token)
+        except ValueError:
+            self.http.server_close()
+            raise
+        self.refused = 0
+        self._refusals_told: set[str] = set()
+        self._refusal_log = LogLimit(log.warning)
+        self._gone_log = LogLimit(log.info)
+        self._malformed_log = LogLimit(log.warning)
         self.osc = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self.osc.bind((host, self.port))  # the same number when it is free: one port to remember
@@ -133,8 +158,27 @@ class MonitorServer:
 
     @property
     def url(self) -> str:
-        host = "127.0.0.1" if self.host in ("0.0.0.0", "") else self.host
-        return f"http://{host}:{self.port}/monitor"
+        """The monitor page's address, with its token when served beyond this machine."""
+        return self.access.url("/monitor")
+
+    #: Refusals named in the log one by one (each reason once); past that, they share a rate-limited line.
+    REFUSALS_NAMED = 32
+
+    def refuse(self, reason: str) -> None:
+        """A request refused (403): told once per reason, then only counted."""
+        self.refused += 1
+        with self._lock:
+            if reason in self._refusals_told:
+                return
+            if len(self._refusals_told) < self.REFUSALS_NAMED:
+                self._refusals_told.add(reason)
+                log.warning("monitor: a request refused (403): %s", reason)
+                return
+        self._refusal_log("monitor: a request refused (403): %s", reason)
+
+    def gone(self, peer: str, exc: BaseException | None) -> None:
+        """A client that went away mid-request, or a request that failed: one line, rate-limited."""
+        self._gone_log("monitor: client %s: %s", peer, _why(exc))
 
     def host_info(self) -> dict[str, Any]:
         return {
@@ -193,11 +237,14 @@ class MonitorServer:
     def _read_osc(self) -> None:
         while not self._closed:
             try:
-                data, _peer = self.osc.recvfrom(65536)
+                data, peer = self.osc.recvfrom(65536)
             except TimeoutError:
                 continue
             except OSError:
                 return  # closed
+            if not self.access.peer_allowed(peer[0]):
+                self.refuse(f"OSC from {peer[0]}, not in --monitor-allow")
+                continue
             self.apply(data)
 
     def apply(self, data: bytes) -> None:
@@ -206,7 +253,7 @@ class MonitorServer:
             messages = decode_packet(data)
         except ValueError as exc:
             self.control_refused += 1
-            log.warning("OSCQuery: a malformed OSC packet dropped: %s", exc)
+            self._malformed_log("OSCQuery: a malformed OSC packet dropped: %s", exc)
             return
         for address, args in messages:
             args = [a for a in args if a is not None]  # a method sent as N (nil): no values
@@ -258,8 +305,12 @@ class _Handler(BaseHTTPRequestHandler):
     def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 (the base class's name)
         log.debug("%s %s", self.address_string(), format % args)
 
-    def _send(self, status: int, body: bytes, ctype: str = "application/json") -> None:
+    def _send(
+        self, status: int, body: bytes, ctype: str = "application/json", cookie: str | None = None
+    ) -> None:
         self.send_response(status)
+        if cookie is not None:
+            self.send_header("Set-Cookie", cookie)
         self.send_header("Content-Type", ctype)
         self.send_header("Content-Length", str(len(body)))
         self.send_header("Cache-Control", "no-store")
@@ -273,7 +324,26 @@ class _Handler(BaseHTTPRequestHandler):
     def do_HEAD(self) -> None:  # noqa: N802 (http.server's name)
         self.do_GET()
 
+    def _refused(self) -> bool:
+        """Refuse (403) a request from a peer, Host or Origin not served (:mod:`pointat.webaccess`)."""
+        m = self.monitor
+        why = m.access.refusal(
+            self.client_address[0],
+            self.headers.get("Host"),
+            self.headers.get("Origin"),
+            self.path,
+            self.headers.get("Cookie"),
+        )
+        if why is None:
+            return False
+        m.refuse(why)
+        self.close_connection = True
+        self._send(HTTPStatus.FORBIDDEN, b"forbidden\n", "text/plain; charset=utf-8")
+        return True
+
     def do_GET(self) -> None:  # noqa: N802
+        if self._refused():
+            return
         if self.headers.get("Upgrade", "").lower() == "websocket":
             return self._websocket()
         url = urlsplit(self.path)
@@ -281,7 +351,8 @@ class _Handler(BaseHTTPRequestHandler):
         m = self.monitor
         if path in _STATIC:
             name, ctype = _STATIC[path]
-            return self._send(200, resources.files("pointat.monitor").joinpath(name).read_bytes(), ctype)
+            body = resources.files("pointat.monitor").joinpath(name).read_bytes()
+            return self._send(200, body, ctype, cookie=m.access.set_cookie(url.query))
         if path == "/monitor/state":
             return self._json({**m.observer.snapshot(), "url": m.url})
         if path == "/favicon.ico":
@@ -337,7 +408,7 @@ class _Handler(BaseHTTPRequestHandler):
                     elif opcode == BINARY:
                         self.monitor.apply(payload)
         except WebSocketError as exc:
-            log.warning("monitor: a WebSocket client closed: %s", exc)
+            self.monitor._malformed_log("monitor: a WebSocket client closed: %s", exc)
             client.send(CLOSE, (1002).to_bytes(2, "big") + str(exc)[:100].encode())
         except OSError:
             pass
@@ -393,3 +464,12 @@ def _advertise(name: str, host: str, port: int, osc_port: int) -> Any:
     except Exception as exc:  # no multicast on this network: the server works, unadvertised
         log.warning("the OSCQuery server is not advertised (zeroconf: %s)", exc)
         return None
+
+
+def _why(exc: BaseException | None) -> str:
+    """A failure told in a few words (no traceback): a client gone is the usual one."""
+    if isinstance(exc, (BrokenPipeError, ConnectionResetError, ConnectionAbortedError)):
+        return "went away mid-answer"
+    if isinstance(exc, TimeoutError):
+        return "timed out"
+    return f"{type(exc).__name__}: {str(exc)[:120]}" if exc is not None else "failed"

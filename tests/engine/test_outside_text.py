@@ -98,7 +98,9 @@ def test_any_request_line_gets_an_answer_and_the_server_lives_on(server_port, pa
     port = server_port
     with socket.create_connection(("127.0.0.1", port), timeout=5) as s:
         s.sendall(
-            f"{verb} /{path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n".encode("utf-8", "replace")
+            f"{verb} /{path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n".encode(
+                "utf-8", "replace"
+            )
         )
         reply = b""
         deadline = time.monotonic() + 5
