@@ -43,6 +43,7 @@ from pointat.maths.gestures import (
     channel_slices,
 )
 from pointat.message import Message, as_floats, bang
+from pointat.names import check_name
 from pointat.node import Inlet, Node, Outlet, Param, names_path
 from pointat.registry import register
 
@@ -183,9 +184,7 @@ class _Learner(Node):
         """Record the next example(s) of ``label``."""
         if label is None:
             raise TypeError("record needs a label: record circle (or record null for no gesture)")
-        label = str(label)
-        if not label or any(c.isspace() for c in label) or len(label) > 100:
-            raise ValueError(f"record: a label is one word of up to 100 characters; got {label[:40]!r}")
+        label = check_name("label", str(label))  # it becomes a folder when exported: never a path
         try:
             n = int(float(count))
         except (TypeError, ValueError):

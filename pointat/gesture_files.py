@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from pointat.maths.gestures import CHANNELS, Example, channel_slices
+from pointat.names import BadName, check_name, inside
 
 __all__ = [
     "COLUMNS",
@@ -207,9 +208,10 @@ def dump_model(
 
 
 def _label(value: Any, where: str) -> str:
-    if not isinstance(value, str) or not value.strip() or len(value) > 100 or any(c.isspace() for c in value):
-        raise ValueError(f"{where}: label: expected a word of 1 to 100 characters, got {str(value)[:40]!r}")
-    return value
+    try:
+        return check_name("label", value)  # a label becomes a folder (export): never a path
+    except BadName as exc:
+        raise ValueError(f"{where}: {exc}") from None
 
 
 KINDS = ("gesture", "posture", "follow")
@@ -304,11 +306,14 @@ def export_model(path: str | os.PathLike[str], folder: str | os.PathLike[str]) -
     plan = []
     for e in examples:
         counts[e.label] = counts.get(e.label, 0) + 1
-        plan.append((root / e.label / f"{counts[e.label]}.csv", e))
+        dest = root / check_name("label", e.label) / f"{counts[e.label]}.csv"
+        inside(root, dest)  # and again once resolved: a label folder that is a link out of DIR
+        plan.append((dest, e))
     there = [str(dest) for dest, _ in plan if dest.exists()]
     if there:
         raise ValueError(f"{there[0]} already there ({len(there)} files): nothing written")
     for dest, e in plan:
         dest.parent.mkdir(parents=True, exist_ok=True)
+        inside(root, dest)
         write_recording(dest, e.t, {c: e.frames[:, sl] for c, sl in channel_slices(channels, size).items()})
     return [dest for dest, _ in plan]

@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from .names import check_name
+
 __all__ = ["Presets", "presets_path"]
 
 log = logging.getLogger("pointat.presets")
@@ -96,13 +98,13 @@ class Presets:
         return out
 
     def save(self, name: str) -> None:
-        _check_name(name)
+        check_name("preset", name)
         self.presets[name] = self.snapshot()
         self._write()
         self.rt.console(f"preset '{name}' saved ({sum(map(len, self.presets[name].values()))} settings)")
 
     def recall(self, name: str) -> None:
-        _check_name(name)
+        check_name("preset", name)
         if name not in self.presets:
             raise KeyError(f"no preset '{name}' (presets: {', '.join(self.names()) or 'none yet'})")
         skipped = []
@@ -143,8 +145,3 @@ class Presets:
         except BaseException:
             Path(tmp).unlink(missing_ok=True)
             raise
-
-
-def _check_name(name: str) -> None:
-    if not name or len(name) > 100 or any(c in name for c in "/\\\0"):
-        raise ValueError(f"a preset name is 1-100 characters, no slashes; got {name[:40]!r}")
