@@ -7,9 +7,11 @@ An :class:`Observer` watches a built :class:`~pointat.runtime.Runtime` from a th
   A tap on it counts the samples and notes when the last came: the rate, and a *dropout* when none came
   for :attr:`Observer.DROPOUT` seconds (or five sample periods, whichever is longer).
 * **Pointers**: every ``osc_out``: the direction it last sent (azimuth, elevation, distance), read from
-  the node, never fed.
+  the node, never fed, and its state as its receiver is told it: ``waiting`` (no direction in yet),
+  ``ok``, ``dropout`` (no direction in for the node's ``dropout`` seconds) or the filter's flag.
 * **Flags**: every ``flags`` outlet is tapped: the filter's state as it changes (``mag_disturbed``,
-  ``acc_saturated``...), with when it changed.
+  ``acc_saturated``...), with when it changed; a filter whose every stream upstream is down is
+  ``no input``, whatever its last flag said (a silent filter sends no flag).
 * **Health**: what each node's :meth:`~pointat.node.Node.health` says (a filter's rest and bias
   learning, a mote's lost packets, a calibration's step, an ``osc_out``'s refused datagrams).
 * **Loudspeakers**: the layout of the patch's first ``vbap`` node, else the one given (``pointat run
@@ -80,6 +82,7 @@ class Stream:
     outlet: str
     index: int
     count: int = 0
+    first: float = -math.inf  # time.monotonic() of the first sample
     last: float = -math.inf  # time.monotonic() of the last sample
     rate: float = 0.0  # samples per second over the last second
     nominal: float = 0.0  # the node's rate parameter, when it has one
@@ -101,7 +104,9 @@ class Stream:
     def hits(self, n: int) -> None:
         """``n`` samples now."""
         now = time.monotonic()
-        if self.count and now - self.last > self.gap and self.down_since is None:  # no reading fell in it
+        if not self.count:
+            self.first = now
+        elif now - self.last > self.gap and self.down_since is None:  # no reading fell in it
             self.dropouts += 1
             self.down_total += now - self.last
         self.count += n
@@ -114,6 +119,7 @@ class Pointer:
 
     node: Node
     history: deque = field(default_factory=deque)  # (t, az, el, dist)
+    heard: tuple[int, float] = (0, -math.inf)  # (directions in, when a reading saw that count change)
 
 
 def fmt_direction(az: float, el: float, dist: float | None = None) -> str:
@@ -150,6 +156,7 @@ class Observer:
         self.streams: list[Stream] = []
         self.pointers: list[Pointer] = []
         self.flags: dict[str, list[Any]] = {}  # node name -> [word, since (monotonic), changes]
+        self.fed_by: dict[str, list[Stream]] = {}  # a flags node's name -> the streams upstream of it
         self.flag_log: deque = deque(maxlen=200)  # (monotonic, node, word)
         self.layout, self.layout_from = self._layout(layout)
         self.started = time.monotonic()
@@ -198,6 +205,8 @@ class Observer:
                         tap(node, i, _keep(box))
             if node.type_name == "osc_out":
                 self.pointers.append(Pointer(node))
+        for name in self.flags:
+            self.fed_by[name] = [s for s in self.streams if name in _downstream(s.node, s.index)]
         return self
 
     def _flag_tap(self, name: str) -> Callable[[Message], None]:
@@ -255,9 +264,12 @@ class Observer:
             _let_others_run()
             if span > 0.2:
                 s.rate = (s.count - before.get(s.key, 0)) / span
+            elif s.count > 1 and s.last > s.first:  # the first reading: the rate since the first sample
+                s.rate = (s.count - 1) / (s.last - s.first)
             late = now - s.last
             down = s.count > 0 and late > s.gap
-            waiting = s.count == 0 and getattr(s.node, "active", True)
+            # "ok" says samples flow at a rate: none yet, or one alone, is still waiting
+            waiting = not down and (s.count == 0 or s.rate <= 0.0)
             if down and s.down_since is None:
                 s.down_since = s.last
                 s.dropouts += 1
@@ -280,10 +292,14 @@ class Observer:
                 }
             )
         flags = {}
+        down = {s["name"]: s["silent_s"] for s in streams if s["state"] == "dropout"}
         for name, (word, since, changes) in self.flags.items():
             node = self.rt.nodes.get(name)
+            fed = [s.key for s in self.fed_by.get(name, ())]
+            silent = fed and all(k in down for k in fed)
             flags[name] = {
-                "flag": word,
+                "flag": "no input" if silent else word,
+                "silent_s": min(down[k] for k in fed) if silent else 0.0,
                 "for_s": round(now - since, 1),
                 "changes": changes,
                 **(_health(node) if node is not None else {}),
@@ -293,6 +309,16 @@ class Observer:
             _let_others_run()
             az, el, dist, _spread = (float(v) for v in p.node.state)
             updates = getattr(p.node, "updates", 0)
+            heard = getattr(p.node, "heard", updates)
+            if heard != p.heard[0]:
+                p.heard = (heard, now)
+            silent = now - p.heard[1]
+            if not heard:
+                state = "waiting"
+            elif silent > getattr(p.node.p, "dropout", self.DROPOUT):
+                state = "dropout"
+            else:
+                state = getattr(p.node, "flag", "ok") or "ok"
             p.history.append((round(now - self.started, 3), round(az, 2), round(el, 2), round(dist, 2)))
             while p.history and p.history[-1][0] - p.history[0][0] > self.HISTORY:
                 p.history.popleft()
@@ -309,6 +335,9 @@ class Observer:
                     "elevation": round(el, 1),
                     "distance": round(dist, 1),
                     "updates": updates,
+                    "sent": getattr(p.node, "sent", updates),
+                    "state": state,
+                    "silent_s": round(silent, 2) if state == "dropout" else 0.0,
                     "gains": [round(float(g), 3) for g in gains],
                     **_health(p.node),
                 }
@@ -370,17 +399,27 @@ class Observer:
         lines = []
         worst = _worst_flag(snap["flags"])
         for p in snap["pointers"]:
-            sent = f"{p['updates']} sent" + (f", {p['refused']} refused" if p.get("refused") else "")
-            lines.append(
-                f"{p['name']}: {fmt_direction(p['azimuth'], p['elevation'], p['distance'])}  ({sent})"
-                + (f"  [{worst}]" if worst else "")
+            where = fmt_direction(p["azimuth"], p["elevation"], p["distance"])
+            if p["state"] == "waiting":
+                lines.append(f"{p['name']}: waiting for a direction (none sent yet)")
+                continue
+            if p["state"] == "dropout":
+                lines.append(f"{p['name']}: NO DATA for {p['silent_s']:.1f} s (last {where})")
+                continue
+            sent = f"{p['updates']} sent" + (
+                f"; {p['refused']} refused: receiver not listening" if p.get("refused") else ""
             )
+            lines.append(f"{p['name']}: {where}  ({sent})" + (f"  [{worst}]" if worst else ""))
         for s in snap["streams"]:
-            state = {"ok": "ok", "waiting": "waiting", "dropout": f"NO DATA for {s['silent_s']:.1f} s"}[
-                s["state"]
-            ]
             lost = f", {s['lost']} lost" if s.get("lost") else ""
-            lines.append(f"{s['name']}: {state}, {s['rate']:.0f} Hz{lost}")
+            if s["state"] == "waiting":
+                lines.append(
+                    f"{s['name']}: waiting for data" + (f" ({s['samples']} so far)" if s["samples"] else "")
+                )
+            elif s["state"] == "dropout":
+                lines.append(f"{s['name']}: NO DATA for {s['silent_s']:.1f} s{lost}")
+            else:
+                lines.append(f"{s['name']}: ok, {s['rate']:.0f} Hz{lost}")
         for other in snap["nodes"]:  # a calibration's step, a recording's rows
             lines.append(f"{other['name']}: {other['text']}")
         return lines
@@ -400,10 +439,14 @@ class Observer:
                 + (f", {s.dropouts} dropouts ({down:.1f} s without data)" if s.dropouts else ", no dropout")
             )
         for p in snap["pointers"]:
-            lines.append(
-                f"{p['name']}: {p['updates']} updates sent to {', '.join(p['to'])}"
-                + (f", {p['refused']} refused (nobody listening)" if p.get("refused") else "")
-            )
+            to = ", ".join(p["to"])
+            if p.get("refused"):  # datagrams, beside datagrams (the heartbeats are some of them)
+                lines.append(
+                    f"{p['name']}: {p['updates']} updates to {to} ({p['sent']} datagrams sent, "
+                    f"{p['refused']} refused: the receiver was not listening)"
+                )
+            else:
+                lines.append(f"{p['name']}: {p['updates']} updates sent to {to}")
         for other in snap["nodes"]:
             lines.append(f"{other['name']}: {other['text']}")
         for name, (word, _since, changes) in self.flags.items():
@@ -434,6 +477,19 @@ def _health(node: Node) -> dict[str, Any]:
         return dict(node.health())
     except Exception:  # read from another thread while the node changes: next time
         return {}
+
+
+def _downstream(node: Node, outlet: int) -> set[str]:
+    """The names of the nodes an outlet reaches, through any number of wires (taps left out)."""
+    seen: set[str] = set()
+    todo = [target for target, _inlet in node._targets[outlet]]
+    while todo:
+        n = todo.pop()
+        if isinstance(n, _Tap) or n.name in seen:
+            continue
+        seen.add(n.name)
+        todo += [target for targets in n._targets for target, _inlet in targets]
+    return seen
 
 
 def _destinations(node: Node) -> list[str]:

@@ -1,9 +1,11 @@
 // pointat's monitor: one WebSocket to the running patch ({"COMMAND": "MONITOR"}), drawn on canvases.
 "use strict";
 const COLOURS = ["#4fc3f7", "#ff8a65", "#ba68c8", "#aed581"];
+const STALE = "#6b7078"; // a pointer with no fresh direction is drawn in this grey, dashed
 const HISTORY = 10.0;
 const state = { snap: null, history: {}, accel: {}, frames: 0, connected: false };
 window.pointatMonitor = state; // for tests and the curious
+let drawn = -1; // the frame last drawn
 
 const $ = (id) => document.getElementById(id);
 const rad = (d) => (d * Math.PI) / 180;
@@ -37,6 +39,36 @@ function setConn(ok) {
   state.connected = ok;
   $("conn").textContent = ok ? "live" : "patch not reachable (stopped?) — retrying";
   $("conn").className = ok ? "ok" : "bad";
+  drawn = -1; // redraw: what was shown is no longer live
+}
+
+// -- what is true now: a pointer with no fresh direction is stale, and said big ----------------------
+// p.state: "waiting" (no direction yet), "ok", "dropout" (none for osc_out's dropout time), or a flag
+function stale(p) { return !state.connected || p.state === "dropout" || p.state === "waiting"; }
+function colour(p, k) { return stale(p) ? STALE : COLOURS[k % COLOURS.length]; }
+
+function alertOf(snap) {
+  if (!state.connected) return ["bad", "PATCH NOT REACHABLE", "the page shows the last it heard; it keeps trying"];
+  const down = snap.pointers.filter((p) => p.state === "dropout");
+  const silent = snap.streams.filter((s) => s.state === "dropout");
+  if (down.length || silent.length) {
+    const secs = Math.max(0, ...down.map((p) => p.silent_s), ...silent.map((s) => s.silent_s));
+    const who = [...down.map((p) => p.name), ...silent.map((s) => s.name)].join(", ");
+    return ["bad", `NO DATA for ${secs.toFixed(1)} s`, `${who}: the glove is off, out of range or its battery flat; the directions shown are old`];
+  }
+  const waiting = snap.pointers.filter((p) => p.state === "waiting");
+  if (waiting.length) return ["warn", "WAITING FOR DATA", `${waiting.map((p) => p.name).join(", ")}: no direction yet (hold the glove still while the gyro nulls are measured)`];
+  const troubled = Object.entries(snap.flags).filter(([, f]) => f.flag !== "ok");
+  if (troubled.length) return ["warn", troubled.map(([n, f]) => `${n}: ${f.flag}`).join(" · "), "the filter's direction may be off while this lasts"];
+  return null;
+}
+
+function drawAlert(snap) {
+  const a = alertOf(snap), el = $("alert");
+  document.body.dataset.state = a ? a[1].split(" ")[0].toLowerCase() : "ok";
+  if (!a) { el.hidden = true; return; }
+  el.hidden = false; el.className = a[0];
+  el.innerHTML = `${esc(a[1])}<small>${esc(a[2])}</small>`;
 }
 
 // -- views -------------------------------------------------------------------------------------------
@@ -49,7 +81,7 @@ function drawAbove(snap) {
   for (const f of [1, 0.66, 0.33]) { g.beginPath(); g.arc(0, 0, R * f, 0, 2 * Math.PI); g.stroke(); }
   g.fillStyle = "#8a8f98"; g.font = "12px system-ui"; g.textAlign = "center";
   g.fillText("front", 0, -R - 22); g.fillText("left", -R - 26, 4); g.fillText("right", R + 28, 4);
-  const L = snap.layout, gains = (snap.pointers[0] || { gains: [] }).gains;
+  const L = snap.layout, first = snap.pointers[0], gains = first && !stale(first) ? first.gains : [];
   L.azimuths.forEach((az, i) => {
     const [x, y] = speakerXY(az, L.elevations[i], R), gain = gains[i] || 0;
     g.fillStyle = `rgba(240,180,41,${0.25 + 0.75 * gain})`;
@@ -58,10 +90,15 @@ function drawAbove(snap) {
   });
   snap.pointers.forEach((p, k) => {
     const [x, y] = speakerXY(p.azimuth, p.elevation, R);
-    g.strokeStyle = COLOURS[k % COLOURS.length]; g.fillStyle = g.strokeStyle; g.lineWidth = 4;
+    g.strokeStyle = colour(p, k); g.fillStyle = g.strokeStyle; g.lineWidth = 4; g.setLineDash(stale(p) ? [8, 8] : []);
     g.beginPath(); g.moveTo(0, 0); g.lineTo(x, y); g.stroke();
     g.beginPath(); g.arc(x, y, 8, 0, 2 * Math.PI); g.fill();
   });
+  g.setLineDash([]);
+  if (snap.pointers.length && snap.pointers.every(stale)) {
+    g.fillStyle = "#ef5350"; g.font = "bold 36px system-ui";
+    g.fillText(state.connected && snap.pointers.some((p) => p.state === "dropout") ? "NO DATA" : state.connected ? "WAITING" : "OFFLINE", 0, 12);
+  }
   g.restore();
 }
 
@@ -80,10 +117,11 @@ function drawSide(snap) {
   });
   snap.pointers.forEach((p, k) => {
     const x = Math.cos(rad(p.azimuth)) * Math.cos(rad(p.elevation)) * R, y = -Math.sin(rad(p.elevation)) * R;
-    g.strokeStyle = COLOURS[k % COLOURS.length]; g.fillStyle = g.strokeStyle; g.lineWidth = 4;
+    g.strokeStyle = colour(p, k); g.fillStyle = g.strokeStyle; g.lineWidth = 4; g.setLineDash(stale(p) ? [8, 8] : []);
     g.beginPath(); g.moveTo(0, 0); g.lineTo(x, y); g.stroke();
     g.beginPath(); g.arc(x, y, 7, 0, 2 * Math.PI); g.fill();
   });
+  g.setLineDash([]);
   g.restore();
 }
 
@@ -93,7 +131,7 @@ function drawGains(snap) {
   const n = snap.layout.azimuths.length, w = (W - 20) / Math.max(1, n);
   snap.pointers.forEach((p, k) => {
     p.gains.forEach((v, i) => {
-      g.fillStyle = COLOURS[k % COLOURS.length];
+      g.fillStyle = colour(p, k);
       const bw = (w - 6) / snap.pointers.length;
       g.fillRect(10 + i * w + k * bw, H - 20 - v * (H - 34), bw - 1, v * (H - 34));
     });
@@ -130,31 +168,39 @@ function drawPlots() {
 // -- tables ------------------------------------------------------------------------------------------
 function stateClass(s) { return s === "ok" ? "ok" : s === "waiting" ? "warn" : "bad"; }
 
+function pointerWord(p) {
+  if (!state.connected) return ["bad", "offline"];
+  if (p.state === "dropout") return ["bad", `NO DATA ${p.silent_s.toFixed(1)} s`];
+  if (p.state === "waiting") return ["warn", "waiting"];
+  return p.state === "ok" ? ["ok", ""] : ["warn", p.state];
+}
+
 function drawTables(snap) {
-  $("pointers").innerHTML = snap.pointers.map((p, k) =>
-    `<div class="pointer" style="color:${COLOURS[k % COLOURS.length]}">` +
-    `<span data-name="${esc(p.name)}" class="aed">az ${p.azimuth.toFixed(1)}°  el ${p.elevation.toFixed(1)}°  dist ${p.distance.toFixed(0)}</span> ` +
-    `<small>${esc(p.name)} → ${esc(p.profile)} ${esc(p.to.join(", "))} · ${p.updates} sent${p.refused ? ", " + p.refused + " refused" : ""}</small></div>`).join("")
-    || "<p>No osc_out in this patch.</p>";
+  $("pointers").innerHTML = snap.pointers.map((p, k) => {
+    const [cls, word] = pointerWord(p);
+    return `<div class="pointer${stale(p) ? " stale" : ""}" data-state="${esc(p.state)}" style="color:${COLOURS[k % COLOURS.length]}">` +
+    `<span data-name="${esc(p.name)}" class="aed">az ${p.azimuth.toFixed(1)}°  el ${p.elevation.toFixed(1)}°  dist ${p.distance.toFixed(0)}</span>` +
+    `<span class="state ${cls}">${esc(word)}</span> ` +
+    `<small>${esc(p.name)} → ${esc(p.profile)} ${esc(p.to.join(", "))} · ${p.updates} sent${p.refused ? `; ${p.refused} refused: receiver not listening` : ""}</small></div>`;
+  }).join("") || "<p>No osc_out in this patch.</p>";
   $("sensors").tBodies[0].innerHTML = snap.streams.map((s) =>
     `<tr><td>${esc(s.name)} <small>(${esc(s.type)})</small></td><td class="${stateClass(s.state)}">${s.state === "dropout" ? "NO DATA " + s.silent_s.toFixed(1) + " s" : s.state}</td>` +
     `<td>${s.rate.toFixed(0)} Hz</td><td>${s.samples}</td><td>${s.dropouts}</td><td>${s.lost ?? "–"}</td></tr>`).join("");
   $("filters").tBodies[0].innerHTML = Object.entries(snap.flags).map(([name, f]) =>
-    `<tr><td>${esc(name)}</td><td class="${f.flag === "ok" ? "ok" : "bad"}">${esc(f.flag)}</td><td>${f.resting ? "yes" : "no"}</td>` +
+    `<tr><td>${esc(name)}</td><td class="${f.flag === "ok" ? "ok" : "bad"}">${esc(f.flag)}${f.silent_s ? " " + f.silent_s.toFixed(1) + " s" : ""}</td><td>${f.resting ? "yes" : "no"}</td>` +
     `<td>${f.bias_dps !== undefined ? f.bias_dps.toFixed(2) + " °/s" : "–"}</td><td>${f.bias_learned_s !== undefined ? f.bias_learned_s.toFixed(0) + " s" : "–"}</td>` +
     `<td>${f.dip_deg != null ? f.dip_deg.toFixed(1) + "°" : "–"}</td></tr>`).join("");
   $("other").innerHTML = (snap.nodes || []).map((n) => `<p><b>${esc(n.name)}</b> ${esc(n.text)}</p>`).join("");
   $("events").innerHTML = snap.events.slice().reverse().map((e) => `<li>${e[0].toFixed(1)} s · ${esc(e[1])}: ${esc(e[2])}</li>`).join("");
 }
 
-let drawn = -1;
 function frame() {
   const snap = state.snap;
   if (snap && drawn !== state.frames) { // only when a reading came: the page costs nothing while idle
     drawn = state.frames;
     $("patch").textContent = snap.patch; $("about").textContent = snap.about;
     $("clock").textContent = `${snap.t.toFixed(0)} s`;
-    drawAbove(snap); drawSide(snap); drawGains(snap); drawTables(snap); drawPlots();
+    drawAlert(snap); drawAbove(snap); drawSide(snap); drawGains(snap); drawTables(snap); drawPlots();
   }
   requestAnimationFrame(frame);
 }

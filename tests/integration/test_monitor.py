@@ -4,7 +4,10 @@ patch run as a performer runs it (``pointat run glove_tqt --monitor 0``), the si
 What a performer would look at is checked on screenshots of the page's canvases: the pointer (its colour)
 is drawn, and it moves.  The page's readout changes with the glove, the sensor stream says 100 Hz while
 the page is open, and the browser's own WebSocket gets OSCQuery's LISTEN stream (an OSC message per
-change of ``/pointat/out/aed``).
+change of ``/pointat/out/aed``).  At a phone's and a tablet's width the page fits (no sideways scrolling,
+views a useful size), and a real dropout (the simulated glove told to go silent) greys the pointer and
+the big readout, says "NO DATA for N s" big, and the filter says it has no input; screenshots of both
+states are kept in the test's folder.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import json
 import re
 import shutil
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -51,12 +55,12 @@ def running_patch(tmp_path):
         if not line:
             break
         lines.append(line)
-        m = re.search(r"monitor  (http://127\.0\.0\.1:\d+/monitor)", line)
+        m = re.search(r"monitor  (http://127\.0\.0\.1:\d+/monitor\S*).*OSC control on (\d+)/udp", line)
         if m:
-            url = m.group(1)
+            url, control = m.group(1), int(m.group(2))
     try:
         assert url is not None, ("no monitor line in the banner", lines, proc.poll())
-        yield url, rx
+        yield url, rx, control
     finally:
         proc.terminate()
         proc.communicate(timeout=10)
@@ -106,11 +110,14 @@ def _wait(driver, script: str, until, seconds: float = 10.0):
 
 
 def test_the_monitor_shows_the_glove_moving_over_the_loudspeakers(running_patch, browser, tmp_path):
-    url, _rx = running_patch
+    url, _rx, _control = running_patch
     browser.get(url)
     frames = _wait(browser, "return window.pointatMonitor.frames", lambda n: n >= 25)
     assert frames >= 25, "the page got no readings over its WebSocket"
     assert browser.execute_script("return window.pointatMonitor.connected") is True
+    # grey while the gyro nulls are measured (no direction yet), then in the pointer's colour
+    live = _wait(browser, "return document.body.dataset.state", lambda v: v == "ok", 10.0)
+    assert live == "ok", live
     # the glove's script sweeps the room: the readout and the drawing change as it moves
     first = browser.execute_script("return document.querySelector('.aed').textContent")
     above = browser.find_element("id", "above")
@@ -148,7 +155,7 @@ def test_the_monitor_shows_the_glove_moving_over_the_loudspeakers(running_patch,
 
 
 def test_the_browsers_websocket_gets_oscquery_listen_messages(running_patch, browser):
-    url, _rx = running_patch
+    url, _rx, _control = running_patch
     browser.get(url)
     got = browser.execute_async_script(
         """
@@ -171,3 +178,97 @@ def test_the_browsers_websocket_gets_oscquery_listen_messages(running_patch, bro
     assert {a for a, _ in got} == {"/pointat/out/aed"}
     azimuths = [az for _, az in got]
     assert len(set(azimuths)) > 1, azimuths  # only changes are sent, and the glove moves
+
+
+#: A phone held upright, and a tablet held upright (CSS pixels).
+WIDTHS = {"phone": (390, 844), "tablet": (820, 1180)}
+
+LAYOUT = """
+const fits = (e) => e.scrollWidth <= e.clientWidth + 1;
+const box = (id) => document.getElementById(id).getBoundingClientRect();
+return {
+  inner: window.innerWidth,
+  page: document.documentElement.scrollWidth,
+  above: box("above").width, side: box("side").width, gains: box("gains").width,
+  tables: [...document.querySelectorAll("table")].map((t) => [fits(t.parentElement), t.getBoundingClientRect().right]),
+  right: Math.max(...[...document.querySelectorAll("main *")].map((e) => e.getBoundingClientRect().right)),
+};
+"""
+
+LOOK = """
+const p = document.querySelector(".pointer"), a = document.getElementById("alert");
+const cell = document.querySelector("#filters tbody td:nth-child(2)");
+if (!p) return { state: "not drawn yet" };
+return {
+  state: document.body.dataset.state,
+  stale: p.classList.contains("stale"),
+  opacity: parseFloat(getComputedStyle(p.querySelector(".aed")).opacity),
+  colour: getComputedStyle(p.querySelector(".aed")).color,
+  alert: a.hidden ? "" : a.textContent,
+  alertSize: a.hidden ? 0 : parseFloat(getComputedStyle(a).fontSize),
+  filter: cell ? cell.textContent : "",
+};
+"""
+
+
+@pytest.mark.parametrize("device", sorted(WIDTHS))
+def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
+    running_patch, browser, tmp_path, device
+):
+    url, _rx, control = running_patch
+    width, height = WIDTHS[device]
+    browser.execute_cdp_cmd(
+        "Emulation.setDeviceMetricsOverride",
+        {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": True},
+    )
+    browser.get(url)
+    # the glove's nulls measured, directions flowing: the page says all is well
+    look = _wait(browser, LOOK, lambda v: v["state"] == "ok" and not v["stale"], 20.0)
+    assert look["state"] == "ok" and not look["stale"] and look["opacity"] > 0.9, look
+    assert look["alert"] == "" and look["filter"] == "ok", look
+
+    layout = browser.execute_script(LAYOUT)
+    assert layout["inner"] == width, layout
+    assert layout["page"] <= width, ("the page scrolls sideways", layout)
+    assert layout["right"] <= width + 0.5, ("something sticks out to the right", layout)
+    assert all(fits and right <= width for fits, right in layout["tables"]), ("a table overflows", layout)
+    # the views fill the width they have: one column on a phone, the two side by side on a tablet
+    least = {"phone": width - 2 * 10 - 2, "tablet": (width - 2 * 18 - 16) / 2 - 2}[device]
+    assert layout["above"] >= least and layout["side"] >= least, layout
+    (tmp_path / f"monitor-{device}.png").write_bytes(browser.get_screenshot_as_png())
+
+    # a real dropout: the simulated glove goes silent (no frames into the base station's pty) for 4 s
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.sendto(_osc("/pointat/glove/dropout", 4.0), ("127.0.0.1", control))
+    look = _wait(browser, LOOK, lambda v: v["state"] == "no" and _seconds(v["alert"]) >= 1.0, 10.0)
+    assert look["state"] == "no", look
+    assert re.match(r"NO DATA for \d+\.\d s", look["alert"]), look
+    assert look["alertSize"] >= 24, look  # big: read from across a stage
+    assert look["stale"] and look["opacity"] < 0.5, look  # the big readout greyed
+    assert look["colour"] == "rgb(107, 112, 120)", look  # the stale grey, not the pointer's blue
+    assert look["filter"].startswith("no input"), look  # the filter does not say ok
+    shot = browser.get_screenshot_as_png()
+    (tmp_path / f"monitor-{device}-dropout.png").write_bytes(shot)
+    browser.execute_script("document.getElementById('sensors').scrollIntoView()")  # the tables, too
+    (tmp_path / f"monitor-{device}-dropout-tables.png").write_bytes(browser.get_screenshot_as_png())
+    above = _pixels(browser.find_element("id", "above").screenshot_as_png)
+    assert len(_pointer_pixels(above)) == 0, "the pointer is still drawn in its bright colour"
+    assert layout["page"] <= width and browser.execute_script(LAYOUT)["page"] <= width
+
+    # the glove back: all is well again
+    look = _wait(browser, LOOK, lambda v: v["state"] == "ok" and not v["stale"], 10.0)
+    assert look["state"] == "ok" and not look["stale"] and look["filter"] == "ok", look
+
+
+def _seconds(alert: str) -> float:
+    m = re.match(r"NO DATA for (\d+\.\d) s", alert)
+    return float(m.group(1)) if m else 0.0
+
+
+def _osc(address: str, value: float) -> bytes:
+    """One OSC message with a float argument (the bytes ``pointat send`` would send)."""
+
+    def pad(b: bytes) -> bytes:
+        return b + b"\0" * (4 - len(b) % 4)
+
+    return pad(address.encode()) + pad(b",f") + struct.pack(">f", value)

@@ -5,6 +5,7 @@ presets saved and recalled by OSC.  Each runs ``pointat run`` as a performer wou
 from __future__ import annotations
 
 import json
+import re
 import socket
 import subprocess
 import sys
@@ -121,14 +122,25 @@ def test_the_console_opens_with_a_banner_and_ends_with_a_summary(tmp_path):
     assert shown and all(len(v.split(".")[1]) == 1 for line in shown for v in line.split(": ")[1].split()), (
         shown
     )
-    # a status line a second (a pipe: written as lines), then the summary
-    assert sum(line.startswith("out: az ") for line in lines) >= 2, out
-    assert any(line.startswith("base.m1: ok, 10") for line in lines), out
+    # a status line a second (a pipe: written as lines), then the summary; "ok" only with a rate, and no
+    # direction shown before one was sent (the gyro nulls are measured first)
     summary = lines[lines.index(next(line for line in lines if line.startswith("ran "))) :]
+    status = lines[: len(lines) - len(summary)]
+    assert sum(line.startswith("out: ") for line in status) >= 2, out
+    assert any(line.startswith("out: az ") for line in status), out
+    assert any(line.startswith("base.m1: ok, 10") for line in status), out
+    assert not any(line.startswith("base.m1: ok, 0 Hz") for line in status), out
+    assert not any(line.startswith("out: az") and "(0 sent)" in line for line in status), out
     assert any(
         line.startswith("base.m1: ") and "samples" in line and "no dropout" in line for line in summary
     )
-    assert any(line.startswith("out: ") and "updates sent to" in line for line in summary), summary
+    # nobody listens at the port: datagrams beside datagrams, and why they were refused
+    (told,) = [line for line in summary if line.startswith("out: ")]
+    assert re.fullmatch(
+        rf"out: \d+ updates to 127\.0\.0\.1:{port} \((\d+) datagrams sent, (\d+) refused: the receiver "
+        r"was not listening\)",
+        told,
+    ), told
 
 
 def test_presets_are_saved_and_recalled_by_osc_beside_the_patch(tmp_path):
