@@ -19,7 +19,7 @@ from .checking import check
 from .console import about, banner
 from .errors import PatchError, PointatError, did_you_mean
 from .expansion import read_spec
-from .loader import build, parse_overrides
+from .loader import parse_overrides, ready
 from .maths.vbap import parse_layout, read_layout
 from .observe import Observer
 from .presets import Presets, presets_path
@@ -187,8 +187,9 @@ def _parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "check",
-        help="validate a patch without running it, and read the files its nodes will read (calibrations, "
-        "loudspeaker layouts, recordings)",
+        help="validate a patch as run does before it starts, without opening a device, a port or a socket: "
+        "the files its nodes read (calibrations, loudspeaker layouts, recordings) are read and every node "
+        "is built and prepared, so a patch check passes is one run starts",
     )
     _add_patch_args(p)
 
@@ -327,11 +328,20 @@ def _patch_path(name: str) -> str:
     return str(found) if found is not None else name
 
 
-def _checked(args: argparse.Namespace, registry: Registry, read_files: bool = False):
-    checked = check(read_spec(args.patch), registry, parse_overrides(args.set), read_files=read_files)
+def _checked(args: argparse.Namespace, registry: Registry):
+    checked = check(read_spec(args.patch), registry, parse_overrides(args.set))
     for w in checked.warnings:
         print(w, file=sys.stderr)
     return checked
+
+
+def _ready(args: argparse.Namespace, registry: Registry):
+    """The patch checked, its files read, its nodes built and prepared: all that ``check`` does, and all
+    that ``run`` does before it opens a port (:func:`pointat.loader.ready`)."""
+    checked, rt = ready(read_spec(args.patch), registry, parse_overrides(args.set))
+    for w in checked.warnings:
+        print(w, file=sys.stderr)
+    return checked, rt
 
 
 def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
@@ -341,11 +351,10 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
             "serial port's own interrupt thread among them) then hardly get; use one of them: --rt "
             "already keeps the CPUs out of deep idle states, which takes much of the wake-up's cost away"
         )
-    checked = _checked(args, registry)
-    rt = build(checked)
+    layout = _layout(args.layout) if args.layout else None
+    _, rt = _ready(args, registry)  # what check does, no more and no less; then it starts
     rt.spin = args.spin / 1000.0
     rt.compiled = args.compiled
-    layout = _layout(args.layout) if args.layout else None
     observer = Observer(rt, layout=layout, patch=Path(args.patch).stem, about=about(args.patch)).attach()
     if os.path.isfile(args.patch):
         rt.presets = Presets(rt, presets_path(args.patch))
@@ -498,7 +507,8 @@ def _monitor(rt: Any, observer: Any, args: argparse.Namespace) -> Any:
 
 
 def cmd_check(args: argparse.Namespace, registry: Registry) -> int:
-    checked = _checked(args, registry, read_files=True)
+    checked, rt = _ready(args, registry)  # what run does before it opens a port: nothing opened
+    rt.shutdown()
     counts = [_count(len(checked.nodes), "node"), _count(len(checked.wires), "wire")]
     if checked.warnings:
         counts.append(_count(len(checked.warnings), "warning"))

@@ -11,13 +11,21 @@ One TCP port serves, as the OSCQuery proposal asks, HTTP and WebSocket together:
   on the OSC port), and ``{"COMMAND": "MONITOR"}``: the monitor's readings as JSON text, 25 a second.
 
 A UDP port (``HOST_INFO``'s ``OSC_PORT``) takes OSC for live control.  With zeroconf installed the
-server is advertised as ``_oscjson._tcp`` (and the OSC port as ``_osc._udp``), so ossia score,
-Chataigne or any OSCQuery browser finds it.
+server is advertised as ``_oscjson._tcp`` (and the OSC port as ``_osc._udp``) on the interfaces it
+serves, so ossia score, Chataigne or any OSCQuery browser finds it.
+
+HTTP and WebSocket are the ``websockets`` library's (its threaded server; a plain GET is answered from
+its ``process_request``, and the connection then closed): it parses requests and frames, bounds their
+sizes, pings idle sockets and closes dead ones.  What is ours: who may come in (:mod:`pointat.webaccess`:
+Host, Origin, peers, token, checked before anything is answered), at most :attr:`MonitorServer.
+MAX_CONNECTIONS` connections at once, a request in :attr:`~MonitorServer.OPEN_TIMEOUT` seconds, a
+stuck reader dropped after :attr:`~MonitorServer.SEND_TIMEOUT`, and a log that tells clients gone and
+packets malformed in a few lines, never a traceback.
 
 Nothing here runs on the scheduler's thread: requests are served by threads of their own, readings come
 from the observer's thread, and live control is posted to the scheduler like any other event (never
 waiting: a full queue drops the message and counts it).  Loopback only unless asked
-(``--monitor-host``).
+(``--monitor-host``, with ``--monitor-allow``).
 """
 
 from __future__ import annotations
@@ -25,21 +33,25 @@ from __future__ import annotations
 import json
 import logging
 import socket
+import struct
 import threading
 import time
 from collections.abc import Sequence
 from http import HTTPStatus
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from typing import Any
 from urllib.parse import unquote, urlsplit
+
+from websockets.datastructures import Headers
+from websockets.exceptions import ConnectionClosed, ConnectionClosedOK
+from websockets.http11 import Request, Response
+from websockets.sync.server import ServerConnection, serve
 
 from .control import PREFIX, control
 from .devices.osc_wire import decode_packet, encode_message
 from .oscquery import EXTENSIONS, address_space, find, value_of
 from .scheduling import quiet_thread
-from .webaccess import Access, LogLimit
-from .websocket import BINARY, CLOSE, PING, PONG, TEXT, FrameReader, WebSocketError, accept_key, encode_frame
+from .webaccess import Access, LogLimit, is_loopback
 
 __all__ = ["MonitorServer"]
 
@@ -53,55 +65,69 @@ _STATIC = {
 }
 
 
-class _Server(ThreadingHTTPServer):
-    """Threads for its requests, each marked quiet: they wait on their sockets, and a spinning scheduler
-    (``--spin``) must not pause for them (:func:`pointat.scheduling.quiet_thread`)."""
+class _LibraryLog(logging.Filter):
+    """What the websockets library logs, as our lines: warnings and errors only, one line each (no
+    traceback), rate-limited.  Its debug and info lines (a line per frame with ``-v``) are not wanted."""
 
-    daemon_threads = True
+    def __init__(self) -> None:
+        super().__init__()
+        self.limit = LogLimit(lambda msg, *args: None)
 
-    monitor: MonitorServer
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno < logging.WARNING:
+            return False
+        exc = record.exc_info[1] if record.exc_info else None
+        record.msg = f"monitor (websockets): {record.getMessage()}" + (f": {exc!r}"[:200] if exc else "")
+        record.args = None
+        record.exc_info = record.exc_text = None
+        before = self.limit.held
+        self.limit(record.msg)
+        return self.limit.held == before
 
-    def handle_error(self, request: Any, client_address: Any) -> None:
-        """A client gone mid-answer (or any other failure of one request): a line, rate-limited, no
-        traceback."""
-        import sys
 
-        exc = sys.exc_info()[1]
-        self.monitor.gone(f"{client_address[0]}:{client_address[1]}", exc)
-
-    def process_request(self, request: Any, client_address: Any) -> None:
-        th = threading.Thread(
-            target=self.process_request_thread, args=(request, client_address), name="pointat-monitor-client"
-        )
-        th.daemon = True
-        quiet_thread(th).start()
+_library_log = logging.getLogger("pointat.monitor.websockets")
+_library_log.setLevel(logging.WARNING)
+_library_log.addFilter(_LibraryLog())
 
 
 class _Client:
-    """One WebSocket client: what it listens to, and a lock so that two threads never interleave frames."""
+    """One WebSocket client: what it listens to, and whether it is still there."""
 
-    def __init__(self, sock: socket.socket):
-        self.sock = sock
-        self.lock = threading.Lock()
+    def __init__(self, connection: ServerConnection):
+        self.connection = connection
         self.listening: dict[str, Any] = {}  # path -> the value last sent
         self.monitor = False
         self.alive = True
 
-    def send(self, opcode: int, payload: bytes) -> None:
-        with self.lock:
-            if not self.alive:
-                return
-            try:
-                self.sock.sendall(encode_frame(opcode, payload))
-            except OSError:  # gone, or too slow to take a frame within the timeout: dropped
-                self.alive = False
+    def send(self, message: bytes, text: bool = False) -> None:
+        """A message to the client (any thread); a client gone or too slow to read it is dropped."""
+        if not self.alive:
+            return
+        try:
+            self.connection.send(message, text=text)
+        except (ConnectionClosed, OSError):
+            self.alive = False
 
 
 class MonitorServer:
-    """Serve a runtime's monitor and OSCQuery; :meth:`start` before the runtime runs, :meth:`close` after."""
+    """Serve a runtime's monitor and OSCQuery; :meth:`start` before the runtime runs, :meth:`close` after.
 
-    #: Seconds a WebSocket client may take to accept a frame before it is dropped.
-    SEND_TIMEOUT = 1.0
+    ``allow``: the other machines that may connect (needed when ``host`` is not loopback); ``token``:
+    the secret a browser there carries (made up when not given).
+    """
+
+    #: Connections served at once (HTTP and WebSocket); more are answered 503 and closed at once.
+    MAX_CONNECTIONS = 64
+    #: Seconds a client has to send its request (a slow or silent one is closed after).
+    OPEN_TIMEOUT = 5.0
+    #: Seconds a client may take to accept what is sent to it before it is dropped.
+    SEND_TIMEOUT = 2.0
+    #: Seconds between pings of an open WebSocket, and for its answer: a dead peer is closed.
+    PING = 10.0
+    #: Seconds a WebSocket may stay open asking for nothing (no MONITOR, no LISTEN) and sending nothing.
+    IDLE_TIMEOUT = 60.0
+    #: The largest message a client may send (an OSC packet or a command is a few hundred bytes).
+    MAX_MESSAGE = 1 << 16
 
     def __init__(
         self,
@@ -124,25 +150,24 @@ class MonitorServer:
         self._lock = threading.Lock()
         self.control_refused = 0
         self.control_dropped = 0
-        server = self
-
-        class Handler(_Handler):
-            monitor = server
-
-        self.http = _Server((host, port), Handler)
-        self.http.monitor = self
-        self.port = self.http.server_address[1]
-        try:
-            self.access = Access(host, self.port, allow=allow, token=token)
-        except ValueError:
-            self.http.server_close()
-            raise
         self.refused = 0
+        self.turned_away = 0  # connections over MAX_CONNECTIONS
         self._refusals_told: set[str] = set()
         self._refusal_log = LogLimit(log.warning)
         self._gone_log = LogLimit(log.info)
         self._malformed_log = LogLimit(log.warning)
-        self.osc = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._full_log = LogLimit(log.warning)
+        self._open: set[socket.socket] = set()  # connections being served
+
+        family = socket.AF_INET6 if ":" in host else socket.AF_INET
+        sock = socket.create_server((host, port), family=family)
+        self.port = sock.getsockname()[1]
+        try:
+            self.access = Access(host, self.port, allow=allow, token=token)
+            self.osc = socket.socket(family, socket.SOCK_DGRAM)
+        except (ValueError, OSError):
+            sock.close()
+            raise
         try:
             self.osc.bind((host, self.port))  # the same number when it is free: one port to remember
         except OSError:
@@ -150,6 +175,29 @@ class MonitorServer:
         self.osc_port = self.osc.getsockname()[1]
         # (a blocked recvfrom is not woken by close() on Linux: the reader looks at _closed between waits)
         self.osc.settimeout(0.2)
+
+        server = self
+
+        class Connection(_Connection):
+            monitor = server
+
+        self.ws = serve(
+            self._session,
+            sock=sock,
+            process_request=self._http,
+            compression=None,
+            server_header="pointat",
+            open_timeout=self.OPEN_TIMEOUT,
+            ping_interval=self.PING,
+            ping_timeout=self.PING,
+            close_timeout=1.0,
+            max_size=self.MAX_MESSAGE,
+            max_queue=16,
+            logger=_library_log,
+            create_connection=Connection,
+        )
+        self._handle = self.ws.handler
+        self.ws.handler = self._connection
         self._threads: list[threading.Thread] = []
         self._zeroconf: Any = None
         self._closed = False
@@ -161,6 +209,21 @@ class MonitorServer:
         """The monitor page's address, with its token when served beyond this machine."""
         return self.access.url("/monitor")
 
+    def host_info(self) -> dict[str, Any]:
+        return {
+            "NAME": self.name,
+            "EXTENSIONS": EXTENSIONS,
+            "OSC_IP": self.host,
+            "OSC_PORT": self.osc_port,
+            "OSC_TRANSPORT": "UDP",
+            "WS_IP": self.host,
+            "WS_PORT": self.port,
+        }
+
+    def tree(self) -> dict[str, Any]:
+        return address_space(self.rt, f"pointat: {self.name}")
+
+    # -- the log -----------------------------------------------------------------------------------
     #: Refusals named in the log one by one (each reason once); past that, they share a rate-limited line.
     REFUSALS_NAMED = 32
 
@@ -180,23 +243,9 @@ class MonitorServer:
         """A client that went away mid-request, or a request that failed: one line, rate-limited."""
         self._gone_log("monitor: client %s: %s", peer, _why(exc))
 
-    def host_info(self) -> dict[str, Any]:
-        return {
-            "NAME": self.name,
-            "EXTENSIONS": EXTENSIONS,
-            "OSC_IP": self.host,
-            "OSC_PORT": self.osc_port,
-            "OSC_TRANSPORT": "UDP",
-            "WS_IP": self.host,
-            "WS_PORT": self.port,
-        }
-
-    def tree(self) -> dict[str, Any]:
-        return address_space(self.rt, f"pointat: {self.name}")
-
     # -- running -----------------------------------------------------------------------------------
     def start(self) -> None:
-        for target, what in ((self.http.serve_forever, "http"), (self._read_osc, "osc")):
+        for target, what in ((self.ws.serve_forever, "http"), (self._read_osc, "osc")):
             th = quiet_thread(threading.Thread(target=target, name=f"pointat-monitor-{what}", daemon=True))
             th.start()
             self._threads.append(th)
@@ -218,22 +267,169 @@ class MonitorServer:
                 self._zeroconf.close()
             except Exception:  # the network went away: nothing to tell
                 pass
-        self.http.shutdown()
-        self.http.server_close()
+        with self._lock:
+            waiting = list(self._open)
+        for sock in waiting:  # a client still sending its request: no need to wait OPEN_TIMEOUT for it
+            try:
+                sock.shutdown(socket.SHUT_RD)
+            except OSError:
+                pass
+        self.ws.shutdown()
         try:
             self.osc.close()
         except OSError:
             pass
-        for c in list(self.clients):
-            c.alive = False
-            try:
-                c.sock.close()
-            except OSError:
-                pass
         for th in self._threads:  # the server's own threads end with it (zeroconf's registration aside)
             if th.name != "pointat-zeroconf":
                 th.join(1.0)
 
+    def _connection(self, sock: socket.socket, addr: Any) -> None:
+        """A connection's thread, before the library's handler: the cap, and a send timeout."""
+        quiet_thread(threading.current_thread())
+        with self._lock:
+            full = len(self._open) >= self.MAX_CONNECTIONS
+            if not full:
+                self._open.add(sock)
+        if full:
+            self.turned_away += 1
+            self._full_log(
+                "monitor: %d connections open: %s turned away (503)", self.MAX_CONNECTIONS, addr[0]
+            )
+            try:
+                sock.setblocking(False)
+                sock.send(
+                    b"HTTP/1.1 503 Service Unavailable\r\nContent-Length: 0\r\nConnection: close\r\n\r\n"
+                )
+                sock.shutdown(socket.SHUT_RDWR)  # the library's handler then ends at once
+            except OSError:
+                pass
+            sock.setblocking(True)
+        else:
+            _send_timeout(sock, self.SEND_TIMEOUT)
+        try:
+            self._handle(sock, addr)
+        finally:
+            with self._lock:
+                self._open.discard(sock)
+
+    # -- HTTP --------------------------------------------------------------------------------------
+    def _http(self, connection: ServerConnection, request: Request) -> Response | None:
+        """Every request first: refused (403) unless Host, Origin, peer and token are right; then a
+        WebSocket is let through (None), anything else answered."""
+        headers = request.headers
+        peer = _peer(connection)
+        why = self.access.refusal(
+            peer, headers.get("Host"), headers.get("Origin"), request.path, headers.get("Cookie")
+        )
+        if why is not None:
+            self.refuse(why)
+            return _response(HTTPStatus.FORBIDDEN, b"forbidden\n", "text/plain; charset=utf-8")
+        if "websocket" in headers.get("Upgrade", "").lower():
+            return None
+        try:
+            return self._answer(request.path)
+        except Exception as exc:  # a bug here must not close the server: told, and a 500
+            log.error("monitor: GET %s failed: %s: %s", request.path[:100], type(exc).__name__, exc)
+            return _response(HTTPStatus.INTERNAL_SERVER_ERROR, b"error\n", "text/plain; charset=utf-8")
+
+    def _answer(self, target: str) -> Response:
+        url = urlsplit(target)
+        path = unquote(url.path) or "/"
+        if path in _STATIC:
+            name, ctype = _STATIC[path]
+            body = resources.files("pointat.monitor").joinpath(name).read_bytes()
+            return _response(200, body, ctype, cookie=self.access.set_cookie(url.query))
+        if path == "/monitor/state":
+            return _json({**self.observer.snapshot(), "url": self.url})
+        if path == "/favicon.ico":
+            return _response(204, b"", "text/plain")
+        if path == "/" and url.query == "HOST_INFO":
+            return _json(self.host_info())
+        node = find(self.tree(), path)
+        if node is None:
+            return _response(404, f"no OSC address {path[:200]}\n".encode(), "text/plain; charset=utf-8")
+        if url.query:
+            attr = url.query.split("&")[0].upper()
+            if attr == "HOST_INFO":
+                return _json(self.host_info())
+            if attr not in node:
+                return _response(204, b"", "text/plain")
+            return _json({attr: node[attr]})
+        return _json(node)
+
+    # -- WebSocket ---------------------------------------------------------------------------------
+    def _session(self, connection: ServerConnection) -> None:
+        """A WebSocket's thread, for as long as it is open: its commands and its OSC."""
+        client = _Client(connection)
+        with self._lock:
+            self.clients.append(client)
+        try:
+            while client.alive:
+                try:
+                    message = connection.recv(timeout=self.IDLE_TIMEOUT)
+                except TimeoutError:
+                    if not client.monitor and not client.listening:
+                        connection.close(1000, "idle")
+                        break
+                    continue
+                if isinstance(message, str):
+                    self._command(client, message)
+                else:
+                    self.apply(message)
+        except ConnectionClosedOK:
+            pass
+        except ConnectionClosed as exc:
+            sent = exc.sent
+            if sent is not None and sent.code in (1002, 1007, 1009):  # the client broke the protocol
+                self._malformed_log("monitor: a WebSocket client closed: %s", sent.reason or sent.code)
+            else:
+                self.gone(peer=_peer(connection), exc=exc)
+        finally:
+            client.alive = False
+
+    def _command(self, client: _Client, payload: str) -> None:
+        try:
+            cmd = json.loads(payload)
+            verb, data = cmd.get("COMMAND"), cmd.get("DATA")
+        except (ValueError, AttributeError, RecursionError):
+            self._malformed_log("monitor: a WebSocket command that is not JSON {COMMAND, DATA} ignored")
+            return
+        if verb == "LISTEN" and isinstance(data, str):
+            value = value_of(self.rt, data)
+            if value is not None:
+                client.listening[data] = value
+                client.send(encode_message(data, value))
+        elif verb == "IGNORE" and isinstance(data, str):
+            client.listening.pop(data, None)
+        elif verb == "MONITOR":
+            client.monitor = True
+            snap = self.observer.snapshot()
+            client.send(json.dumps({**snap, "url": self.url}).encode(), text=True)
+        else:
+            self._malformed_log(
+                "monitor: WebSocket command %r ignored (LISTEN, IGNORE, MONITOR)", str(verb)[:40]
+            )
+
+    def _push(self, snap: dict[str, Any]) -> None:
+        """Observer's thread: the monitor's reading to monitor clients, changed values to listeners."""
+        with self._lock:
+            clients = [c for c in self.clients if c.alive]
+            self.clients = clients
+        if not clients:
+            return
+        text = None
+        for c in clients:
+            if c.monitor:
+                if text is None:
+                    text = json.dumps({k: v for k, v in snap.items() if not k.endswith("history")}).encode()
+                c.send(text, text=True)
+            for path, last in list(c.listening.items()):
+                value = value_of(self.rt, path)
+                if value is not None and value != last:
+                    c.listening[path] = value
+                    c.send(encode_message(path, value))
+
+    # -- OSC ---------------------------------------------------------------------------------------
     def _read_osc(self) -> None:
         while not self._closed:
             try:
@@ -273,185 +469,111 @@ class MonitorServer:
             if not self.rt.post(None, deliver, block=False):
                 self.control_dropped += 1
 
-    def _push(self, snap: dict[str, Any]) -> None:
-        """Observer's thread: the monitor's reading to monitor clients, changed values to listeners."""
-        with self._lock:
-            clients = [c for c in self.clients if c.alive]
-            self.clients = clients
-        if not clients:
-            return
-        text = None
-        for c in clients:
-            if c.monitor:
-                if text is None:
-                    text = json.dumps({k: v for k, v in snap.items() if not k.endswith("history")}).encode()
-                c.send(TEXT, text)
-            for path, last in list(c.listening.items()):
-                value = value_of(self.rt, path)
-                if value is not None and value != last:
-                    c.listening[path] = value
-                    c.send(BINARY, encode_message(path, value))
 
-    def add_client(self, client: _Client) -> None:
-        with self._lock:
-            self.clients.append(client)
+class _Connection(ServerConnection):
+    """The library's connection, its threads marked quiet (they sleep on the socket: a spinning
+    scheduler need not pause for them), and a request that fails (a client gone mid-answer, too slow)
+    told as one line."""
 
-
-class _Handler(BaseHTTPRequestHandler):
     monitor: MonitorServer
-    server_version = "pointat"
-    protocol_version = "HTTP/1.1"
 
-    def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 (the base class's name)
-        log.debug("%s %s", self.address_string(), format % args)
+    def __init__(self, *args: Any, **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        quiet_thread(self.recv_events_thread)
 
-    def _send(
-        self, status: int, body: bytes, ctype: str = "application/json", cookie: str | None = None
-    ) -> None:
-        self.send_response(status)
-        if cookie is not None:
-            self.send_header("Set-Cookie", cookie)
-        self.send_header("Content-Type", ctype)
-        self.send_header("Content-Length", str(len(body)))
-        self.send_header("Cache-Control", "no-store")
-        self.end_headers()
-        if self.command != "HEAD":
-            self.wfile.write(body)
+    def start_keepalive(self) -> None:
+        super().start_keepalive()
+        keepalive = getattr(self, "keepalive_thread", None)
+        if keepalive is not None:
+            quiet_thread(keepalive)
 
-    def _json(self, value: Any, status: int = 200) -> None:
-        self._send(status, json.dumps(value).encode())
+    def handshake(self, *args: Any, **kwargs: Any) -> None:
+        try:
+            super().handshake(*args, **kwargs)
+        except Exception as exc:
+            self.monitor.gone(_peer(self), exc)
+            raise
 
-    def do_HEAD(self) -> None:  # noqa: N802 (http.server's name)
-        self.do_GET()
 
-    def _refused(self) -> bool:
-        """Refuse (403) a request from a peer, Host or Origin not served (:mod:`pointat.webaccess`)."""
-        m = self.monitor
-        why = m.access.refusal(
-            self.client_address[0],
-            self.headers.get("Host"),
-            self.headers.get("Origin"),
-            self.path,
-            self.headers.get("Cookie"),
+def _peer(connection: ServerConnection) -> str:
+    try:
+        return str(connection.remote_address[0])
+    except (OSError, IndexError, TypeError):
+        return "?"
+
+
+def _send_timeout(sock: socket.socket, seconds: float) -> None:
+    """Make a blocking send on ``sock`` give up after ``seconds`` without progress (SO_SNDTIMEO): a client
+    that stops reading cannot hold a thread, nor the observer's pushes, for longer."""
+    whole = int(seconds)
+    try:
+        sock.setsockopt(
+            socket.SOL_SOCKET, socket.SO_SNDTIMEO, struct.pack("ll", whole, int((seconds - whole) * 1e6))
         )
-        if why is None:
-            return False
-        m.refuse(why)
-        self.close_connection = True
-        self._send(HTTPStatus.FORBIDDEN, b"forbidden\n", "text/plain; charset=utf-8")
-        return True
+    except (OSError, struct.error):  # not on this system: the keepalive pings close it, later
+        pass
 
-    def do_GET(self) -> None:  # noqa: N802
-        if self._refused():
-            return
-        if self.headers.get("Upgrade", "").lower() == "websocket":
-            return self._websocket()
-        url = urlsplit(self.path)
-        path = unquote(url.path) or "/"
-        m = self.monitor
-        if path in _STATIC:
-            name, ctype = _STATIC[path]
-            body = resources.files("pointat.monitor").joinpath(name).read_bytes()
-            return self._send(200, body, ctype, cookie=m.access.set_cookie(url.query))
-        if path == "/monitor/state":
-            return self._json({**m.observer.snapshot(), "url": m.url})
-        if path == "/favicon.ico":
-            return self._send(204, b"", "text/plain")
-        if path == "/" and url.query == "HOST_INFO":
-            return self._json(m.host_info())
-        node = find(m.tree(), path)
-        if node is None:
-            return self._send(404, f"no OSC address {path}\n".encode(), "text/plain; charset=utf-8")
-        if url.query:
-            attr = url.query.split("&")[0].upper()
-            if attr == "HOST_INFO":
-                return self._json(m.host_info())
-            if attr not in node:
-                return self._send(204, b"", "text/plain")
-            return self._json({attr: node[attr]})
-        return self._json(node)
 
-    # -- WebSocket ---------------------------------------------------------------------------------
-    def _websocket(self) -> None:
-        try:
-            key = accept_key(self.headers.get("Sec-WebSocket-Key", ""))
-        except WebSocketError as exc:
-            return self._send(HTTPStatus.BAD_REQUEST, f"{exc}\n".encode(), "text/plain; charset=utf-8")
-        self.send_response(HTTPStatus.SWITCHING_PROTOCOLS)
-        self.send_header("Upgrade", "websocket")
-        self.send_header("Connection", "Upgrade")
-        self.send_header("Sec-WebSocket-Accept", key)
-        self.end_headers()
-        self.wfile.flush()
-        sock = self.connection
-        sock.settimeout(MonitorServer.SEND_TIMEOUT)
-        client = _Client(sock)
-        self.monitor.add_client(client)
-        reader = FrameReader()
-        try:
-            while client.alive:
-                try:
-                    data = sock.recv(65536)
-                except TimeoutError:
-                    continue
-                if not data:
-                    break
-                for opcode, payload in reader.feed(data):
-                    if opcode == CLOSE:
-                        client.send(CLOSE, payload[:2])
-                        client.alive = False
-                        break
-                    if opcode == PING:
-                        client.send(PONG, payload)
-                    elif opcode == TEXT:
-                        self._command(client, payload)
-                    elif opcode == BINARY:
-                        self.monitor.apply(payload)
-        except WebSocketError as exc:
-            self.monitor._malformed_log("monitor: a WebSocket client closed: %s", exc)
-            client.send(CLOSE, (1002).to_bytes(2, "big") + str(exc)[:100].encode())
-        except OSError:
-            pass
-        finally:
-            client.alive = False
-            self.close_connection = True
+def _response(status: int, body: bytes, ctype: str, cookie: str | None = None) -> Response:
+    headers = Headers()
+    headers["Content-Type"] = ctype
+    headers["Content-Length"] = str(len(body))
+    headers["Cache-Control"] = "no-store"
+    headers["Connection"] = "close"
+    if cookie is not None:
+        headers["Set-Cookie"] = cookie
+    return Response(int(status), HTTPStatus(int(status)).phrase, headers, body)
 
-    def _command(self, client: _Client, payload: bytes) -> None:
-        try:
-            cmd = json.loads(payload)
-            verb, data = cmd.get("COMMAND"), cmd.get("DATA")
-        except (ValueError, AttributeError):
-            log.warning("monitor: a WebSocket command that is not JSON {COMMAND, DATA} ignored")
-            return
-        if verb == "LISTEN" and isinstance(data, str):
-            value = value_of(self.monitor.rt, data)
-            if value is not None:
-                client.listening[data] = value
-                client.send(BINARY, encode_message(data, value))
-        elif verb == "IGNORE" and isinstance(data, str):
-            client.listening.pop(data, None)
-        elif verb == "MONITOR":
-            client.monitor = True
-            snap = self.monitor.observer.snapshot()
-            client.send(TEXT, json.dumps({**snap, "url": self.monitor.url}).encode())
-        else:
-            log.warning("monitor: WebSocket command %r ignored (LISTEN, IGNORE, MONITOR)", str(verb)[:40])
+
+def _json(value: Any, status: int = 200) -> Response:
+    return _response(status, json.dumps(value).encode(), "application/json")
+
+
+def _why(exc: BaseException | None) -> str:
+    """A failure told in a few words (no traceback): a client gone is the usual one."""
+    while isinstance(exc, ConnectionClosed) and exc.__cause__ is not None:
+        exc = exc.__cause__
+    if isinstance(exc, (BrokenPipeError, ConnectionResetError, ConnectionAbortedError)):
+        return "went away mid-answer"
+    if isinstance(exc, (TimeoutError, BlockingIOError)):
+        return "timed out"
+    if isinstance(exc, ConnectionClosed):
+        return "went away"
+    return f"{type(exc).__name__}: {str(exc)[:120]}" if exc is not None else "failed"
 
 
 def _advertise(name: str, host: str, port: int, osc_port: int) -> Any:
-    """Register ``_oscjson._tcp`` and ``_osc._udp`` with zeroconf; None (and a log line) without it."""
+    """Register ``_oscjson._tcp`` and ``_osc._udp`` with zeroconf on the interfaces served; None (and a
+    log line) without it.
+
+    Served on loopback, zeroconf answers on loopback only: its sockets are held to the loopback device
+    (``SO_BINDTODEVICE``), so nothing on the network reaches its port 5353; where they cannot be, the
+    server is not advertised.  Served on one address, on that interface; on every interface, on all.
+    """
     try:
-        from zeroconf import ServiceInfo, Zeroconf
+        from zeroconf import InterfaceChoice, ServiceInfo, Zeroconf
     except ImportError:
         log.info("zeroconf is not installed: the OSCQuery server is not advertised (pip install zeroconf)")
         return None
-    address = "127.0.0.1" if host in ("", "0.0.0.0") else host
+    loopback = is_loopback(host)
     try:
-        addresses = [socket.inet_aton(socket.gethostbyname(address))]
+        if loopback:
+            addresses = [socket.inet_aton("127.0.0.1")]
+            interfaces: Any = ["127.0.0.1"]
+        elif host in ("", "0.0.0.0"):
+            addresses = [socket.inet_aton(a) for a in _interface_addresses()]
+            interfaces = InterfaceChoice.All
+        else:
+            addresses = [socket.inet_aton(socket.gethostbyname(host))]
+            interfaces = [host]
         before = set(threading.enumerate())
-        zc = Zeroconf(interfaces=["127.0.0.1"] if address.startswith("127.") else None)
+        zc = Zeroconf(interfaces=interfaces)
         for th in set(threading.enumerate()) - before:  # its event loop, asleep on its sockets
             quiet_thread(th)
+        if loopback and not _hold_to_loopback(zc):
+            zc.close()
+            log.info("the OSCQuery server is not advertised: zeroconf cannot be held to loopback here")
+            return None
         label = f"{name} {time.strftime('%H%M%S')}"[:63]
         for kind, p in (("_oscjson._tcp.local.", port), ("_osc._udp.local.", osc_port)):
             zc.register_service(
@@ -466,10 +588,42 @@ def _advertise(name: str, host: str, port: int, osc_port: int) -> Any:
         return None
 
 
-def _why(exc: BaseException | None) -> str:
-    """A failure told in a few words (no traceback): a client gone is the usual one."""
-    if isinstance(exc, (BrokenPipeError, ConnectionResetError, ConnectionAbortedError)):
-        return "went away mid-answer"
-    if isinstance(exc, TimeoutError):
-        return "timed out"
-    return f"{type(exc).__name__}: {str(exc)[:120]}" if exc is not None else "failed"
+def _loopback_device() -> str | None:
+    for _index, name in socket.if_nameindex():
+        if name in ("lo", "lo0"):
+            return name
+    return None
+
+
+def _hold_to_loopback(zc: Any) -> bool:
+    """Hold every socket of ``zc`` to the loopback device; False where that cannot be done (not Linux,
+    or zeroconf's sockets not where they were)."""
+    device = _loopback_device()
+    option = getattr(socket, "SO_BINDTODEVICE", None)
+    engine = getattr(zc, "engine", None)
+    transports = [*getattr(engine, "readers", ()), *getattr(engine, "senders", ())]
+    socks = {getattr(t, "sock", None) for t in transports}
+    if device is None or option is None or not socks or None in socks:
+        return False
+    try:
+        for s in socks:
+            s.setsockopt(socket.SOL_SOCKET, option, device.encode())
+    except OSError:
+        return False
+    return True
+
+
+def _interface_addresses() -> list[str]:
+    """This machine's IPv4 addresses off loopback (for the advertisement of a server on every one)."""
+    try:
+        import ifaddr
+
+        found = [
+            ip.ip
+            for adapter in ifaddr.get_adapters()
+            for ip in adapter.ips
+            if isinstance(ip.ip, str) and not ip.ip.startswith("127.")
+        ]
+    except Exception:  # no list of interfaces: the machine's name
+        found = []
+    return found or [socket.gethostbyname(socket.gethostname())]

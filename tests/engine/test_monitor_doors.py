@@ -200,3 +200,34 @@ def test_malformed_packets_are_told_in_a_few_lines(served, caplog):
     ]
     assert 1 <= len(lines) <= 10, lines
     assert _streaming(rx)
+
+
+def test_served_on_loopback_zeroconf_hears_loopback_only(tmp_path):
+    """zeroconf's sockets (its port 5353 bound to every address) are held to the loopback device, so
+    nothing on the network reaches them while the monitor is this machine's only."""
+    pytest.importorskip("zeroconf")
+    if not hasattr(socket, "SO_BINDTODEVICE"):
+        pytest.skip("SO_BINDTODEVICE is Linux's")
+    rt = build(check(read_spec(_write(tmp_path, PATCH.format(port=9))), REG, parse_overrides([])))
+    obs = Observer(rt).attach()
+    server = MonitorServer(rt, obs, "127.0.0.1", 0, advertise=True)
+    server.start()
+    try:
+        deadline = time.monotonic() + 10
+        while server._zeroconf is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        zc = server._zeroconf
+        assert zc is not None, "not advertised"
+        socks = {t.sock for t in [*zc.engine.readers, *zc.engine.senders]}
+        assert socks
+        for s in socks:
+            device = s.getsockopt(socket.SOL_SOCKET, socket.SO_BINDTODEVICE, 16).rstrip(b"\0")
+            assert device in (b"lo", b"lo0"), (s.getsockname(), device)
+    finally:
+        server.close()
+
+
+def _write(tmp_path, text: str) -> str:
+    path = tmp_path / "glove.pat"
+    path.write_text(text)
+    return str(path)

@@ -185,7 +185,7 @@ def test_a_client_that_breaks_the_protocol_is_closed_and_the_patch_goes_on(serve
     s = ws_connect(server.port)
     s.sendall(b"\x81\x05hello")  # unmasked: a client's frames must be masked
     opcode, payload = ws_receive(s)
-    assert opcode == 8 and b"masked" in payload
+    assert opcode == 8 and b"mask" in payload
     s.close()
     _, value = _get(url + "/pointat/out/rate?VALUE")
     assert value == {"VALUE": [50.0]}
