@@ -8,7 +8,8 @@ pass keeps its ports for the next, so one run says everything, in line order, ea
 ``file:line`` and what was expected and found.  Warnings: one outlet feeding two inlets of one node
 (whose order only the file knows), a node fed on cold inlets only or not at all, a source wired to
 nothing, a patch or a chain that reaches no output, a chain deeper than the runtime's limit, a file a
-node reads at start that is not there.
+node reads at start that is not there (an error where the files are read: ``pointat check`` and ``run``,
+which share :func:`pointat.loader.ready`).
 """
 
 from __future__ import annotations
@@ -93,9 +94,10 @@ def check(
 
     ``overrides`` are ``(node, param, value)`` triples (``--set node.param=value``).  ``read_files``
     also reads the files that nodes read when they start (calibrations, loudspeaker layouts,
-    recordings: :meth:`Node.check_files`), as ``pointat check`` does; a missing one is a warning either
-    way (a calibration may be taken before the patch runs).  The passes below each say what they find
-    and leave the rest to the next, so that one run finds every problem.
+    recordings: :meth:`Node.check_files`), as ``pointat check`` and ``pointat run`` do
+    (:func:`pointat.loader.ready`), and a missing one (not ``optional``) is an error, for the node cannot
+    start without it; without ``read_files`` (``graph``, ``convert``) it is a warning.  The passes below
+    each say what they find and leave the rest to the next, so that one run finds every problem.
     """
     run = _Run(registry or default_registry, read_files)
     run.expand(spec, overrides)
@@ -281,14 +283,12 @@ def _node_files(run: _Run, decl: NodeDecl, cls: type[Node], values: dict[str, An
             what = "not a regular file" if kinds[name] in ("folder", "other") else kinds[name]
             run.refuse(decl, f"{label}: parameter '{name}': {shorten(str(values[name]))}: {what}")
             return
-    for name in missing:
-        run.result.warnings.append(
-            Problem(
-                decl.where,
-                f"{label}: parameter '{name}': no file {values[name]!r} (it cannot start without it)",
-                "warning",
-            )
-        )
+    for name in missing:  # an error where the files are read (pointat check and run): it would not start
+        message = f"{label}: parameter '{name}': no file {values[name]!r} (it cannot start without it)"
+        if run.read_files:
+            run.refuse(decl, message + run.hint(decl.name))
+        else:
+            run.result.warnings.append(Problem(decl.where, message, "warning"))
     if run.read_files and files and not missing:
         try:
             cls.check_files(values)

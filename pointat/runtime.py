@@ -114,6 +114,7 @@ class Runtime:
         self._queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self._threads: list[threading.Thread] = []
         self._closed = False
+        self._prepared = False
         self._scheduler: threading.Thread | None = None
         # Descriptors read on the scheduler thread, and a socket pair that wakes its select for posts
         # (made when first needed, closed at shutdown).
@@ -348,17 +349,8 @@ class Runtime:
             return
         if self.compiled != "off":  # (before the clock starts: loading the compiled code takes a while)
             self._fuse()
+        self.prepare()  # (done already when pointat run checked the patch: pointat.loader.ready)
         failures = []
-        for node in self.nodes.values():  # heavy one-time work, before the clock starts too
-            try:
-                node.prepare()
-            except Exception as exc:
-                failures.append(
-                    Problem(node.where, f"node '{node.name}' ({node.type_name}): cannot start: {exc}")
-                )
-        if failures:
-            self.shutdown()
-            raise StartError(failures)
         self.clock.reset()
         self.running = True
         for node in self._downstream_first():
@@ -376,6 +368,26 @@ class Runtime:
         # the sources whose end is the patch's end (see _finished)
         self._sources = [n for n in self.nodes.values() if n.active and not self._listens_only(n)]
         self._over_told = False
+
+    def prepare(self) -> None:
+        """Every node's heavy one-time work (:meth:`Node.prepare`), once: what :meth:`start` does before
+        the clock starts, and the last thing ``pointat check`` does (:func:`pointat.loader.ready`), for it
+        opens nothing.  A node that fails stops the patch as at the start: :class:`StartError` names every
+        such node, and the runtime is shut down."""
+        if self._prepared:
+            return
+        self._prepared = True
+        failures = []
+        for node in self.nodes.values():
+            try:
+                node.prepare()
+            except Exception as exc:
+                failures.append(
+                    Problem(node.where, f"node '{node.name}' ({node.type_name}): cannot start: {exc}")
+                )
+        if failures:
+            self.shutdown()
+            raise StartError(failures)
 
     def _fuse(self) -> None:
         """Run the glove chains compiled where the patch has them (:mod:`pointat.fusion`); the patch runs

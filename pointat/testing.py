@@ -32,8 +32,10 @@ from .runtime import Runtime
 __all__ = [
     "CHROMIUM_FLAGS",
     "Collect",
+    "beside",
     "make",
     "patch",
+    "sink_port",
     "test_registry",
     "wait_until",
     "ws_connect",
@@ -94,13 +96,35 @@ wait_until.__test__ = False  # type: ignore[attr-defined]
 
 
 def beside(patch: str | os.PathLike[str]) -> list[str]:
-    """``--set NODE.port=0`` for every ``osc_in`` of ``patch`` (listening on any free port instead of
-    the one in the file, 9001 in the shipped patches): a test that runs the patch runs beside one a
-    performer has running."""
+    """``--set`` arguments that move every port of ``patch`` off the ones in the file (9000 out and 9001
+    control in the shipped patches): each ``osc_in`` listens on a free port (``port=0``), and each sender
+    (``osc_out``, ``osc_send``, ``osc_body``, their ``to`` too) sends to :func:`sink_port`.  A test that
+    runs the patch runs beside one a performer has running, and sends nothing to the performer's
+    renderer.  Put a test's own ``--set`` after these: the last one given wins."""
     from .expansion import expand, read_spec
 
-    spec = expand(read_spec(patch))
-    return [a for d in spec.nodes if d.type == "osc_in" for a in ("--set", f"{d.name}.port=0")]
+    sets = []
+    for d in expand(read_spec(patch)).nodes:
+        if d.type == "osc_in":
+            sets.append(f"{d.name}.port=0")
+        elif d.type in ("osc_out", "osc_send", "osc_body"):
+            sets.append(f"{d.name}.port={sink_port()}")
+            if "to" in d.params:
+                sets.append(f"{d.name}.to=[{sink_port()}]")
+    return [a for s in sets for a in ("--set", s)]
+
+
+_sink: socket.socket | None = None
+
+
+def sink_port() -> int:
+    """A UDP port on 127.0.0.1 that this process holds open and never reads (the kernel drops what does
+    not fit): where :func:`beside` sends a patch's output."""
+    global _sink
+    if _sink is None:
+        _sink = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        _sink.bind(("127.0.0.1", 0))
+    return _sink.getsockname()[1]
 
 
 #: Headless Chromium as the monitor's tests and benchmark start it: no sandbox (root), no GPU, and none of

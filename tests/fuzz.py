@@ -727,7 +727,7 @@ class _Checker:
 
         path = self.path(case)
         path.write_bytes(case.data)
-        args = argparse.Namespace(patch=str(path), set=[], plugins=[], verbose=0)
+        args = self.cli._parser().parse_args(["check", str(path)])  # (every option at its default)
         sink = io.StringIO()
         try:
             with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
@@ -749,21 +749,24 @@ class _Checker:
         return outcome
 
     # ------------------------------------------------------------------ --run
-    def safe(self, path: Path) -> bool:
-        """Whether the checked patch at ``path`` may run here: it writes (or opens as a device) nothing
-        outside the sandbox and sends to and listens on the loopback interface only."""
-        from pointat.loader import check, read_spec
+    def safe(self, path: Path, overrides: list[str] | tuple[str, ...] = ()) -> bool:
+        """Whether the checked patch at ``path`` (with ``--set overrides``) may run here: it opens no
+        device (a serial port, MIDI), writes nothing outside the sandbox nor into a FIFO (which would wait
+        for a reader), and sends to and listens on the loopback interface only."""
+        from pointat.loader import check, parse_overrides, read_spec
 
-        checked = check(read_spec(path), self.registry)
+        checked = check(read_spec(path), self.registry, parse_overrides(overrides))
         box = os.path.realpath(self.sandbox)
         for r in checked.nodes.values():
-            if r.cls.type_name in ("midi_in", "midi_out"):
+            if r.cls.type_name in ("midi_in", "midi_out") or r.values.get("device") not in (None, "", "none"):
                 return False
             for p in r.cls.params:
                 value = r.values.get(p.name)
                 if p.type == "path" and value and (not p.reads or p.writes):
                     real = os.path.realpath(Path(r.decl.where.file).parent / str(value))
                     if os.path.commonpath([real, box]) != box and real != "/dev/null":
+                        return False
+                    if p.writes and os.path.exists(real) and not os.path.isfile(real):
                         return False
                 if p.name == "host" and str(value) not in LOOPBACK:
                     return False

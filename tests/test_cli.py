@@ -359,11 +359,15 @@ def test_convert_elsewhere_keeps_abstractions_and_their_files_in_reach(tmp_path,
 
 
 def test_a_node_that_cannot_start_is_an_error_exit_not_a_traceback(tmp_path):
+    """What check cannot know, as it opens nothing: a port another program holds."""
     bad = tmp_path / "p.pat"
-    bad.write_text("node src replay file=missing.csv\n")
-    out = pointat("run", bad)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        held.bind(("127.0.0.1", 0))
+        bad.write_text(f"node ctl osc_in port={held.getsockname()[1]}\nnode p print\nctl -> p\n")
+        assert pointat("check", bad).returncode == 0
+        out = pointat("run", bad)
     assert out.returncode == 2 and "Traceback" not in out.stderr
-    assert f"{bad}:1: error: node 'src' (replay): cannot start" in out.stderr and "missing.csv" in out.stderr
+    assert f"{bad}:1: error: node 'ctl' (osc_in): cannot start" in out.stderr
 
 
 def test_check_reads_the_files_the_nodes_will_read(tmp_path, capsys):
@@ -388,15 +392,18 @@ def test_check_reads_the_files_the_nodes_will_read(tmp_path, capsys):
     assert f"{patch}:2: error: node 'src' (replay): " in err and "expected a header line" in err
     assert f"{patch}:3: error: node 'spk' (vbap): " in err
     assert "3 errors" in err
-    # mended, the same patch checks; a file not there yet is a warning (calibrate may write it first)
+    # mended, the same patch checks but for a file not there, which stops the start (as run would stop)
     cal = Calibration()
     cal.acc_null[:] = (2040.0, 2051.0, 2046.0)
     cal.save(tmp_path / "cal.json")
     (tmp_path / "take.csv").write_text("t,gyr_x,gyr_y,gyr_z\n0.0,0,0,0\n0.01,0,0,0\n")
     (tmp_path / "room.json").unlink()
-    assert main(["check", str(patch)]) == 0
+    assert main(["check", str(patch)]) == 2
     err = capsys.readouterr().err
-    assert "parameter 'file': no file" in err and "error" not in err
+    said = f"{patch}:3: error: node 'spk' (vbap): parameter 'file': no file "
+    assert said in err and "(it cannot start without it)" in err and "1 error" in err
+    assert main(["run", str(patch), "--for", "0"]) == 2
+    assert said in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("value", ["nan", "-1", "inf", "soon"])

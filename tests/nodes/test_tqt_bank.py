@@ -272,18 +272,21 @@ def test_the_shipped_three_glove_patch_sends_three_sources_over_osc():
 
 def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path, require_tool):
     """numba costs a quarter of a second and ~50 MB to import: listing every node type and checking a
-    bank with backend=numba must not pay it (every patch would); building the bank does."""
+    patch without a bank must not pay it (every patch would); building the bank does, and so does
+    checking it (check builds every node, as run does)."""
     import subprocess
     import sys
 
     require_tool(tqt_compiled.available(), "numba is not installed (pip install '.[fast]')")
     pat = tmp_path / "bank.pat"
     pat.write_text("node bank tqt_bank sensors=2 backend=numba\n")
+    plain = tmp_path / "plain.pat"
+    plain.write_text("node fuse tqt\nnode p print\nfuse -> p\n")
     code = (
         "import contextlib, io, sys\n"
         "from pointat.cli import main\n"
         "with contextlib.redirect_stdout(io.StringIO()):\n"
-        f"    codes = (main(['nodes']), main(['check', {str(pat)!r}]))\n"
+        f"    codes = (main(['nodes']), main(['check', {str(plain)!r}]))\n"
         "before = 'numba' in sys.modules\n"
         "from pointat.loader import load\n"
         f"load({str(pat)!r}, realtime=False)\n"
