@@ -7,8 +7,8 @@
 # Sends /adm/obj/1/aed azimuth elevation distance (float32 "fff": azimuth + left, -180..180; elevation
 # + up; distance 1 on the loudspeakers .. 0 at the centre) to 127.0.0.1:4001, at most 50 times a second.
 # The direction the hand points at when the patch starts becomes the front (ref, mode=heading).
-#     pointat run examples/adm.pat
-#     pointat run examples/adm.pat --set out.host=192.168.1.30 --set out.source=3
+#     pointat run adm
+#     pointat run adm --set out.host=192.168.1.30 --set out.source=3
 # Setting up the receiver: examples/README.md.  A real glove: replace "glove" as in patches/pointing_at.pat
 # (a simulate or mote node feeding nulls); raise nulls.samples to 150 or more.
 

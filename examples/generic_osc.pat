@@ -10,8 +10,8 @@
 # (0 far .. 90 near), dist01, dist_m, spread, x y z (x right, y front, z up), pan (0 left .. 1 right),
 # or numbers (constants).  {n} in the address is the source number.
 # The direction the hand points at when the patch starts is the front.
-#     pointat run examples/generic_osc.pat
-#     pointat run examples/generic_osc.pat --set out.address=/hand/xyz --set "out.fields=[x, y, z]"
+#     pointat run generic_osc
+#     pointat run generic_osc --set out.address=/hand/xyz --set "out.fields=[x, y, z]"
 # Setting up the receiver: examples/README.md.  A real glove: replace "glove" as in patches/pointing_at.pat.
 
 node glove  simulate rate=100

@@ -8,8 +8,8 @@
 # z up; radius 1 on the unit circle .. 0 at the centre) to 127.0.0.1:50001.  Cartesian on purpose: the
 # encoder's own aed form truncates angles to whole degrees.  The direction the hand points at when the
 # patch starts is the front.
-#     pointat run examples/icst.pat
-#     pointat run examples/icst.pat --set out.source=2
+#     pointat run icst
+#     pointat run icst --set out.source=2
 # Setting up the receiver: examples/README.md.  A real glove: replace "glove" as in patches/pointing_at.pat.
 
 node glove  simulate rate=100

@@ -6,10 +6,10 @@
 # in the plug-ins) to 127.0.0.1:8000, as one bundle per update (the plug-ins ignore its time tag), at
 # most 60 times a second.  Each plug-in instance listens on its own port: open its OSC settings (the
 # footer) and enter the same port.  The direction the hand points at when the patch starts is the front.
-#     pointat run examples/iem.pat
-#     pointat run examples/iem.pat --set out.port=8001
+#     pointat run iem
+#     pointat run iem --set out.port=8001
 # A MultiEncoder input instead (inputs count from 0: /MultiEncoder/azimuth2 for the third one):
-#     pointat run examples/iem.pat --set out.profile=iem_multi --set out.source=2
+#     pointat run iem --set out.profile=iem_multi --set out.source=2
 # Setting up the receiver: examples/README.md.  A real glove: replace "glove" as in patches/pointing_at.pat.
 
 node glove  simulate rate=100

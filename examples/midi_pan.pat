@@ -14,12 +14,12 @@
 # direction behind you to the front, as a stereo pan hears it (135 deg, behind left, pans as 45), so
 # turning round pans smoothly back to the centre instead of jumping from hard left to hard right.
 #
-# By default it writes a standard MIDI file, midi_pan.mid next to this patch, so it runs anywhere
+# By default it writes a standard MIDI file, midi_pan.mid in the current folder (or --out DIR), so it runs anywhere
 # (no MIDI system needed); message times are the sensor time stamps at 120 bpm, 480 ticks per beat:
-#     pointat run examples/midi_pan.pat --for 20
+#     pointat run midi_pan --for 20
 # To a DAW or synth instead (needs pip install 'pointat[midi]' and a MIDI system):
-#     pointat run examples/midi_pan.pat --set pan.file= --set "pan.port=IAC Bus 1"
-#     pointat run examples/midi_pan.pat --set pan.file= --set pan.virtual=true   # a port named pointat
+#     pointat run midi_pan --set pan.file= --set "pan.port=IAC Bus 1"
+#     pointat run midi_pan --set pan.file= --set pan.virtual=true   # a port named pointat
 # Finer steps (14-bit, CC10 + CC42): --set pan.kind=cc14.  Another channel: --set pan.channel=2.
 # With a real glove, replace the first line as in patches/pointing_at.pat (simulate output=pty + mote).
 

@@ -7,8 +7,8 @@
 # like its mirror image in front (150 degrees left pans as 30 degrees left), so the pan never jumps.
 # Only changes larger than 0.5 degree are sent, at most 30 times a second (REAPER redraws every one).
 # The direction the hand points at when the patch starts is the front.
-#     pointat run examples/reaper.pat
-#     pointat run examples/reaper.pat --set out.source=4          # track 4 (bank-relative)
+#     pointat run reaper
+#     pointat run reaper --set out.source=4          # track 4 (bank-relative)
 # Setting up REAPER: examples/README.md.  A real glove: replace "glove" as in patches/pointing_at.pat.
 
 node glove  simulate rate=100

@@ -8,8 +8,8 @@
 # POSITIVE RIGHT, so the profile negates pointat's (+ left): pointing 30 degrees left sends -30.  The
 # distance is in metres: radius=2 puts "far" (the loudspeakers) at 2 m; set it to your room's radius.
 # The direction the hand points at when the patch starts is the front.
-#     pointat run examples/spat.pat
-#     pointat run examples/spat.pat --set out.host=192.168.1.30 --set out.radius=3.5
+#     pointat run spat
+#     pointat run spat --set out.host=192.168.1.30 --set out.radius=3.5
 # SPAT also reads ADM-OSC: examples/adm.pat works too (enable ADM-OSC in SPAT's OSC preferences).
 # Setting up the receiver: examples/README.md.  A real glove: replace "glove" as in patches/pointing_at.pat.
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -34,6 +35,7 @@ from pointat.maths.calibration import (
 from pointat.message import Message, as_floats, as_vector, floats
 from pointat.node import Inlet, Node, Outlet, Param, names_path
 from pointat.registry import register
+from pointat.userfiles import read_bytes
 
 log = logging.getLogger(__name__)
 
@@ -419,7 +421,15 @@ class Calibrate(Node):
     inlets = (ADC,)
     outlets = (STATUS,)
     params = (
-        Param("file", "path", "calibration.json", "where save and load go", writes=True),
+        Param(
+            "file",
+            "path",
+            "calibration.json",
+            "where save and load go; read at start when there",
+            reads=True,
+            writes=True,
+            optional=True,
+        ),
         Param("samples", "int", 200, "samples averaged per rest or pose", minimum=2),
         Param(
             "mag_fit",
@@ -470,6 +480,14 @@ class Calibrate(Node):
             "step": f"waiting for a step (/pointat/{self.name}/rest, pose, mag_begin, turn_begin, save)",
             "done": ", ".join(done) or "nothing yet",
         }
+
+    @classmethod
+    def check_files(cls, values: Mapping[str, Any]) -> None:
+        """``file`` is read at start when there (:meth:`loadbang`): a pipe, a device or a file far too
+        large is refused before the show (a spoilt file only warns there: the node starts from nothing)."""
+        path = str(values["file"])
+        if path and os.path.exists(path):
+            read_bytes(path, "calibration")
 
     def loadbang(self) -> None:
         """Start from the calibration already in ``file``: a step taken again replaces its part, and

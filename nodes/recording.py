@@ -38,7 +38,8 @@ from pointat.maths.quaternion import enu_to_nwu
 from pointat.message import Message, floats, vector
 from pointat.node import FULL_SCALE_PARAMS, RANGE_OUTLET, Inlet, Node, Outlet, Param, full_scale
 from pointat.registry import register
-from pointat.spec import path_kind
+from pointat.userfiles import UserFileError
+from pointat.userfiles import lines as user_lines
 
 log = logging.getLogger(__name__)
 
@@ -71,15 +72,14 @@ def read_lines(path: str | Path) -> Iterator[tuple[int, str]]:
     """The lines of a recording with their numbers, from 1 as an editor counts them (``.gz`` through
     gzip).  A file that cannot be read to its end raises :class:`Unreadable`, naming it and the line."""
     path = Path(path)
-    kind = path_kind(path)
-    if kind in ("folder", "other"):  # a device or a pipe would be read for ever, or wait for ever
-        raise Unreadable(f"{path}: not a regular file (a device, a pipe or a folder): a recording is a file")
-    opener: Any = gzip.open if path.suffix == ".gz" else open
     n = 0
     try:
-        with opener(path, "rb") as fh:
-            for n, raw in enumerate(fh, 1):  # decoded line by line, so a bad byte is placed exactly
-                yield n, raw.decode("utf-8")
+        # a regular file (a device or a pipe would be read for ever, or waited on for ever) of 1 GB at
+        # most, a line of 1 MB at most; decoded line by line, so a bad byte is placed exactly
+        for n, raw in user_lines(path, "take"):
+            yield n, raw.decode("utf-8")
+    except UserFileError as exc:
+        raise Unreadable(str(exc)) from None
     except UnicodeDecodeError as exc:
         raise Unreadable(
             f"{path}:{n}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at column {exc.start + 1})"

@@ -1,6 +1,7 @@
 # A whole body: 15 sensors (pelvis, chest, head, both arms, both legs) through one tqt_bank, Bachmann's
 # posture tracking into 15 segments and their joints, sent as OSC to port 9003
-# (/pointat/body/SEGMENT/quat|pos|end) and recorded as a BVH take (body.bvh, anew at each run).
+# (/pointat/body/SEGMENT/quat|pos|end) and recorded as a BVH take (body.bvh in the current folder, or
+# --out DIR, anew at each run).
 #
 # Out of the box it runs on a simulated body: 6 s in the calibration pose (the N-pose: upright, arms
 # hanging, feet forward), then it walks in place, turns and swings its arms.  One core does it at 100 Hz

@@ -17,20 +17,21 @@
 #      (Eq. 31).  Again for the other two axes.  After step 1, in the same run.  With all three axes
 #      turned, the gyro's cross-axis misalignment too ("gyro_misalignment"); 180 deg turns and
 #      --set cal.samples=1000 halve its error (0.02 against 0.04 deg).
-#   5. /pointat/cal/save                  writes calibration.json next to this patch (or cal.file=...)
+#   5. /pointat/cal/save                  writes calibration.json in the current folder (or --out DIR,
+#                                          or cal.file=...)
 # Steps 2-4 may be left out: a sensor the file does not calibrate keeps Torre's nominal resolution.
 # An existing calibration.json is the starting point ("loaded"): redo one step, save, and the others
 # stay; /pointat/cal/clear starts from nothing.
 # Then play with it:
-#   pointat run patches/glove_tqt.pat --set nulls.calibration=patches/calibration.json \
-#       --set units.calibration=patches/calibration.json
+#   pointat run glove_tqt --set nulls.calibration=calibration.json \
+#       --set units.calibration=calibration.json
 #
 # The source is the built-in simulated glove (it can do steps 1, 3 and 4: its script turns but never
 # points an accelerometer axis down; for step 3 run with --set cal.mag_fit=ellipsoid, since its turns
 # do not cover every direction, which min/max needs: e.g. mag_begin at 48 s, mag_end at 84 s).  It holds still only from 36 to 43 s after the patch starts (then
 # every 41 s): send step 1 then, e.g. `sleep 37; pointat send 9001 /pointat/cal/rest`; sent while it
 # moves, the step is refused ("moved ...") and may be sent again.  For a real base station:
-#     pointat run patches/calibrate_glove.pat --set glove.output=direct --set base.device=/dev/ttyUSB0
+#     pointat run calibrate_glove --set glove.output=direct --set base.device=/dev/ttyUSB0
 
 node glove  simulate rate=100 output=pty
 node base   mote ids=[1] rate=100

@@ -2,7 +2,7 @@
 # the estimated orientation mapping sensor -> the recording's earth frame (ENU for the BROAD data set).
 # Ends by itself at the end of the file.
 #
-#   pointat run patches/evaluate_complementary.pat --set source.file=IN.csv.gz --set sink.file=OUT.csv
+#   pointat run evaluate_complementary --set source.file=IN.csv.gz --set sink.file=OUT.csv
 
 node source replay file=pointat:data/01_undisturbed_slow_rotation_A.csv.gz speed=0
 node gyro   gyro_integrator mode=exact rate=285.7142857142857

@@ -2,7 +2,7 @@
 # orientation mapping sensor -> the recording's earth frame (ENU for the BROAD data set, like its ground
 # truth).  Ends by itself at the end of the file.
 #
-#   pointat run patches/evaluate_tqt.pat --set source.file=IN.csv.gz --set sink.file=OUT.csv
+#   pointat run evaluate_tqt --set source.file=IN.csv.gz --set sink.file=OUT.csv
 #
 # Try the paper's filter with --set fuse.mode=paper.
 

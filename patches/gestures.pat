@@ -5,7 +5,8 @@
 #
 # The source is the built-in simulated glove playing a performer who points, rests, and makes a circle,
 # a flick of the wrist and a nod in turn (simulate script=gestures).  gestures.json beside this patch
-# holds three examples of each, taught from it; the patch loads them and recognises at once.
+# holds three examples of each, taught from it; the first run copies it into the current folder (or
+# --out DIR) as yours, loads it from there and recognises at once.
 # Teach your own (a real glove: --set glove.output=direct --set base.device=/dev/ttyUSB0), over OSC to
 # port 9001, e.g. with `pointat send 9001 ...`:
 #   /pointat/moves/clear                   forget the examples
@@ -13,7 +14,7 @@
 #   /pointat/moves/record flick 3          ... and the others
 #   /pointat/moves/record null 3           ordinary moves that are no gesture (optional)
 #   /pointat/moves/train                   learn, and recognise
-#   /pointat/moves/save                    into gestures.json, loaded at the next start
+#   /pointat/moves/save                    into your gestures.json, loaded at the next start
 # Recognised gestures go to 127.0.0.1:9000 as /pointat/gesture LABEL SCORE (score 1: like an example,
 # 0: at the edge of rejection), strokes as /pointat/stroke (the direction struck towards, in the room,
 # from the fused orientation: a strike down is elevation -90; strength in g); each gesture also strikes a MIDI note

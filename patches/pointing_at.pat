@@ -8,7 +8,7 @@
 # The fusion half (gyro_integrator ... roll_distance) is the abstraction lib/torre_fusion.pat, shared
 # with replay_pointing_at.pat.  The source is the built-in simulated glove writing real mote frames into
 # a pseudo-terminal that the mote node reads.  For a real base station:
-#     pointat run patches/pointing_at.pat --set glove.output=direct --set base.device=/dev/ttyUSB0
+#     pointat run pointing_at --set glove.output=direct --set base.device=/dev/ttyUSB0
 # Point at the front loudspeaker and send /pointat/press/bang (OSC to port 9001) to make it azimuth 0
 # (until then azimuth 0 is magnetic north, as in the paper).
 # Directions go to 127.0.0.1:9000 as /pointat/1/aed azimuth elevation distance, three float32: degrees

@@ -1,5 +1,6 @@
 # The tqt glove patch that also records the glove: every mote frame's nine raw ADC counts and its time
-# stamp into take.csv (beside this patch, or --set take.file=...), line by line, nothing lost on Ctrl-C.
+# stamp into take.csv (in the current folder, or --out DIR, or --set take.file=...), line by line, nothing
+# lost on Ctrl-C.
 # Each run starts the file anew: name each take (--set take.file=take2.csv) or --set take.append=true.
 # Rehearse with the glove on, then shape the sound without it: patches/replay_glove.pat plays the take
 # back through the same chain, with the same results.  Live control on 9001 as in glove_tqt.pat; the

@@ -1,7 +1,7 @@
 # A take recorded by patches/record_glove.pat, played back through the same chain in real time: the
 # same directions, sent the same way, without the glove.  Out of the box it plays the simulated glove's
 # demo (pointat/data/glove_take.csv.gz, 41 s); yours:
-#   pointat run patches/replay_glove.pat --set source.file=patches/take.csv --set source.loop=true
+#   pointat run replay_glove --set source.file=take.csv --set source.loop=true
 # The reference pose is not part of a take: press again (/pointat/press/bang on port 9001) as it plays.
 
 node source replay file=pointat:data/glove_take.csv.gz speed=1

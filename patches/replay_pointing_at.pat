@@ -1,6 +1,6 @@
 # Torre et al.'s chain on a real recording: one trial of the BROAD data set (optical ground truth, CC BY
 # 4.0, pointat/data/README.md) replayed in real time through lib/torre_fusion.pat.
-#   pointat run patches/replay_pointing_at.pat --set source.file=OTHER.csv.gz --set source.speed=0
+#   pointat run replay_pointing_at --set source.file=OTHER.csv.gz --set source.speed=0
 
 node source replay file=pointat:data/01_undisturbed_slow_rotation_A.csv.gz speed=1
 node torre  lib/torre_fusion.pat rate=285.7142857142857 crossover=0.05 integrator=exact

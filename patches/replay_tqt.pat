@@ -1,6 +1,6 @@
 # The tqt filter on a real recording: one trial of the BROAD data set (optical ground truth, CC BY 4.0,
 # pointat/data/README.md) replayed in real time through lib/tqt_fusion.pat.
-#   pointat run patches/replay_tqt.pat --set source.file=OTHER.csv.gz --set source.speed=0
+#   pointat run replay_tqt --set source.file=OTHER.csv.gz --set source.speed=0
 
 node source replay file=pointat:data/01_undisturbed_slow_rotation_A.csv.gz speed=1
 node tqt    lib/tqt_fusion.pat rate=285.7142857142857 mode=robust

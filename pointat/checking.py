@@ -14,6 +14,7 @@ which share :func:`pointat.loader.ready`).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -135,6 +136,8 @@ class _Run:
     over: dict[str, dict[str, Any]] = field(default_factory=dict)  # node -> --set values
     argued: dict[str, list[str]] = field(default_factory=dict)  # instance -> its --set arguments
     refused: dict[str, Ports] = field(default_factory=dict)  # refused nodes' ports, for their wires
+    out: Path = field(default_factory=Path)  # where a shipped patch's files go (PatchSpec.out)
+    instances: dict[str, NodeDecl] = field(default_factory=dict)  # the patch's own abstraction instances
 
     def expand(self, spec: PatchSpec, overrides: Sequence[tuple[str, str, Any]]) -> None:
         """Instances' arguments from the command line, then the abstractions expanded (what cannot be
@@ -144,12 +147,23 @@ class _Run:
             if node in instances:
                 self.argued.setdefault(node, []).append(f"--set {node}.{arg}={format_value(value)}")
         spec, self.overrides = _set_arguments(spec, overrides, self.problems)
+        self.instances = {d.name: d for d in spec.nodes if is_abstraction(d.type)}
         self.flat = _expand(spec, self.problems)
+        self.out = Path(spec.out or ".").absolute()
         self.result = Checked(self.flat)
 
     def refuse(self, decl: NodeDecl, message: str, at: Where | None | str = "decl") -> None:
         where = decl.where if at == "decl" else at
-        self.problems.append(Problem(where, message))  # type: ignore[arg-type]
+        self.problems.append(self._at_instance(decl, where, message))  # type: ignore[arg-type]
+
+    def _at_instance(self, decl: NodeDecl, where: Where | None, message: str) -> Problem:
+        """A node of an abstraction refused: said at the line of the user's patch that made the instance
+        (whose arguments are the likely cause, and the file the user can change), naming both places."""
+        top = self.instances.get(decl.name.split("/", 1)[0]) if "/" in decl.name else None
+        if top is None or top.where is None or where is None or where.file == top.where.file:
+            return Problem(where, message)
+        inner = os.path.relpath(where.file, Path(top.where.file).parent)
+        return Problem(top.where, f"{message} (in abstraction {inner}:{where.line}, created at {top.where})")
 
     def hint(self, name: str) -> str:
         """What the command line gave that may be to blame for a refusal at the file's line."""
@@ -257,7 +271,7 @@ def _parameters(run: _Run, decl: NodeDecl, cls: type[Node]) -> dict[str, Any] | 
         run.set_aside(cls, decl, values)
         return None
     try:
-        _anchor_paths(cls, values, decl, run.over.get(decl.name, {}))
+        _anchor_paths(cls, values, decl, run.over.get(decl.name, {}), run.out)
         for p in cls.params:
             if p.writes and values.get(p.name):
                 _writable(p.name, values[p.name])
@@ -534,11 +548,12 @@ def _writable(name: str, value: str) -> None:
 
 
 def _anchor_paths(
-    cls: type[Node], values: dict[str, Any], decl: NodeDecl, overridden: Mapping[str, Any]
+    cls: type[Node], values: dict[str, Any], decl: NodeDecl, overridden: Mapping[str, Any], out: Path
 ) -> None:
-    """Relative ``path`` parameters written in a patch are relative to that patch file (as in Pd);
-    those given on the command line (``--set``) stay relative to the working directory; ``pointat:...``
-    names a file the package ships (:mod:`pointat.shipped`)."""
+    """Relative ``path`` parameters written in a patch are relative to that patch file (as in Pd),
+    except in a shipped patch, which is read-only: what it writes goes to ``out``, what it reads is the
+    user's copy there first (:func:`pointat.shipped.place`); those given on the command line (``--set``)
+    stay relative to the working directory; ``pointat:...`` names a file the package ships."""
     for p in cls.params:  # pointat:data/... is the package's, from anywhere (pointat.shipped)
         v = values.get(p.name)
         if p.type == "path" and isinstance(v, str) and v.startswith(shipped.PREFIX):
@@ -546,10 +561,14 @@ def _anchor_paths(
     if decl.where is None or decl.where.file.startswith("<"):
         return
     base = Path(decl.where.file).parent
+    read_only = shipped.is_shipped(decl.where.file)
     for p in cls.params:
         v = values.get(p.name)
         if p.type == "path" and v and p.name not in overridden and not Path(v).is_absolute():
-            values[p.name] = str(base / v)
+            if read_only:
+                values[p.name] = shipped.place(v, base, out, reads=p.reads, writes=p.writes)
+            else:
+                values[p.name] = str(base / v)
 
 
 def _too_deep(result: Checked, edges: dict[str, list[str]]) -> list[Problem]:

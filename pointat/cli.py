@@ -95,6 +95,14 @@ def _add_patch_args(p: argparse.ArgumentParser) -> None:
         help="override a node parameter (repeatable); INSTANCE.ARG sets an abstraction instance's argument, "
         "INSTANCE/NODE.PARAM a node inside it",
     )
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="where a shipped patch's files go (default: this folder): takes, calibrations, BVH and MIDI "
+        "files, gesture examples, presets; what it reads is your copy there first, else the shipped one.  "
+        "A shipped patch is read-only: nothing is written beside it.  A patch of your own reads and "
+        "writes beside itself, as in Pd; --set paths are relative to this folder",
+    )
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -301,9 +309,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         ap.print_help()
         return 2
-    if getattr(args, "patch", None):
-        args.patch = _patch_path(args.patch)
     try:
+        if getattr(args, "patch", None):
+            args.patch = _patch_path(args.patch)
         registry = _registry(args.plugins)
         return COMMANDS[args.command](args, registry)
     except PatchError as exc:
@@ -325,11 +333,50 @@ def _patch_path(name: str) -> str:
     if os.path.exists(name):
         return name
     found = shipped.find_patch(name)
-    return str(found) if found is not None else name
+    if found is not None:
+        return str(found)
+    if Path(name).suffix.lower() not in (".pat", ".pd"):  # a name, not a file: say which was meant
+        names = shipped.patch_names()
+        raise PointatError(
+            f"no patch file or shipped patch {name!r}"
+            + (did_you_mean(name, names) or did_you_mean(Path(name).name, names))
+            + ": `pointat patches` lists the shipped ones"
+        )
+    return name  # (reading it says why it cannot be read)
+
+
+def _out(args: argparse.Namespace) -> Path:
+    """Where a shipped patch's files go: ``--out DIR`` (a folder that is there), else this folder."""
+    if args.out is not None and not os.path.isdir(args.out):
+        raise PointatError(f"--out {args.out}: no such folder (make it first: mkdir {args.out})")
+    return Path(args.out or ".").absolute()
+
+
+def _spec(args: argparse.Namespace) -> Any:
+    """The patch read, told where its files go when it is a shipped one."""
+    spec = read_spec(args.patch)
+    spec.out = str(_out(args))
+    return spec
+
+
+def _seed(args: argparse.Namespace) -> list[tuple[Path, Path]]:
+    """A shipped patch's own files, which it reads and writes (gestures.json: the examples it loads and
+    saves), copied into the output folder when they are not there yet: the user's own to teach more and
+    save, where the shipped one stays as it is.  Returns (shipped, copy) pairs."""
+    copied = []
+    for src in shipped.seeds(args.patch):
+        dest = _out(args) / src.name
+        if not dest.exists():
+            try:
+                dest.write_bytes(src.read_bytes())
+            except OSError as exc:
+                raise PointatError(f"cannot copy {src.name} into {dest.parent}: {exc.strerror}") from None
+            copied.append((src, dest))
+    return copied
 
 
 def _checked(args: argparse.Namespace, registry: Registry):
-    checked = check(read_spec(args.patch), registry, parse_overrides(args.set))
+    checked = check(_spec(args), registry, parse_overrides(args.set))
     for w in checked.warnings:
         print(w, file=sys.stderr)
     return checked
@@ -338,7 +385,7 @@ def _checked(args: argparse.Namespace, registry: Registry):
 def _ready(args: argparse.Namespace, registry: Registry):
     """The patch checked, its files read, its nodes built and prepared: all that ``check`` does, and all
     that ``run`` does before it opens a port (:func:`pointat.loader.ready`)."""
-    checked, rt = ready(read_spec(args.patch), registry, parse_overrides(args.set))
+    checked, rt = ready(_spec(args), registry, parse_overrides(args.set))
     for w in checked.warnings:
         print(w, file=sys.stderr)
     return checked, rt
@@ -351,13 +398,14 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
             "serial port's own interrupt thread among them) then hardly get; use one of them: --rt "
             "already keeps the CPUs out of deep idle states, which takes much of the wake-up's cost away"
         )
+    copied = _seed(args)  # (before the patch reads them, as it is made ready)
     layout = _layout(args.layout) if args.layout else None
     _, rt = _ready(args, registry)  # what check does, no more and no less; then it starts
     rt.spin = args.spin / 1000.0
     rt.compiled = args.compiled
     observer = Observer(rt, layout=layout, patch=Path(args.patch).stem, about=about(args.patch)).attach()
     if os.path.isfile(args.patch):
-        rt.presets = Presets(rt, presets_path(args.patch))
+        rt.presets = Presets(rt, presets_path(args.patch, _out(args)))
     server = None
     if args.monitor is not None:
         server = _monitor(rt, observer, args)
@@ -409,7 +457,8 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
                 args.spin,
             )
         log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
-        for line in banner(rt, args.patch, monitor=server, presets=rt.presets):
+        lines = banner(rt, args.patch, monitor=server, presets=rt.presets, copied=copied)
+        for line in lines:
             out.write(line)  # (before the loadbangs print anything)
         if server is not None:
             server.start()  # (before the clock starts: its threads and zeroconf take a moment)

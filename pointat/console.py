@@ -5,12 +5,13 @@ the console's writer (:mod:`pointat.terminal`) puts them on the screen."""
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from . import __version__
 
-__all__ = ["about", "banner", "describe"]
+__all__ = ["about", "banner", "describe", "files"]
 
 
 def about(path: str | os.PathLike[str]) -> str:
@@ -95,7 +96,24 @@ _INPUTS = ("simulate", "simulate_body", "mote", "replay", "osc_in", "midi_in")
 _OUTPUTS = ("osc_out", "osc_body", "record", "bvh_record", "midi_out", "calibrate")
 
 
-def banner(rt: Any, patch: str, *, monitor: Any = None, presets: Any = None) -> list[str]:
+def files(rt: Any, copied: Sequence[tuple[Path, Path]] = ()) -> list[str]:
+    """Where each file the patch writes goes, as whole paths (a shipped patch's go to the current folder
+    or ``--out``); ``copied``: the shipped files the run copied there first, to be the user's own."""
+    lines = [
+        f"  copied   {os.path.abspath(copy)}  (the shipped {src.name}: yours to change and save)"
+        for src, copy in copied
+    ]
+    for node in rt.nodes.values():
+        for p in type(node).params:
+            value = getattr(node.p, p.name, None)
+            if p.type == "path" and p.writes and value:
+                lines.append(f"  file     {os.path.abspath(value)}  ({node.type_name} '{node.name}': {p.doc})")
+    return lines
+
+
+def banner(
+    rt: Any, patch: str, *, monitor: Any = None, presets: Any = None, copied: Sequence[tuple[Path, Path]] = ()
+) -> list[str]:
     """The lines ``pointat run`` starts with."""
     name = Path(patch).stem
     what = about(patch)
@@ -108,6 +126,7 @@ def banner(rt: Any, patch: str, *, monitor: Any = None, presets: Any = None) -> 
         lines.append(
             f"  monitor  {monitor.url}  (OSCQuery on the same port; OSC control on {monitor.osc_port}/udp)"
         )
+    lines += files(rt, copied)
     if presets is not None:
         lines.append(f"  presets  {presets.path}  (/pointat/preset/save NAME, /pointat/preset/recall NAME)")
     lines.append("  Ctrl-C stops.")

@@ -18,7 +18,7 @@ from . import patchfile, pdfile
 from .errors import PatchError, Problem, Where, closest, shorten
 from .patchfile import parse_patch, parse_value
 from .registry import Registry
-from .shipped import PREFIX
+from .shipped import PREFIX, is_shipped
 from .spec import (
     NodeDecl,
     PatchSpec,
@@ -309,14 +309,18 @@ def _set_arguments(
 def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) -> None:
     """Rewrite relative ``path`` parameters (given by name) and abstraction files so they still point at
     the same files from a patch saved in ``target_dir`` (``pointat convert`` to another folder).  Each is
-    relative to the file it was written in: an expanded abstraction's nodes to the abstraction's folder."""
+    relative to the file it was written in: an expanded abstraction's nodes to the abstraction's folder.
+    A file a shipped patch writes stays as it is written: the converted copy is the user's and writes
+    beside itself, never into the shipped folder (the installed package)."""
 
-    def moved(value: str, decl: NodeDecl) -> str:
+    def moved(value: str, decl: NodeDecl, writes: bool = False) -> str:
         if Path(value).is_absolute() or value.startswith(PREFIX):  # (the package's file, from anywhere)
             return value
         written = (
             decl.where.file if decl.where is not None and not decl.where.file.startswith("<") else spec.path
         )
+        if writes and is_shipped(written):
+            return value
         return Path(os.path.relpath(Path(written).parent / value, target_dir)).as_posix()
 
     for decl in spec.nodes:
@@ -329,7 +333,7 @@ def rebase_paths(spec: PatchSpec, registry: Registry, target_dir: str | Path) ->
         for name, value in decl.params.items():
             p = cls.param(name)
             if p is not None and p.type == "path" and isinstance(value, str) and value:
-                decl.params[name] = moved(value, decl)
+                decl.params[name] = moved(value, decl, p.writes)
 
 
 def flatten(spec: PatchSpec) -> PatchSpec:

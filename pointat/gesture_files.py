@@ -20,7 +20,6 @@ Every error names the file, and the line or the example, and says what was expec
 from __future__ import annotations
 
 import csv
-import gzip
 import io
 import json
 import math
@@ -33,6 +32,8 @@ import numpy as np
 
 from pointat.maths.gestures import CHANNELS, Example, channel_slices
 from pointat.names import BadName, check_name, inside
+from pointat.saving import write_atomic
+from pointat.userfiles import read_json, read_text
 
 __all__ = [
     "COLUMNS",
@@ -42,6 +43,7 @@ __all__ = [
     "Recording",
     "dump_model",
     "load_model",
+    "model_text",
     "read_folder",
     "read_recording",
     "write_recording",
@@ -79,22 +81,10 @@ class Recording:
         return Example(self.label, self.t, np.column_stack([self.groups[c] for c in channels]))
 
 
-def _open_text(path: Path) -> io.TextIOBase:
-    if path.name.endswith(".gz"):
-        return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8", newline="")
-    return open(path, encoding="utf-8", newline="")
-
-
 def read_recording(path: str | os.PathLike[str], label: str = "") -> Recording:
     """Read one CSV recording; ``ValueError`` naming the file and line for anything amiss."""
     path = Path(path)
-    try:
-        with _open_text(path) as f:
-            text = f.read(64 * 1024 * 1024 + 1)
-    except (OSError, UnicodeDecodeError, EOFError) as exc:
-        raise ValueError(f"{path}: cannot read ({exc})") from None
-    if len(text) > 64 * 1024 * 1024:
-        raise ValueError(f"{path}: more than 64 MB of text; a gesture recording is far smaller")
+    text = read_text(path, "recording", gzip_ok=True)  # a regular file of 64 MB at most, never a wait
     reader = csv.reader(io.StringIO(text, newline=""))
     rows = []
     try:
@@ -192,7 +182,12 @@ def write_recording(path: str | os.PathLike[str], t: Sequence[float], groups: di
 def dump_model(
     path: str | os.PathLike[str], kind: str, channels: Sequence[str], size: int, examples: Sequence[Example]
 ) -> None:
-    """Write a model file (atomically: a crash mid-write leaves the old file whole)."""
+    """Write a model file (atomically, synced: a crash mid-write leaves the old file whole)."""
+    write_atomic(path, model_text(kind, channels, size, examples))
+
+
+def model_text(kind: str, channels: Sequence[str], size: int, examples: Sequence[Example]) -> str:
+    """A model file's text (what :func:`dump_model` writes; a node's saver writes it on its thread)."""
     doc = {
         "format": FORMAT,
         "version": VERSION,
@@ -201,10 +196,7 @@ def dump_model(
         "size": int(size),
         "examples": [{"label": e.label, "t": e.t.tolist(), "frames": e.frames.tolist()} for e in examples],
     }
-    target = Path(path)
-    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(doc, separators=(",", ":")), encoding="utf-8")
-    os.replace(tmp, target)
+    return json.dumps(doc, separators=(",", ":"))
 
 
 def _label(value: Any, where: str) -> str:
@@ -221,19 +213,7 @@ def load_model(path: str | os.PathLike[str], kind: str | None) -> tuple[tuple[st
     """Read a model file written by :func:`dump_model`: (channels, size, examples); ``ValueError``
     naming the file and the example for anything amiss.  ``kind``: the node's, or None for any."""
     p = Path(path)
-    try:
-        if p.stat().st_size > 256 * 1024 * 1024:
-            raise ValueError(
-                f"{p}: more than 256 MB; a model of {MOST_EXAMPLES} long examples is far smaller"
-            )
-        text = p.read_text(encoding="utf-8")
-        doc = json.loads(text)
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{p}: cannot read ({exc})") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{p}:{exc.lineno}: not JSON ({exc.msg})") from None
-    except RecursionError:
-        raise ValueError(f"{p}: nested too deep to be a model file") from None
+    doc = read_json(p, "gesture model")  # a regular file of 256 MB at most, never a wait
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise ValueError(f'{p}: not a pointat gesture model (expected "format": "{FORMAT}")')
     if doc.get("version") != VERSION:

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from .names import check_name
+from .userfiles import read_json
 
 __all__ = ["Presets", "presets_path"]
 
@@ -64,15 +65,10 @@ class Presets:
         self.path = Path(path)
         self.presets: dict[str, dict[str, dict[str, Any]]] = {}
         self.writable = True
-        if self.path.exists():
+        if os.path.lexists(self.path):
             try:
-                data = json.loads(self.path.read_text(encoding="utf-8"))
-                if not isinstance(data, dict) or not isinstance(data.get("presets"), dict):
-                    raise ValueError(
-                        'expected {"pointat_presets": 1, "presets": {NAME: {NODE: {PARAM: VALUE}}}}'
-                    )
-                self.presets = {str(k): v for k, v in data["presets"].items() if isinstance(v, dict)}
-            except (OSError, ValueError) as exc:  # (json's errors say the line and column)
+                self.presets = _read(self.path)
+            except ValueError as exc:  # a pipe, a device, too large, not JSON, a bad name: with its place
                 self.writable = False
                 log.error(
                     "presets: %s cannot be read (%s); it is left as it is, and presets saved now are kept "
@@ -145,3 +141,21 @@ class Presets:
         except BaseException:
             Path(tmp).unlink(missing_ok=True)
             raise
+
+
+def _read(path: Path) -> dict[str, dict[str, dict[str, Any]]]:
+    """The presets in a presets file, read as every user file is; ``ValueError`` naming the file."""
+    data = read_json(path, "presets")
+    if not isinstance(data, dict) or not isinstance(data.get("presets"), dict):
+        raise ValueError(
+            f'{path}: expected {{"pointat_presets": 1, "presets": {{NAME: {{NODE: {{PARAM: VALUE}}}}}}}}'
+        )
+    presets = {}
+    for name, values in data["presets"].items():
+        try:
+            check_name("preset", name)
+        except ValueError as exc:
+            raise ValueError(f"{path}: presets: {exc}") from None
+        if isinstance(values, dict):
+            presets[name] = values
+    return presets

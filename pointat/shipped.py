@@ -7,14 +7,29 @@ names find them either way:
 
 * ``pointat run glove_tqt`` (a name that is no file here) runs ``patches/glove_tqt.pat``, from any folder;
 * a path parameter written ``pointat:data/glove_take.csv.gz`` is the file of that name in the package,
-  so a shipped patch names its sample take the same way installed or not.
+  so a shipped patch names its sample take the same way installed or not;
+* a shipped patch is read-only: a file it writes (a take, a calibration, a BVH or MIDI file, its
+  gesture examples, its presets) goes to the current folder, or the one ``pointat run --out DIR``
+  names (:func:`place`), never beside the patch inside the package.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
-__all__ = ["PREFIX", "copy_patch", "find_patch", "folder", "patch_names", "resolve"]
+__all__ = [
+    "PREFIX",
+    "copy_patch",
+    "find_patch",
+    "folder",
+    "is_shipped",
+    "names_in",
+    "patch_names",
+    "place",
+    "resolve",
+    "seeds",
+]
 
 #: The package's own folder.
 PACKAGE = Path(__file__).resolve().parent
@@ -45,6 +60,49 @@ def resolve(value: str) -> str:
     rest = value[len(PREFIX) :].lstrip("/")
     top, _, below = rest.partition("/")
     return str(folder(top) / below) if top in (*PATCH_FOLDERS, "data") and below else str(PACKAGE / rest)
+
+
+def is_shipped(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a file of the shipped patches or examples (their ``lib/`` too), however it
+    was named: by name, or by its path inside the package or the checkout.
+
+    >>> is_shipped(find_patch("glove_tqt")), is_shipped(folder("patches") / "lib" / "tqt_fusion.pat")
+    (True, True)
+    >>> is_shipped("my.pat")
+    False
+    """
+    where = Path(os.path.realpath(path))
+    return any(where.is_relative_to(os.path.realpath(folder(top))) for top in PATCH_FOLDERS)
+
+
+def place(value: str, base: Path, out: Path, *, reads: bool, writes: bool) -> str:
+    """Where a shipped patch's relative file parameter ``value`` (written in a file of folder ``base``)
+    is: a file it writes is in ``out`` (the current folder, or ``--out``); one it only reads is the
+    user's copy in ``out`` when there is one, else the shipped one beside the patch (read-only), else
+    the user's (where the error then says to put it).  A file both read and written (the gestures'
+    examples) is the user's: :func:`seeds` copies the shipped one there first.
+
+    >>> out = Path("/show")
+    >>> place("take.csv", folder("patches"), out, reads=False, writes=True)
+    '/show/take.csv'
+    >>> place("lib/tqt_fusion.pat", folder("patches"), out, reads=True, writes=False) == str(
+    ...     folder("patches") / "lib/tqt_fusion.pat")
+    True
+    """
+    mine, theirs = out / value, base / value
+    if not writes and not mine.exists() and theirs.exists():
+        return str(theirs)
+    return str(mine)
+
+
+def seeds(patch: str | os.PathLike[str]) -> list[Path]:
+    """The files a shipped patch keeps beside itself under its own name, read and written as it runs
+    (``gestures.json`` beside ``gestures.pat``: the examples it loads, and saves when taught more):
+    what a run copies into its output folder when they are not there yet, to be the user's own."""
+    found = Path(patch)
+    if not is_shipped(found):
+        return []
+    return sorted(p for p in found.parent.glob(found.stem + ".*") if p != found and p.suffix == ".json")
 
 
 def find_patch(name: str) -> Path | None:
@@ -95,10 +153,7 @@ def copy_patch(name: str, target: Path) -> list[Path]:
     if target.exists() and not target.is_dir():
         raise ValueError(f"{target}: not a folder")
     text = found.read_text(encoding="utf-8")
-    wanted = [
-        found,
-        *sorted(p for p in found.parent.glob(found.stem + ".*") if p != found and p.suffix == ".json"),
-    ]
+    wanted = [found, *seeds(found)]
     wanted += sorted(p for p in (found.parent / "lib").glob("*.pat") if f"lib/{p.name}" in text)
     plan = [(p, target / p.relative_to(found.parent)) for p in wanted]
     there = [str(dest) for _, dest in plan if dest.exists()]

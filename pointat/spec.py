@@ -13,6 +13,7 @@ from pathlib import PurePath
 from typing import Any
 
 from .errors import PatchError, Where
+from .userfiles import LIMITS, UserFileError, read_bytes
 
 __all__ = [
     "MAX_PATCH_BYTES",
@@ -38,36 +39,17 @@ def is_abstraction(type_name: str) -> bool:
 
 
 #: The largest patch file read (bytes): a thousand-node patch is ~50 KB; a file beyond this is no patch.
-MAX_PATCH_BYTES = 4 * 1024 * 1024
+MAX_PATCH_BYTES = LIMITS["patch"]
 
 
 def read_patch_bytes(path: str | PurePath) -> bytes:
     """A patch file's bytes: a regular file (not a device, a pipe or a folder) of at most
-    :data:`MAX_PATCH_BYTES`; :class:`PatchError` at the file otherwise."""
-    where = Where(str(path))
+    :data:`MAX_PATCH_BYTES`, read as every user file is (:mod:`pointat.userfiles`); :class:`PatchError`
+    at the file otherwise."""
     try:
-        # non-blocking: opening a FIFO must not wait for a writer (it is refused just below)
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except (OSError, ValueError) as exc:  # no such file, no permission, a name too long, a NUL in it
-        raise PatchError(f"cannot read patch: {getattr(exc, 'strerror', None) or exc}", where) from None
-    with os.fdopen(fd, "rb") as fh:
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode):
-            raise PatchError(
-                "not a regular file (a device, a pipe or a folder): a patch is a text file", where
-            )
-        if info.st_size > MAX_PATCH_BYTES:
-            raise PatchError(
-                f"{info.st_size / 1e6:.1f} MB: larger than a patch ({MAX_PATCH_BYTES // 2**20} MB at most)",
-                where,
-            )
-        try:
-            raw = fh.read(MAX_PATCH_BYTES + 1)
-        except OSError as exc:
-            raise PatchError(f"cannot read patch: {exc.strerror or exc}", where) from None
-    if len(raw) > MAX_PATCH_BYTES:  # (grew while read)
-        raise PatchError(f"larger than a patch ({MAX_PATCH_BYTES // 2**20} MB at most)", where)
-    return raw
+        return read_bytes(path, "patch", limit=MAX_PATCH_BYTES)
+    except UserFileError as exc:
+        raise PatchError(exc.problem, Where(str(path))) from None
 
 
 def path_kind(path: str | PurePath) -> str:
@@ -146,6 +128,9 @@ class PatchSpec:
     outlets: list[PortDecl] = field(default_factory=list)
     doc: str = ""
     args_where: Where | None = None
+    #: Where the relative files of a shipped patch go (``pointat run --out``; empty: the current folder
+    #: as it is checked): a shipped patch is read-only (:func:`pointat.shipped.place`).
+    out: str = ""
 
     def node(self, name: str) -> NodeDecl | None:
         for n in self.nodes:

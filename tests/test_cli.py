@@ -326,8 +326,11 @@ def test_convert_round_trip_to_pd_and_back_elsewhere_keeps_the_graph(tmp_path):
         "Abstractions flattened, each into nodes named INSTANCE/NODE: tqt (lib/tqt_fusion.pat)."
     )
     assert pointat("convert", pd_file, back).returncode == 0
-    a = check(read_spec(ROOT / "patches" / "evaluate_tqt.pat"), default_registry.load_builtins())
+    shipped = read_spec(ROOT / "patches" / "evaluate_tqt.pat")
+    shipped.out = str(pd_file.parent)  # (what it writes: the first copy, the .pd, writes beside itself)
+    a = check(shipped, default_registry.load_builtins())
     b = check(read_spec(back), default_registry)
+    assert os.path.normpath(b.nodes["sink"].values["file"]) == str(pd_file.parent / "evaluate_tqt.csv")
 
     def graph(checked):  # path parameters compared as the files they name
         return {

@@ -48,6 +48,8 @@ from typing import Any, ClassVar, Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pointat.userfiles import read_text
+
 __all__ = [
     "STANDARD_GRAVITY",
     "six_position_accel",
@@ -744,8 +746,8 @@ class Calibration:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Calibration:
         """Read a JSON file written by :meth:`save`; a bad file raises ValueError naming the file and key."""
-        with open(path, encoding="utf-8-sig") as fh:  # a byte-order mark from a Windows editor is fine
-            text = fh.read()
+        # a regular file of 1 MB at most (a pipe is refused, never waited on); a byte-order mark is fine
+        text = read_text(path, "calibration")
         return cls.from_json(text, source=f"calibration file {os.fspath(path)}")
 
 

@@ -18,6 +18,7 @@ An estimate in pointat's NWU earth frame is compared after :func:`pointat.maths.
 from __future__ import annotations
 
 import gzip
+import io
 import os
 from pathlib import Path
 
@@ -25,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pointat.maths.quaternion import quat_conjugate, quat_multiply
+from pointat.userfiles import open_user_file
 
 __all__ = ["BROAD_COLUMNS", "BROAD_RATE", "BROAD_SAMPLE", "load_broad", "broad_rmse", "broad_errors"]
 
@@ -62,8 +64,11 @@ def load_broad(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
         If the column line is not the expected one.
     """
     path = Path(path)
-    opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rt", encoding="utf-8") as fh:
+    # a regular file of 1 GB at most: a pipe is refused, never waited on
+    with (
+        open_user_file(path, "take") as raw,
+        io.TextIOWrapper(gzip.GzipFile(fileobj=raw) if path.suffix == ".gz" else raw, encoding="utf-8") as fh,
+    ):
         header = []
         for line in fh:
             if not line.startswith("#"):

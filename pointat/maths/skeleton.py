@@ -39,6 +39,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from pointat.userfiles import read_text
+
 from . import scalar as sq
 
 __all__ = [
@@ -143,8 +145,10 @@ class Skeleton:
         """
         try:
             data = json.loads(text)
-        except (json.JSONDecodeError, RecursionError) as exc:
+        except json.JSONDecodeError as exc:
             raise ValueError(f"{where}: not JSON ({exc})") from None
+        except RecursionError:
+            raise ValueError(f"{where}: JSON nested too deeply: expected a skeleton") from None
         if not isinstance(data, dict) or not isinstance(data.get("segments"), list):
             raise ValueError(f'{where}: expected {{"segments": [...], "root": [x, y, z]}}')
         lengths: dict[str, Vec3] = {}
@@ -187,10 +191,7 @@ class Skeleton:
 
     @classmethod
     def load(cls, path: str | Path) -> Skeleton:
-        try:
-            text = Path(path).read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ValueError(f"{path}: cannot be read ({getattr(exc, 'strerror', None) or exc})") from None
+        text = read_text(path, "skeleton")  # a regular file of 4 MB at most: never a wait on a pipe
         return cls.from_json(text, str(path))
 
 

@@ -95,6 +95,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pointat.userfiles import read_text
+
 __all__ = [
     "Layout",
     "Panner",
@@ -698,13 +700,15 @@ def read_layout(path: str | Path) -> Layout:
         Naming the file and what is wrong with it (``OSError`` when it cannot be read).
     """
     path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path, "layout")  # a regular file of 4 MB at most: a pipe is refused, never waited on
     if path.suffix.lower() != ".json":
         return _parse_pd_text(text, str(path))
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ValueError(f"{path}: not valid JSON: {exc}") from exc
+    except RecursionError:
+        raise ValueError(f"{path}: JSON nested too deeply: expected a loudspeaker layout") from None
     if not isinstance(data, dict) or "speakers" not in data:
         raise ValueError(f'{path}: expected an object with "speakers" (and optionally "dim", "triplets")')
     unknown = set(data) - {"speakers", "dim", "triplets", "name", "comment"}

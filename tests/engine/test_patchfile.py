@@ -299,11 +299,22 @@ def test_overrides_reach_an_abstraction_instances_arguments(tmp_path):
         r"argument 'rte' \(arguments: rate; its nodes are set as left/NODE.PARAM\)",
     ):
         check(spec, REG, [("left", "rte", 20)])
-    with pytest.raises(PatchError) as info:  # refused inside the abstraction: the line there, and why
+    with pytest.raises(PatchError) as info:  # refused inside the abstraction: at the user's line, and why
         check(spec, REG, [("left", "rate", "fast")])
     [problem] = info.value.problems
-    assert problem.where.file.endswith("voice.pat") and problem.where.line == 3
-    assert problem.message.endswith("got 'fast' (its instance's arguments given: --set left.rate=fast)")
+    assert problem.where.file.endswith("main.pat") and problem.where.line == 1
+    assert problem.message.endswith(
+        "got 'fast' (its instance's arguments given: --set left.rate=fast) "
+        f"(in abstraction voice.pat:3, created at {tmp_path / 'main.pat'}:1)"
+    )
+    (tmp_path / "lib").mkdir()  # an argument written on the instance's line, the abstraction elsewhere
+    (tmp_path / "lib" / "voice.pat").write_text("args rate=100\ninlet go -> m.0\nnode m metro $rate\n")
+    (tmp_path / "mine.pat").write_text("# mine\nnode left lib/voice.pat rate=fast\n")
+    with pytest.raises(PatchError) as info:
+        check(read_spec(tmp_path / "mine.pat"), REG)
+    [problem] = info.value.problems
+    assert str(problem).startswith(f"{tmp_path / 'mine.pat'}:2: error: node 'left/m' (metro): ")
+    assert str(problem).endswith(f"(in abstraction lib/voice.pat:3, created at {tmp_path / 'mine.pat'}:2)")
 
 
 def test_abstraction_instantiated_twice_with_arguments(tmp_path):
