@@ -671,6 +671,18 @@ def _open_port(
         ) from exc
 
 
+def _first_port(direction: str) -> tuple[str | None, str]:
+    """The port a node with no ``port`` opens, for a person: (the system's first, "") or (None, why none)."""
+    lister = output_names if direction == "output" else input_names
+    try:
+        names = lister()
+    except ImportError:
+        return None, "python-rtmidi is not installed: pip install 'pointat[midi]'"
+    except OSError as exc:
+        return None, f"no MIDI system ({exc})"
+    return (names[0], "") if names else (None, f"the MIDI system has no {direction} port")
+
+
 def _safe_stem(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "midi_out"
 
@@ -906,6 +918,22 @@ dir.azimuth -> pan
     def _port_name(self) -> str:
         return getattr(self._sink.port, "name", "") if isinstance(self._sink, _PortSink) else ""
 
+    def describe_port(self) -> str:
+        """Where the messages go, named for the console's banner: a file, a port by name (with no
+        ``port``, the system's first output as it lists now), or the file written when there is none."""
+        if self._sink is not None:
+            return str(self._sink)
+        if self.p.file:
+            return f"MIDI file {self.p.file}"
+        if self.p.virtual:
+            return f"a virtual MIDI port {self.p.port or 'pointat'!r} for other programs to connect to"
+        if self.p.port:
+            return f"MIDI port {self.p.port!r}"
+        first, why = _first_port("output")
+        if first is None:
+            return f"MIDI file {Path(_safe_stem(self.name) + '.mid').resolve()} (no MIDI port: {why})"
+        return f"MIDI port {first!r} (the system's first)"
+
     def _lost(self) -> None:
         """The port vanished: close it; what is sent meanwhile is dropped and counted."""
         sink = self._sink
@@ -1061,6 +1089,18 @@ press.0 -> ref.capture
     def setup(self) -> None:
         self._port: mido.ports.BaseInput | None = None
         self.received = 0
+
+    def describe_port(self) -> str:
+        """The port it listens on, named for the console's banner (with no ``port``, the system's first
+        input as it lists now)."""
+        if self._port is not None:
+            return f"MIDI port {getattr(self._port, 'name', '')!r}"
+        if self.p.virtual:
+            return f"a virtual MIDI port {self.p.port or 'pointat'!r} for other programs to connect to"
+        if self.p.port:
+            return f"MIDI port {self.p.port!r}"
+        first, why = _first_port("input")
+        return f"MIDI port {first!r} (the system's first)" if first else f"no MIDI port: {why}"
 
     def start(self) -> None:
         name = self.p.port or ("pointat" if self.p.virtual else "")

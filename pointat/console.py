@@ -84,7 +84,11 @@ def describe(node: Any) -> str:
     if t in ("record", "bvh_record"):
         return f"{label}: records into {_p(node, 'file')}"
     if t in ("midi_out", "midi_in"):
-        return f"{label}: MIDI port {_p(node, 'port') or '(the first)'}"
+        port = getattr(node, "describe_port", None)  # the port by name, even the system's first
+        return f"{label}: {port() if port else 'MIDI port ' + repr(_p(node, 'port'))}"
+    if t == "osc_send":
+        dests = ", ".join(f"{d.host}:{d.port}" for d in getattr(node, "dests", ()))
+        return f"{label}: OSC {_p(node, 'address')} to {dests}"
     if t == "calibrate":
         return (
             f"{label}: calibration, writes {_p(node, 'file')} (steps by OSC: /pointat/{node.name}/rest ...)"
@@ -93,7 +97,7 @@ def describe(node: Any) -> str:
 
 
 _INPUTS = ("simulate", "simulate_body", "mote", "replay", "osc_in", "midi_in")
-_OUTPUTS = ("osc_out", "osc_body", "record", "bvh_record", "midi_out", "calibrate")
+_OUTPUTS = ("osc_out", "osc_send", "osc_body", "record", "bvh_record", "midi_out", "calibrate")
 
 
 def files(rt: Any, copied: Sequence[tuple[Path, Path]] = ()) -> list[str]:
@@ -107,7 +111,9 @@ def files(rt: Any, copied: Sequence[tuple[Path, Path]] = ()) -> list[str]:
         for p in type(node).params:
             value = getattr(node.p, p.name, None)
             if p.type == "path" and p.writes and value:
-                lines.append(f"  file     {os.path.abspath(value)}  ({node.type_name} '{node.name}': {p.doc})")
+                lines.append(
+                    f"  file     {os.path.abspath(value)}  ({node.type_name} '{node.name}': {p.doc})"
+                )
     return lines
 
 

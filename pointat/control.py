@@ -1,6 +1,7 @@
 """Live control by address: ``/pointat/NODE/PARAM value``, ``/pointat/NODE/METHOD args``, ``/pointat/NODE
 values`` and ``/pointat/preset/save NAME`` / ``recall NAME``.  One function for every way in (``osc_in``,
-the OSCQuery server's OSC port and WebSocket), run on the scheduler thread.
+the OSCQuery server's OSC port and WebSocket), run on the scheduler thread.  What it did is told on the
+console (:class:`Told`): a press acknowledged at once, a fader's stream a line a second.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from typing import Any
 from .errors import did_you_mean
 from .message import make
 
-__all__ = ["PREFIX", "control"]
+__all__ = ["PREFIX", "Told", "control"]
 
 PREFIX = "/pointat/"
 
@@ -56,7 +57,52 @@ def control(rt: Any, address: str, args: list[Any], time: float) -> str | None:
         node.receive(0, msg._replace(time=time))
     except Exception as exc:  # a blob where a number belongs, an unknown method, a refused value
         return f"node '{name}': {exc}"
+    told = getattr(rt, "told", None)  # the runtime's, made at its first live control
+    if told is None:
+        told = rt.told = Told(rt)
+    told.tell(address, args)
     return None
+
+
+class Told:
+    """Live control acknowledged on the console (``rt.console``), on the scheduler thread: the first
+    message at an address at once (``live control: /pointat/press/bang``), then at most one line every
+    :attr:`EVERY` s there, the last value with how many came (a fader sends dozens a second).  A burst's
+    last value is told when its second is up, so the console ends on what the patch now holds."""
+
+    #: Seconds between two lines about one address.
+    EVERY = 1.0
+
+    def __init__(self, rt: Any):
+        self.rt = rt
+        self._at: dict[str, list[Any]] = {}  # address -> [told at (rt time), held since, last text, timer]
+
+    def tell(self, address: str, args: list[Any]) -> None:
+        text = " ".join([address, *(_word(a) for a in args)])
+        now = self.rt.clock.now()
+        entry = self._at.get(address)
+        if entry is None or (entry[1] == 0 and now - entry[0] >= self.EVERY):
+            self._at[address] = [now, 0, text, None]
+            self.rt.console(f"live control: {text}")
+            return
+        entry[1] += 1
+        entry[2] = text
+        if entry[3] is None:  # the rest of this second's messages, told when it is up
+            entry[3] = self.rt.call_at(entry[0] + self.EVERY, None, self._flush, address)
+            entry[3].daemon = True  # keeps no ended patch running
+
+    def _flush(self, address: str) -> None:
+        entry = self._at[address]
+        held, entry[1], entry[3] = entry[1], 0, None
+        entry[0] = self.rt.clock.now()
+        self.rt.console(
+            f"live control: {entry[2]}" + (f" (the last of {held} in {self.EVERY:g} s)" if held > 1 else "")
+        )
+
+
+def _word(a: Any) -> str:
+    """An argument as it was meant: 0.05, not 0.05000000074505806 (OSC floats are float32)."""
+    return f"{a:.7g}" if isinstance(a, float) else repr(a) if isinstance(a, str) and " " in a else str(a)
 
 
 def _preset(rt: Any, verb: str, args: list[Any]) -> str | None:

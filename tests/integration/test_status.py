@@ -90,8 +90,9 @@ def test_the_receiver_is_told_when_the_glove_drops_out_and_comes_back(tmp_path):
     # the heartbeat carries the rate of directions sent over the last second: 100 Hz while all is well
     rates = [r for t, s, r in statuses if s == "ok" and t > back[0] + 1.1]
     assert rates and all(90 <= r <= 110 for r in rates), statuses
-    # the console said it too, and the summary counts the dropout
+    # the console said it too, and the summary counts the dropout; the live control was acknowledged
     assert "base.m1:" in out and "1 dropouts" in out, out
+    assert "live control: /pointat/glove/dropout 2\n" in out, out
 
 
 def test_the_console_opens_with_a_banner_and_ends_with_a_summary(tmp_path):

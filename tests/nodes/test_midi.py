@@ -664,3 +664,38 @@ def test_example_pans_with_the_true_azimuth(tmp_path):
         az, _ = azimuth_elevation(pointing_direction(truth[sample]))
         errors.append(abs(value - scale_to_int(fold_front(float(az)), 90.0, -90.0, 127)))
     assert len(errors) > 30 and max(errors) <= 2, max(errors)  # 2 steps = 2.8 deg of filter error
+
+
+# --------------------------------------------------------------------------- the banner's words
+def test_the_banner_names_the_port_or_file_each_midi_node_uses(capture, tmp_path, monkeypatch):
+    from pointat.console import describe
+
+    monkeypatch.chdir(tmp_path)
+    rt = patch(
+        "node a midi_out number=10\nnode b midi_out port=other\nnode c midi_out file=pan.mid\n"
+        'node d midi_out virtual=true port="Show"\n'
+    )
+    said = {name: describe(rt.nodes[name]) for name in "abcd"}
+    assert said["a"] == "midi_out 'a': MIDI port 'Capture Port 1' (the system's first)", said
+    assert said["b"] == "midi_out 'b': MIDI port 'other'", said
+    assert said["c"].startswith("midi_out 'c': MIDI file ") and said["c"].endswith("pan.mid"), said
+    assert said["d"] == "midi_out 'd': a virtual MIDI port 'Show' for other programs to connect to", said
+    rt.advance(0.0)  # started: the port each opened, by its whole name
+    assert describe(rt.nodes["b"]) == "midi_out 'b': MIDI port 'Other Synth'"
+    rt.shutdown()
+
+
+def test_the_banner_says_which_file_is_written_when_there_is_no_midi_system(tmp_path, monkeypatch):
+    from pointat.console import describe
+
+    def no_rtmidi():
+        raise ImportError("No module named 'rtmidi'")
+
+    monkeypatch.setattr(midi, "output_names", no_rtmidi)
+    monkeypatch.chdir(tmp_path)
+    rt = patch("node pan midi_out number=10")
+    assert describe(rt.nodes["pan"]) == (
+        f"midi_out 'pan': MIDI file {tmp_path.resolve() / 'pan.mid'} "
+        "(no MIDI port: python-rtmidi is not installed: pip install 'pointat[midi]')"
+    )
+    rt.shutdown()

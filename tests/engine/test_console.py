@@ -1,0 +1,74 @@
+"""What the console tells a performer, in process: live control acknowledged (a press at once, a fader's
+stream a line a second, ending on its last value), and a banner that names every output (a gesture
+patch's OSC messages too)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pointat.checking import check
+from pointat.console import banner
+from pointat.control import Told, control
+from pointat.expansion import read_spec
+from pointat.loader import build, parse_overrides
+from pointat.registry import Registry
+from pointat.testing import patch
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _said(rt) -> list[str]:
+    said: list[str] = []
+    rt.console = said.append
+    return said
+
+
+def test_a_press_is_acknowledged_at_once_and_a_fader_a_line_a_second_ending_on_its_value():
+    rt = patch("node press trigger b\nnode lim speedlim 100\n")
+    said = _said(rt)
+    rt.advance(0.0)
+    assert control(rt, "/pointat/press/bang", [], rt.clock.now()) is None
+    assert said == ["live control: /pointat/press/bang"]
+    # a fader: 50 values in half a second, one line at once, the rest told once when the second is up
+    for i in range(50):
+        rt.advance(0.01)
+        assert control(rt, "/pointat/lim/interval", [100.0 + i], rt.clock.now()) is None
+    assert said[1:] == ["live control: /pointat/lim/interval 100"]
+    rt.advance(1.0)
+    assert said[2:] == ["live control: /pointat/lim/interval 149 (the last of 49 in 1 s)"]
+    assert rt.nodes["lim"].p.interval == 149.0
+    # a second press a moment after the first is told too: one message held, then told alone
+    rt.advance(0.5)
+    control(rt, "/pointat/press/bang", [], rt.clock.now())
+    assert said[3:] == ["live control: /pointat/press/bang"]
+    rt.advance(0.2)
+    control(rt, "/pointat/press/bang", [], rt.clock.now())
+    assert said[4:] == []
+    rt.advance(1.0)
+    assert said[4:] == ["live control: /pointat/press/bang"]
+    # what is refused is not acknowledged (its sender's log says why), nor a preset (it says itself)
+    assert control(rt, "/pointat/nobody/bang", [], rt.clock.now()) is not None
+    rt.advance(2.0)
+    assert len(said) == 5
+    rt.shutdown()
+
+
+def test_told_says_an_osc_float_as_it_was_typed():
+    rt = patch("node lim speedlim 100\n")
+    said = _said(rt)
+    Told(rt).tell("/pointat/fuse/k_heading", [0.05000000074505806, "two words", 3])
+    assert said == ["live control: /pointat/fuse/k_heading 0.05 'two words' 3"]
+    rt.shutdown()
+
+
+def test_the_gestures_banner_lists_its_osc_outputs():
+    path = ROOT / "patches" / "gestures.pat"
+    rt = build(check(read_spec(str(path)), Registry().load_builtins(), parse_overrides([])))
+    try:
+        lines = banner(rt, str(path))
+    finally:
+        rt.shutdown()
+    assert "  out  osc_send 'tell': OSC /pointat/gesture to 127.0.0.1:9000" in lines, lines
+    assert "  out  osc_send 'hits': OSC /pointat/stroke to 127.0.0.1:9000" in lines, lines
+    midi = [line for line in lines if "midi_out 'n1'" in line]
+    assert midi and "(the first)" not in midi[0], lines
