@@ -34,6 +34,7 @@ import functools
 import inspect
 import logging
 import math
+import re
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -662,7 +663,7 @@ class Node:
     @classmethod
     def help_text(cls) -> str:
         """The help page of the node type, generated from its declaration."""
-        doc = inspect.cleandoc(cls.__doc__ or "")
+        doc = plain_text(inspect.cleandoc(cls.__doc__ or ""))
         lines = [f"{cls.type_name}" + (f" (aliases: {', '.join(cls.aliases)})" if cls.aliases else ""), ""]
         if doc:
             lines += [doc, ""]
@@ -702,6 +703,50 @@ class Node:
 
 
 # ----------------------------------------------------------------------------- paths
+_ROLE = re.compile(r":[\w.+-]+(?::[\w.+-]+)*:`([^`]*)`")
+_LITERAL = re.compile(r"``(.+?)``", re.S)
+_LINK = re.compile(r"`([^`<]+?)\s*(?:<[^`>]*>)?`__?")
+_TICKS = re.compile(r"`([^`]+)`")
+_DIRECTIVE = re.compile(r"^(\s*)\.\. [\w:-]+::[ \t]*", re.M)
+
+
+def _role_text(match: re.Match[str]) -> str:
+    """``:func:`~a.b.c``` -> ``c``, ``:class:`x <a.b>``` -> ``x``, ``:math:`e^x``` -> ``e^x``."""
+    text = match.group(1)
+    if text.endswith(">") and "<" in text:
+        text = text[: text.rindex("<")].strip()
+    return text[1:].rsplit(".", 1)[-1] if text.startswith("~") else text
+
+
+def plain_text(doc: str) -> str:
+    """A docstring's reStructuredText as plain text for a terminal (``pointat help``): roles, literals,
+    links and directives to their words, ``Example::`` to ``Example:``.
+
+    >>> plain_text("Gain ``k`` (:math:`e^{-kt}`), see :func:`~pointat.maths.tqt.step` and `Pd`_.")
+    'Gain k (e^{-kt}), see step and Pd.'
+    >>> print(plain_text("A patch::\\n\\n    node a metro\\n\\n.. math:: q = q_0\\n::\\n"))
+    A patch:
+    <BLANKLINE>
+        node a metro
+    <BLANKLINE>
+    q = q_0
+    <BLANKLINE>
+    """
+    text = _ROLE.sub(_role_text, doc)
+    text = _LITERAL.sub(r"\1", text)
+    text = _LINK.sub(r"\1", text)
+    text = _TICKS.sub(r"\1", text)
+    text = _DIRECTIVE.sub(r"\1", text)
+    lines = []
+    for line in text.splitlines():
+        if line.strip() == "::":
+            line = ""
+        elif line.endswith("::"):
+            line = line[:-1]
+        lines.append(line)
+    return "\n".join(lines) + ("\n" if text.endswith("\n") else "")
+
+
 def names_path(fn: Callable[..., Any]) -> Callable[..., Any]:
     """Mark a method (``do_save``) or an inlet's handler that takes a file or device path.
 
