@@ -27,7 +27,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from pointat.gesture_files import dump_model, load_model
+from pointat.gesture_files import MOST_EXAMPLES, load_model, model_text
 from pointat.maths.dtw import warm
 from pointat.maths.gestures import (
     CHANNELS,
@@ -46,6 +46,7 @@ from pointat.message import Message, as_floats, bang
 from pointat.names import check_name
 from pointat.node import Inlet, Node, Outlet, Param, names_path
 from pointat.registry import register
+from pointat.saving import Saver, clean_stray
 
 log = logging.getLogger("pointat.gestures")
 
@@ -128,6 +129,7 @@ class _Learner(Node):
         self.running = False
         self._unread: str | None = None
         self._warned_missing = False
+        self._saver = Saver(f"{self.type_name} '{self.name}'")
         self._handlers = [self._make_input(i, c) for i, c in enumerate(self.channels)]
         if type(self).receive is Node.receive:
             self._deliver = self._handlers
@@ -263,7 +265,13 @@ class _Learner(Node):
             )
         if not self.examples:
             raise ValueError("save: no examples to save (record some first)")
-        dump_model(target, self.kind, self.channels, self.p.size, self.examples)
+        if len(self.examples) > MOST_EXAMPLES:
+            raise ValueError(
+                f"save: {len(self.examples)} examples, more than a model file holds (clear some)"
+            )
+        # written on the saver's thread (the latest save wins), never holding the patch up
+        examples, kind, channels, size = list(self.examples), self.kind, self.channels, self.p.size
+        self._saver.submit(target, lambda: model_text(kind, channels, size, examples))
         self.tell("saved", target, len(self.examples))
 
     @names_path
@@ -296,6 +304,8 @@ class _Learner(Node):
         if self.kind != "posture":
             warm()  # every DTW kernel compiled or loaded now, not at the first gesture
         path = self.p.file
+        if path:
+            clean_stray(path)  # a save a kill cut short
         if not path or not os.path.exists(path):
             return
         try:
@@ -311,6 +321,10 @@ class _Learner(Node):
             return
         self._loaded = ("loaded", path, len(self.examples))
         log.info("%s '%s': %d examples from %s, running", self.type_name, self.name, len(self.examples), path)
+
+    def close(self) -> None:
+        """Write a save still waiting."""
+        self._saver.close()
 
     def loadbang(self) -> None:
         """Say what :meth:`prepare` loaded: the node recognises from the first sample."""

@@ -2,10 +2,14 @@
 
 ``/pointat/preset/save NAME`` takes every live parameter of every node (files and devices aside: live
 control names none), ``recall NAME`` sets them again (each checked as any live change is; a node or a
-parameter the patch no longer has is skipped and told), ``delete NAME`` forgets one.  The file is
-written whole to a temporary file and renamed over the old one, so a crash never leaves half a file; a
-file that cannot be read is never written over (the presets saved meanwhile stay in memory, and the log
-says so).
+parameter the patch no longer has is skipped and told), ``delete NAME`` forgets one; a name is a name,
+never a path (:func:`pointat.names.check_name`).  The file is written on a thread of its own
+(:class:`pointat.saving.Saver`: a flood of saves is a few writes, the latest state wins, and the patch is
+never held up), whole to a temporary file, synced and renamed over the old one, so a crash never leaves
+half a file; at most :data:`MOST_PRESETS` presets and :data:`MOST_BYTES` bytes (a save beyond is refused
+and told).  A file that cannot be read (a pipe, a device, one too large, not JSON: read as every user
+file is, :mod:`pointat.userfiles`) is never written over (the presets saved meanwhile stay in memory,
+and the log says so).
 
 The file (``glove_tqt.presets.json`` beside ``glove_tqt.pat``)::
 
@@ -18,13 +22,13 @@ import json
 import logging
 import math
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .names import check_name
+from .saving import Saver, clean_stray
 from .userfiles import read_json
 
 __all__ = ["Presets", "presets_path"]
@@ -32,6 +36,10 @@ __all__ = ["Presets", "presets_path"]
 log = logging.getLogger("pointat.presets")
 
 FORMAT = 1
+
+#: The most presets a patch keeps, and the most bytes their file may take: a save beyond either is refused.
+MOST_PRESETS = 256
+MOST_BYTES = 1_000_000
 
 
 def presets_path(patch: str | os.PathLike[str], writable_dir: str | os.PathLike[str] | None = None) -> Path:
@@ -64,10 +72,14 @@ class Presets:
         self.rt = rt
         self.path = Path(path)
         self.presets: dict[str, dict[str, dict[str, Any]]] = {}
+        self._sizes: dict[str, int] = {}  # each preset's bytes in the file, for MOST_BYTES
         self.writable = True
+        self.saver = Saver("presets")
+        clean_stray(self.path)  # a save a kill cut short
         if os.path.lexists(self.path):
             try:
                 self.presets = _read(self.path)
+                self._sizes = {name: _size(name, v) for name, v in self.presets.items()}
             except ValueError as exc:  # a pipe, a device, too large, not JSON, a bad name: with its place
                 self.writable = False
                 log.error(
@@ -94,8 +106,25 @@ class Presets:
         return out
 
     def save(self, name: str) -> None:
+        """Take every live parameter as preset ``name``; the file is written on the saver's thread
+        (the latest state wins: a flood of saves is a few writes), refused past :data:`MOST_PRESETS`
+        presets or :data:`MOST_BYTES` bytes."""
         check_name("preset", name)
-        self.presets[name] = self.snapshot()
+        values = self.snapshot()
+        size = _size(name, values)
+        if name not in self.presets and len(self.presets) >= MOST_PRESETS:
+            raise ValueError(
+                f"preset '{name}' not saved: {len(self.presets)} presets already, the most a patch keeps"
+                " (delete one, or save over one)"
+            )
+        total = sum(self._sizes.values()) - self._sizes.get(name, 0) + size
+        if total > MOST_BYTES:
+            raise ValueError(
+                f"preset '{name}' not saved: the presets would take {total / 1e6:.1f} MB, more than the"
+                f" {MOST_BYTES / 1e6:.0f} MB a presets file may (delete some)"
+            )
+        self.presets[name] = values
+        self._sizes[name] = size
         self._write()
         self.rt.console(f"preset '{name}' saved ({sum(map(len, self.presets[name].values()))} settings)")
 
@@ -125,6 +154,7 @@ class Presets:
     def delete(self, name: str) -> None:
         if self.presets.pop(name, None) is None:
             raise KeyError(f"no preset '{name}'")
+        self._sizes.pop(name, None)
         self._write()
         self.rt.console(f"preset '{name}' deleted")
 
@@ -132,15 +162,17 @@ class Presets:
         if not self.writable:
             log.warning("presets: %s could not be read at the start: not written over", self.path)
             return
-        text = json.dumps({"pointat_presets": FORMAT, "presets": self.presets}, indent=1, sort_keys=True)
-        fd, tmp = tempfile.mkstemp(prefix=".presets-", dir=self.path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text + "\n")
-            os.replace(tmp, self.path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        presets = dict(self.presets)  # (a preset's values are replaced whole, never changed in place)
+        self.saver.submit(
+            self.path,
+            lambda: (
+                json.dumps({"pointat_presets": FORMAT, "presets": presets}, indent=1, sort_keys=True) + "\n"
+            ),
+        )
+
+    def close(self) -> None:
+        """Write a save still waiting, and stop the saver's thread (the runtime's shutdown calls it)."""
+        self.saver.close()
 
 
 def _read(path: Path) -> dict[str, dict[str, dict[str, Any]]]:
@@ -159,3 +191,8 @@ def _read(path: Path) -> dict[str, dict[str, dict[str, Any]]]:
         if isinstance(values, dict):
             presets[name] = values
     return presets
+
+
+def _size(name: str, values: dict[str, Any]) -> int:
+    """What a preset adds to the file (its JSON, about)."""
+    return len(json.dumps({name: values}, indent=1)) + 2

@@ -487,6 +487,8 @@ class Runtime:
             self._guard(None, self.fusion.close)
         for node in reversed(list(self.nodes.values())):
             self._guard(node, node.close)
+        if self.presets is not None:  # a save still waiting is written
+            self._guard(None, self.presets.close)
         if self._selector is not None:
             self._selector.close()
             self._wake_r.close()  # type: ignore[union-attr]
