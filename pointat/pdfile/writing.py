@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import PatchError, PointatError
+from ..names import inside
 from ..node import REQUIRED, Inlet, Node, Outlet
 from ..patchfile import format_value
 from ..registry import Registry, default_registry
@@ -421,6 +422,7 @@ def write_stubs(
             cls = registry.get(name)
             assert cls is not None
             path = folder / f"{name}.pd"
+            inside(folder, path)  # a plugin's type name is no way out of the folder
             path.write_text(_stub(name, cls), encoding="utf-8")
             paths.append(path)
     except OSError as exc:  # a file where the folder should be, no permission, a full disk

@@ -148,3 +148,18 @@ def test_live_osc_preset_save_refuses_a_path_for_a_name(tmp_path, name):
         assert rt.presets.names() == []
     finally:
         rt.shutdown()
+
+
+def test_a_plugins_type_name_never_writes_a_pd_stub_outside_its_folder(tmp_path):
+    from pointat.node import Node
+    from pointat.pdfile.writing import write_stubs
+    from pointat.registry import Registry
+
+    class Evil(Node):
+        type_name = "../../evil"
+
+    registry = Registry()
+    registry.add(Evil, "a plugin")
+    with pytest.raises(BadName, match="outside"):
+        write_stubs(tmp_path / "a" / "stubs", registry=registry)
+    assert not (tmp_path / "evil.pd").exists()
