@@ -35,6 +35,7 @@ from pointat.maths.calibration import (
 from pointat.message import Message, as_floats, as_vector, floats
 from pointat.node import Inlet, Node, Outlet, Param, names_path
 from pointat.registry import register
+from pointat.saving import clean_stray
 from pointat.userfiles import read_bytes
 
 log = logging.getLogger(__name__)
@@ -493,6 +494,7 @@ class Calibrate(Node):
         """Start from the calibration already in ``file``: a step taken again replaces its part, and
         ``save`` keeps the rest (redoing the gyro nulls the next day must not wipe the accelerometer's)."""
         path = self.p.file
+        clean_stray(path)  # a save a kill cut short
         if not os.path.exists(path):
             return
         try:

@@ -23,14 +23,14 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["Saver", "clean_stray", "write_atomic"]
+__all__ = ["Saver", "clean_stray", "temporary_path", "write_atomic"]
 
 log = logging.getLogger("pointat.saving")
 
 _serial = itertools.count(1)
 
 
-def _temporary(path: Path) -> Path:
+def temporary_path(path: Path) -> Path:
     """Where ``path`` is written before it is renamed: hidden, beside it, this process's (``.NAME.PID-N.tmp``)."""
     return path.with_name(f".{path.name}.{os.getpid()}-{next(_serial)}.tmp")
 
@@ -40,7 +40,7 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
     to the disk, renamed over it, and the folder synced (the rename itself survives a power cut)."""
     path = Path(path)
     raw = data.encode("utf-8") if isinstance(data, str) else data
-    tmp = _temporary(path)
+    tmp = temporary_path(path)
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
         with os.fdopen(fd, "wb") as fh:
@@ -52,9 +52,14 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> None:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
-    if hasattr(os, "O_DIRECTORY"):  # (POSIX: Windows syncs no folder)
+    sync_folder(path.parent)
+
+
+def sync_folder(folder: str | os.PathLike[str]) -> None:
+    """Sync a folder, so that a rename in it survives a power cut (POSIX; elsewhere nothing)."""
+    if hasattr(os, "O_DIRECTORY"):
         with contextlib.suppress(OSError):
-            dfd = os.open(path.parent, os.O_RDONLY | os.O_DIRECTORY)
+            dfd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
             try:
                 os.fsync(dfd)
             finally:

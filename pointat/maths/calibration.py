@@ -43,11 +43,13 @@ import os
 import shutil
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pointat.saving import sync_folder, temporary_path
 from pointat.userfiles import read_text
 
 __all__ = [
@@ -729,7 +731,7 @@ class Calibration:
             with open(path, "w", encoding="utf-8") as fh:
                 fh.write(text)
             return
-        part = f"{path}.part"
+        part = str(temporary_path(Path(path)))  # (.NAME.PID-N.tmp: a kill's is cleaned at the next start)
         try:
             with open(part, "w", encoding="utf-8") as fh:
                 fh.write(text)
@@ -738,6 +740,7 @@ class Calibration:
             with contextlib.suppress(OSError):  # none yet, or not ours to read: the default mode
                 shutil.copymode(path, part)
             os.replace(part, path)
+            sync_folder(os.path.dirname(path))
         except BaseException:
             with contextlib.suppress(OSError):
                 os.remove(part)

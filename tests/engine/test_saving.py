@@ -137,3 +137,16 @@ def test_a_stray_save_is_cleaned_when_the_presets_are_read_at_the_start(tmp_path
     Presets(rt, path).close()
     assert not stray.exists()
     rt.shutdown()
+
+
+def test_calibrate_cleans_a_stray_save_at_start(tmp_path):
+    from pointat.maths.calibration import Calibration
+
+    path = tmp_path / "calibration.json"
+    Calibration(gyro_null=[2001.0, 2002.0, 2003.0]).save(path)
+    stray = tmp_path / ".calibration.json.999999999-4.tmp"  # a save a kill cut short
+    stray.write_text('{"format": "pointat-cal')
+    rt = patch(f"node cal calibrate file={path}\n")
+    rt.start()
+    rt.shutdown()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["calibration.json"]

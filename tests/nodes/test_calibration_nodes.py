@@ -505,7 +505,7 @@ def test_redoing_one_step_and_saving_keeps_the_rest_of_the_calibration(tmp_path,
     saved = Calibration.load(path)
     assert list(saved.gyro_null) == [2001.0, 2002.0, 2003.0]
     assert list(saved.acc_scale) == [52.0] * 3 and list(saved.mag_null) == [2040.0] * 3  # kept
-    assert not list(tmp_path.glob("*.part"))
+    assert not list(tmp_path.glob("*.part")) and not list(tmp_path.glob(".*.tmp"))
     cal.receive(0, method("clear"))  # from nothing, on request
     cal.receive(0, method("save"))
     assert list(Calibration.load(path).acc_scale) == [1.0] * 3
