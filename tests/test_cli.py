@@ -12,11 +12,14 @@ from pathlib import Path
 
 import pytest
 
+from pointat.checking import check
 from pointat.cli import main
+from pointat.expansion import read_spec
+from pointat.loader import parse_overrides
 from pointat.maths.calibration import Calibration
 from pointat.node import ParamError
 from pointat.registry import default_registry
-from pointat.testing import beside
+from pointat.testing import beside, sink_port
 
 ROOT = Path(__file__).resolve().parent.parent
 PATCHES = sorted((ROOT / "patches").glob("*.pat")) + sorted((ROOT / "examples").glob("**/*.pat"))
@@ -54,21 +57,43 @@ def copy_of_repo(tmp_path_factory):
     return root
 
 
-@pytest.fixture
-def a_patch_running_beside():
-    """Port 9001 held, as a performer's running patch holds it (or it is held already: the same)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
-        try:
-            held.bind(("127.0.0.1", 9001))
-        except OSError:
-            pass
-        yield
+@pytest.mark.parametrize("path", PATCHES, ids=lambda p: p.name)
+def test_a_shipped_patch_run_by_a_test_takes_no_port_of_a_show(path):
+    """beside(): every port a shipped patch listens on is a free one (0) and every port it sends to is the
+    tests' own sink, so the suite runs beside a performer's patch (9001 held, a renderer on 9000)."""
+    checked = check(read_spec(path), default_registry.load_builtins(), parse_overrides(_sets(beside(path))))
+    for name, r in checked.nodes.items():
+        if r.cls.type_name == "osc_in":
+            assert r.values["port"] == 0, name
+        if "port" in r.values and r.cls.type_name in ("osc_out", "osc_send", "osc_body"):
+            assert r.values["port"] == sink_port(), name
+            assert all(int(str(to).rpartition(":")[2]) == sink_port() for to in r.values["to"]), name
 
 
-@pytest.mark.parametrize("path", [p for p in PATCHES if "evaluate" not in p.name], ids=lambda p: p.name)
-def test_every_shipped_patch_runs_briefly(path, copy_of_repo, a_patch_running_beside):
-    copy = copy_of_repo / path.relative_to(ROOT)
-    out = pointat("run", copy, "--for", "1.5", *beside(copy), timeout=60)
+def _sets(args: list[str]) -> list[str]:
+    return [a for a in args if a != "--set"]
+
+
+RUN_BRIEFLY = [p for p in PATCHES if "evaluate" not in p.name]
+
+
+@pytest.fixture(scope="module")
+def shipped_runs(copy_of_repo):
+    """Every shipped patch run for 1.5 s, four at a time (each is mostly a Python start-up and a wait):
+    {path: the finished process}."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def run(path):
+        copy = copy_of_repo / path.relative_to(ROOT)
+        return pointat("run", copy, "--for", "1.5", *beside(copy), timeout=600)
+
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        return dict(zip(RUN_BRIEFLY, pool.map(run, RUN_BRIEFLY), strict=True))
+
+
+@pytest.mark.parametrize("path", RUN_BRIEFLY, ids=lambda p: p.name)
+def test_every_shipped_patch_runs_briefly(path, shipped_runs):
+    out = shipped_runs[path]
     assert out.returncode == 0, out.stderr
     assert "Traceback" not in out.stderr
     assert "ERROR" not in out.stderr, out.stderr

@@ -28,9 +28,10 @@ from pointat.control import control
 from pointat.devices.mote_frame import Frame, MoteSpec, encode_frame
 from pointat.fusion import compiled
 from pointat.maths.evaluation import load_broad
-from pointat.testing import patch, wait_until
+from pointat.testing import beside, patch, wait_until
 
 DATA = Path(__file__).resolve().parents[2] / "pointat" / "data"
+GLOVE_PATCH = Path(__file__).resolve().parents[2] / "patches" / "glove_tqt.pat"
 
 pytestmark = pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
 
@@ -321,7 +322,7 @@ def test_the_first_run_compiles_in_the_background_and_the_next_starts_compiled(t
     compile), the compile in a process of its own; the next run starts with the chain compiled, loaded
     from the cache (what start-up then costs is in the benchmarks)."""
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
-    cmd = [sys.executable, "-m", "pointat.cli", "run", "glove_tqt", "--set", "ctl.port=0", "--for", "1"]
+    cmd = [sys.executable, "-m", "pointat.cli", "run", "glove_tqt", *beside(GLOVE_PATCH), "--for", "1"]
     first = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=60)
     assert first.returncode == 0, first.stderr
     assert "compiling the glove chain for the next runs" in first.stdout
@@ -354,7 +355,7 @@ def test_a_run_from_a_checkouts_folder_compiles_for_the_pointat_it_runs(tmp_path
     with open(checkout / "pointat" / "fusion" / "kernel.py", "a") as fh:
         fh.write("# another version of the kernel: another cache key\n")
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
-    cmd = [str(program), "run", "glove_tqt", "--set", "ctl.port=0", "--for", "1"]
+    cmd = [str(program), "run", "glove_tqt", *beside(GLOVE_PATCH), "--for", "1"]
     first = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=checkout, timeout=60)
     assert first.returncode == 0, first.stderr
     assert "compiling the glove chain for the next runs" in first.stdout

@@ -268,7 +268,7 @@ def example_runs(dump):
     if dump is not None:
         dump.drain(0.02)
     runs = {
-        name: _pointat("run", path, "--for", "1", *redirect, *beside(path)) for name, path in files.items()
+        name: _pointat("run", path, "--for", "1", *beside(path), *redirect) for name, path in files.items()
     }
     done = {}
     for name in files:

@@ -51,8 +51,8 @@ class Listener:
 
 
 def _run(patch: str, *sets: str, seconds: float | None = None) -> subprocess.CompletedProcess:
-    args = [a for s in sets for a in ("--set", s)] + ([] if seconds is None else ["--for", str(seconds)])
-    args += beside(ROOT / patch) if not any(s.startswith("ctl.port=") for s in sets) else []
+    args = beside(ROOT / patch) + [a for s in sets for a in ("--set", s)]  # (the test's own last: they win)
+    args += [] if seconds is None else ["--for", str(seconds)]
     return subprocess.run(
         [sys.executable, "-m", "pointat.cli", "run", patch, *args],
         cwd=ROOT,

@@ -16,7 +16,7 @@ from pointat.maths import scalar as sq
 from pointat.maths import skeleton as sk
 from pointat.message import floats, method
 from pointat.patchfile import parse_patch
-from pointat.testing import patch, test_registry
+from pointat.testing import patch, sink_port, test_registry
 
 ARM = sk.Skeleton.load("pointat/data/arm.json")
 YAW = sq.axis_angle_quat(0.0, 0.0, 1.0, math.radians(40.0))  # the performer faces 40 deg from north
@@ -180,8 +180,8 @@ def arm_errors(seed=0, heading=35.0):
     text = (Path(__file__).resolve().parents[2] / "patches" / "arm_pointing.pat").read_text()
     text = (
         text.replace("osc_in port=9001", "osc_in port=0")
-        .replace("port=9000", "port=9")
-        .replace("port=9003", "port=9")
+        .replace("port=9000", f"port={sink_port()}")
+        .replace("port=9003", f"port={sink_port()}")
     )
     text = text.replace(
         "simulate_body pose=6 heading=35", f"simulate_body pose=6 heading={heading} seed={seed}"

@@ -17,7 +17,7 @@ from pointat.control import control
 from pointat.devices.gesture_sim import performance, score
 from pointat.devices.osc_wire import decode_packet
 from pointat.message import make, method, vector
-from pointat.testing import patch
+from pointat.testing import patch, sink_port
 
 PATCHES = Path(__file__).resolve().parents[2] / "patches"
 
@@ -30,6 +30,8 @@ def _gestures_patch(tmp_path: Path, model: str, seed: int = 0, extra: str = "") 
         "glove.device -> base\nbase.m1 -> nulls", "glove.adc -> nulls"
     )
     text = text.replace("file=gestures.json", f"file={model}")
+    # its ports off the show's: control on a free one, what it tells to the tests' sink
+    text = text.replace("osc_in port=9001", "osc_in port=0").replace("port=9000", f"port={sink_port()}")
     for n in (1, 2, 3):
         text = text.replace(
             f"node n{n}     midi_out kind=note", f"node n{n}     midi_out file={tmp_path}/n{n}.mid kind=note"
