@@ -714,6 +714,7 @@ class _Checker:
 
         self.cli = cli
         self.registry = cli._registry([])
+        self.parser = cli._parser()
         self.sandbox = sandbox
         self.tag = tag
         self.run_for = run_for
@@ -727,7 +728,7 @@ class _Checker:
 
         path = self.path(case)
         path.write_bytes(case.data)
-        args = self.cli._parser().parse_args(["check", str(path)])  # (every option at its default)
+        args = self.parser.parse_args(["check", str(path)])  # (every option at its default)
         sink = io.StringIO()
         try:
             with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):

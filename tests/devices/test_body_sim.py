@@ -310,9 +310,9 @@ def test_without_noise_the_readings_are_the_truth():
 
 def test_a_minute_of_arm_takes_well_under_a_second():
     sim = BodySimulator(ARM, seed=1)
-    start = time.perf_counter()
+    start = time.process_time()  # this process's CPU time: a loaded machine shares the cores, not the work
     k = sim.take(6000)
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     assert k.gyro.shape == (6000, 3, 3) and k.q.shape == (6000, 3, 4)
     assert elapsed < 1.0, elapsed
 

@@ -531,9 +531,9 @@ def test_pty_glove_schedule_does_not_drift():
     with PtyGlove(sim) as glove:
         t0, n0 = time.monotonic(), glove.index
         time.sleep(0.4)
-        n = glove.index - n0
-        elapsed = time.monotonic() - t0
-    assert abs(n - elapsed * 500.0) <= 25  # deadline scheduling: count tracks wall time
+        # deadline scheduling: the count catches up with wall time (a loaded machine lets it fall behind
+        # for a moment; a schedule that drifts would fall further behind at every sample)
+        assert wait_until(lambda: abs(glove.index - n0 - (time.monotonic() - t0) * 500.0) <= 25, 30.0)
 
 
 def test_pty_glove_without_reader_drops_instead_of_blocking():

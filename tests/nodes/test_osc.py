@@ -791,10 +791,8 @@ def test_control_reaches_a_node_inside_an_abstraction(tmp_path, started):
 def test_a_bundle_stamped_an_hour_ahead_is_delivered_at_once(started):
     rt, imu, addr = in_patch(started, "", "node c collect\nimu.any -> c")
     with sender() as tx:
-        t0 = time.monotonic()
         tx.sendto(bundle(time.time() + 3600.0, osc("/later", 1.0)), addr)
-        assert wait_for(rt, lambda: rt.nodes["c"].messages, timeout=1.0)
-    assert time.monotonic() - t0 < 1.0
+        assert wait_for(rt, lambda: rt.nodes["c"].messages, timeout=60.0)  # (not in an hour)
     assert rt.nodes["c"].messages[0].kind == "/later"
 
 
@@ -926,7 +924,7 @@ nulls.status -> status
     th = rt.run_in_thread()
     ticks, status, metro = rt.nodes["ticks"].messages, rt.nodes["status"].messages, rt.nodes["m"]
 
-    def until(predicate, timeout=2.0):
+    def until(predicate, timeout=30.0):  # (a ceiling for a loaded machine: what is waited for comes)
         deadline = time.monotonic() + timeout
         while not predicate():
             assert time.monotonic() < deadline, "timed out"
@@ -939,8 +937,10 @@ nulls.status -> status
             tx.sendto(osc("/pointat/m/interval", 5.0).dgram, addr)  # a live parameter
             until(lambda: metro.p.interval == 5.0)
             n = len(ticks)
-            time.sleep(0.2)
-            assert len(ticks) - n >= 15  # 100 ms -> 5 ms: about 40 ticks in 0.2 s
+            until(lambda: len(ticks) - n >= 15)
+            # 100 ms -> 5 ms, in the patch's time (a loaded machine runs the ticks late, never apart)
+            last = [m.time for m in ticks[-10:]]  # (one copy: the scheduler's thread appends meanwhile)
+            assert [round(b - a, 6) for a, b in zip(last[:-1], last[1:], strict=True)] == [0.005] * 9
 
             for _ in range(3):
                 rt.send("nulls", "list", *[2048.0] * 9)
@@ -963,7 +963,7 @@ nulls.status -> status
             until(lambda: len(ticks) > n + 5)
 
             tx.sendto(osc("/pointat/m/stop").dgram, addr)
-            time.sleep(0.05)
+            until(lambda: metro._timer is None)  # the stop taken, however late
             n = len(ticks)
             time.sleep(0.05)
             assert len(ticks) == n  # stopped
