@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from pointat.maths.numba_cache import user_cache
+
 __all__ = ["band", "dtw_distance", "dtw_many", "dtw_prefix", "dtw_prefix_many", "warm"]
 
 
@@ -146,7 +148,7 @@ _compiled: dict[str, Callable[..., Any]] = {}
 
 
 def _kernel(name: str) -> Callable[..., Any]:
-    """The compiled form of this module's function ``name`` (numba, cached on disk where it may write)."""
+    """The compiled form of this module's function ``name`` (numba, cached in the user's cache folder)."""
     fn = _compiled.get(name)
     if fn is None:
         import numba  # here: ~0.25 s to import, only once gestures are compared
@@ -154,9 +156,10 @@ def _kernel(name: str) -> Callable[..., Any]:
         jit = numba.njit(cache=True, nogil=True)
         glb = globals()
         space: dict[str, Any] = {"np": np, "math": math, "__name__": __name__}
-        for each in ("band", "_cumulative", "_distance", "_prefix", "_many", "_prefix_many"):
-            code = glb[each]
-            space[each] = jit(type(code)(code.__code__, space, each))
+        with user_cache(numba):  # (never beside this file: inside an installed package)
+            for each in ("band", "_cumulative", "_distance", "_prefix", "_many", "_prefix_many"):
+                code = glb[each]
+                space[each] = jit(type(code)(code.__code__, space, each))
         _compiled.update({k: space[k] for k in ("_distance", "_prefix", "_many", "_prefix_many")})
         fn = _compiled[name]
     return fn

@@ -6,7 +6,7 @@ is installed (``pip install "pointat[fast]"``) a bank takes this path; without i
 bank loops over its sensors in Python (the same step, a few microseconds each).
 
 The kernel is compiled at the first bank of a process (a few seconds; numba caches the machine code in
-``pointat/maths/tqt/__pycache__`` when it may write there, keyed by the source file of the step,
+the user's cache folder (:mod:`pointat.maths.numba_cache`), keyed by the source file of the step,
 :mod:`pointat.maths.tqt.step`, which is why the loop lives there and not here).  Nothing imports this
 module (and numba, a quarter of a second and ~50 MB) until a bank is built.
 """
@@ -17,6 +17,7 @@ import types
 from collections.abc import Callable
 from typing import Any
 
+from pointat.maths.numba_cache import user_cache
 from pointat.maths.tqt import step
 
 __all__ = ["available", "compiled", "robust_bank"]
@@ -38,11 +39,14 @@ def _compile() -> Callable[..., Any] | None:
     :class:`~pointat.maths.tqt.TQTFilter`); :func:`~pointat.maths.tqt.step.robust_bank` is the loop."""
     if njit is None:
         return None
+    import numba
+
     jit = njit(cache=True, nogil=True)
     space = dict(vars(step))
-    for name, value in vars(step).items():
-        if isinstance(value, types.FunctionType) and value.__module__ == step.__name__:
-            space[name] = jit(types.FunctionType(value.__code__, space, name, value.__defaults__))
+    with user_cache(numba):
+        for name, value in vars(step).items():
+            if isinstance(value, types.FunctionType) and value.__module__ == step.__name__:
+                space[name] = jit(types.FunctionType(value.__code__, space, name, value.__defaults__))
     return space["robust_bank"]  # type: ignore[no-any-return]
 
 
