@@ -44,7 +44,7 @@ def running_patch(tmp_path):
     """``pointat run glove_tqt --monitor 0`` (a receiver of our own on a free port); its monitor's URL."""
     rx = _free_udp()
     rx.settimeout(0.05)
-    cmd = [sys.executable, "-m", "pointat.cli", "run", "glove_tqt", "--monitor", "0", "--for", "40"]
+    cmd = [sys.executable, "-m", "pointat.cli", "run", "glove_tqt", "--monitor", "0", "--for", "120"]
     cmd += ["--set", f"out.port={rx.getsockname()[1]}", "--set", "ctl.port=0"]
     proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     url = None
@@ -116,7 +116,7 @@ def test_the_monitor_shows_the_glove_moving_over_the_loudspeakers(running_patch,
     assert frames >= 25, "the page got no readings over its WebSocket"
     assert browser.execute_script("return window.pointatMonitor.connected") is True
     # grey while the gyro nulls are measured (no direction yet), then in the pointer's colour
-    live = _wait(browser, "return document.body.dataset.state", lambda v: v == "ok", 10.0)
+    live = _wait(browser, "return document.body.dataset.state", lambda v: v == "ok", 60.0)
     assert live == "ok", live
     # the glove's script sweeps the room: the readout and the drawing change as it moves
     first = browser.execute_script("return document.querySelector('.aed').textContent")
@@ -223,7 +223,7 @@ def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
     )
     browser.get(url)
     # the glove's nulls measured, directions flowing: the page says all is well
-    look = _wait(browser, LOOK, lambda v: v["state"] == "ok" and not v["stale"], 20.0)
+    look = _wait(browser, LOOK, lambda v: v["state"] == "ok" and not v["stale"], 60.0)
     assert look["state"] == "ok" and not look["stale"] and look["opacity"] > 0.9, look
     assert look["alert"] == "" and look["filter"] == "ok", look
 
@@ -237,10 +237,10 @@ def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
     assert layout["above"] >= least and layout["side"] >= least, layout
     (tmp_path / f"monitor-{device}.png").write_bytes(browser.get_screenshot_as_png())
 
-    # a real dropout: the simulated glove goes silent (no frames into the base station's pty) for 4 s
+    # a real dropout: the simulated glove goes silent (no frames into the base station's pty) for 10 s
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.sendto(_osc("/pointat/glove/dropout", 4.0), ("127.0.0.1", control))
-    look = _wait(browser, LOOK, lambda v: v["state"] == "no" and _seconds(v["alert"]) >= 1.0, 10.0)
+        s.sendto(_osc("/pointat/glove/dropout", 10.0), ("127.0.0.1", control))
+    look = _wait(browser, LOOK, lambda v: v["state"] == "no" and _seconds(v["alert"]) >= 1.0, 30.0)
     assert look["state"] == "no", look
     assert re.match(r"NO DATA for \d+\.\d s", look["alert"]), look
     assert look["alertSize"] >= 24, look  # big: read from across a stage
@@ -256,7 +256,7 @@ def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
     assert layout["page"] <= width and browser.execute_script(LAYOUT)["page"] <= width
 
     # the glove back: all is well again
-    look = _wait(browser, LOOK, lambda v: v["state"] == "ok" and not v["stale"], 10.0)
+    look = _wait(browser, LOOK, lambda v: v["state"] == "ok" and not v["stale"], 60.0)
     assert look["state"] == "ok" and not look["stale"] and look["filter"] == "ok", look
 
 
