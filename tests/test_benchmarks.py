@@ -1,6 +1,7 @@
 """The benchmark harness's own bookkeeping: rounds pooled, ratios given round by round."""
 
 import numpy as np
+import pytest
 
 from benchmarks.latency import LatencyResult, pool
 from benchmarks.report import _by_round
@@ -218,6 +219,7 @@ def test_the_checked_in_mote_patches_are_what_the_benchmark_writes():
         assert (PATCHES / name).read_text() == mote_patch_text(chain, int(motes)), name
 
 
+@pytest.mark.slow
 def test_sixteen_gloves_through_one_tqt_bank_are_measured_on_the_mote_path(tmp_path):
     """Real mote frames for 16 motes into a pseudo-terminal, the whole patch in a child process, every
     glove's OSC matched to its frame at a UDP socket (the benchmark's own path, briefly)."""
@@ -543,6 +545,7 @@ def test_uwave_is_read_from_its_own_layout_and_both_protocols_run(tmp_path):
     assert "plain 1-NN DTW" in text and [g[2] for g in goals] == ["**met**", "**met**"]
 
 
+@pytest.mark.slow
 def test_a_gesture_latency_round_runs_a_real_patch_and_reports_goals(tmp_path):
     """One short round of each latency path: pointat run, OSC in at 100 Hz, the gesture and stroke
     messages back; every gated gesture is told, and the table and goal rows say so."""

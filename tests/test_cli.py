@@ -108,6 +108,7 @@ def test_main_job_prints_directions():
     assert -180 <= az < 180
 
 
+@pytest.mark.slow
 def test_a_terminal_that_stops_reading_does_not_stop_the_patch(tmp_path):
     """A terminal paused with Ctrl-S (or a pipe nobody reads) fills, and a write to it blocks: the OSC must
     flow on all the same, and the console hears afterwards how many lines it missed."""

@@ -12,6 +12,7 @@ the order may differ, never within one.)
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -157,6 +158,7 @@ def test_the_property_took_frames_in_most_of_its_streams():
     assert sum(t > 0 for t in TAKEN) > SETTINGS.max_examples // 2, TAKEN
 
 
+@pytest.mark.slow
 def test_the_compiled_scan_takes_the_same_frames_as_its_source(require_tool):
     """numba's scan against the Python one (the property's) on a long stream of three motes, clean and
     with a few losses: the same frames, times and counters, most of them taken."""

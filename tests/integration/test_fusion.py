@@ -255,6 +255,7 @@ def _cli(mode: str, frames: list[bytes], tmp_path: Path) -> list[bytes]:
     return got
 
 
+@pytest.mark.slow
 def test_pointat_run_on_a_pseudo_terminal_sends_the_same_either_way(tmp_path):
     frames = _frames_bytes(_takes(2000))
     plain = _cli("off", frames, tmp_path)
@@ -317,6 +318,7 @@ def test_frames_straight_from_the_reader_give_the_same_datagrams(both_ways):
         assert mine == theirs, address
 
 
+@pytest.mark.slow
 def test_the_first_run_compiles_in_the_background_and_the_next_starts_compiled(tmp_path):
     """A performer's first ``pointat run`` after installing: node by node at once (no waiting for a
     compile), the compile in a process of its own; the next run starts with the chain compiled, loaded
@@ -338,6 +340,7 @@ def test_the_first_run_compiles_in_the_background_and_the_next_starts_compiled(t
     assert f"the compiled glove chain loaded from {ready[0]}" in second.stdout + second.stderr
 
 
+@pytest.mark.slow
 def test_a_run_from_a_checkouts_folder_compiles_for_the_pointat_it_runs(tmp_path):
     """``pointat run`` (the installed program) started from a folder that holds another pointat, as a
     repository checkout does: the compile in the background is of the pointat that runs, into the cache

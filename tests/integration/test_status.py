@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 
+import pytest
 from pythonosc.osc_message import OscMessage
 from pythonosc.udp_client import SimpleUDPClient
 
@@ -38,6 +39,7 @@ def _run(patch: str, *args: str, cwd=None) -> subprocess.Popen:
     return subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
+@pytest.mark.slow
 def test_the_receiver_is_told_when_the_glove_drops_out_and_comes_back(tmp_path):
     rx = _udp()
     ctl = _free_port()

@@ -153,6 +153,7 @@ def test_torre_mode_drift_is_first_order_in_dt():
     assert errors[0] / errors[1] == pytest.approx(2.0, rel=0.05)
 
 
+@pytest.mark.slow
 def test_integrator_stays_a_rotation_for_a_million_steps():
     rng = np.random.default_rng(8)
     rates = rng.normal(size=(1_000_000, 3)) * 3.0

@@ -83,6 +83,7 @@ def taught():
     return rec
 
 
+@pytest.mark.slow
 def test_gestures_between_rest_and_pointing_are_found_and_pointing_is_not(taught):
     """90 gestures of new performances (new amplitudes, speeds and directions): >= 90 % found and named,
     <= 5 % of the decisions false (on pointing, or a gesture's second)."""

@@ -224,6 +224,7 @@ def test_bad_bank_wiring_and_settings_name_the_place():
         patch("node bank tqt_bank mode=paper backend=numba\n")
 
 
+@pytest.mark.slow
 def test_the_shipped_three_glove_patch_sends_three_sources_over_osc():
     """patches/gloves_bank.pat, run as a user runs it: three simulated gloves through one bank, three
     sources out as OSC to a UDP socket; the gloves follow the same script, so their directions agree."""
