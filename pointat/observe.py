@@ -132,6 +132,9 @@ def fmt_direction(az: float, el: float, dist: float | None = None) -> str:
     return text if dist is None else f"{text}  dist {dist:.0f}"
 
 
+#: What a filter is said to be while every stream upstream of it is down (a silent filter sends no flag).
+NO_INPUT = "no input"
+
 #: Flag words a filter sends, in the order the state line prefers them (the first one up is shown).
 FLAG_ORDER = ("bad_gyro", "bad_accmag", "gyro_saturated", "acc_saturated", "mag_disturbed", "shaking")
 
@@ -298,7 +301,7 @@ class Observer:
             fed = [s.key for s in self.fed_by.get(name, ())]
             silent = fed and all(k in down for k in fed)
             flags[name] = {
-                "flag": "no input" if silent else word,
+                "flag": NO_INPUT if silent else word,
                 "silent_s": min(down[k] for k in fed) if silent else 0.0,
                 "for_s": round(now - since, 1),
                 "changes": changes,
@@ -497,7 +500,8 @@ def _destinations(node: Node) -> list[str]:
 
 
 def _worst_flag(flags: dict[str, dict[str, Any]]) -> str:
-    up = {f["flag"] for f in flags.values() if f["flag"] != "ok"}
+    # "no input" is no flag of a filter's: its glove's own line says NO DATA, the others' stay clear
+    up = {f["flag"] for f in flags.values() if f["flag"] not in ("ok", NO_INPUT)}
     for word in FLAG_ORDER:
         if any(word in u for u in up):
             return word

@@ -72,3 +72,48 @@ def test_the_gestures_banner_lists_its_osc_outputs():
     assert "  out  osc_send 'hits': OSC /pointat/stroke to 127.0.0.1:9000" in lines, lines
     midi = [line for line in lines if "midi_out 'n1'" in line]
     assert midi and "(the first)" not in midi[0], lines
+
+
+TWO_GLOVES = """
+node g1 simulate rate=100
+node u1 scaling
+node f1 tqt
+node d1 azi_ele
+node o1 osc_out port=9
+node g2 simulate rate=100
+node u2 scaling
+node f2 tqt
+node d2 azi_ele
+node o2 osc_out port=9
+g1.adc -> u1
+u1.mag -> f1.mag
+u1.accel -> f1.accel
+u1.gyro -> f1.gyro
+f1.quat -> d1
+d1.azimuth -> o1.azimuth
+f1.flags -> o1.flags
+g2.adc -> u2
+u2.mag -> f2.mag
+u2.accel -> f2.accel
+u2.gyro -> f2.gyro
+f2.quat -> d2
+d2.azimuth -> o2.azimuth
+f2.flags -> o2.flags
+"""
+
+
+def test_a_filter_has_no_input_only_when_its_own_glove_is_down_and_the_other_gloves_line_stays_clear():
+    from pointat.observe import Observer, _worst_flag
+
+    rt = patch(TWO_GLOVES)
+    try:
+        obs = Observer(rt).attach()
+        assert {name: [s.key for s in streams] for name, streams in obs.fed_by.items()} == {
+            "f1": ["g1.adc"],
+            "f2": ["g2.adc"],
+        }
+    finally:
+        rt.shutdown()
+    # the flag the status lines show beside every pointer: a filter's, never "no input"
+    assert _worst_flag({"f1": {"flag": "no input"}, "f2": {"flag": "ok"}}) == ""
+    assert _worst_flag({"f1": {"flag": "no input"}, "f2": {"flag": "mag_disturbed"}}) == "mag_disturbed"
