@@ -165,4 +165,6 @@ def test_the_installed_wheel_runs_every_shipped_patch_from_an_empty_folder(insta
     assert not failed, "\n".join(failed)
     written = _changed(before, _listing(site))
     assert not written, "written inside the installed package:\n" + "\n".join(written)
-    assert (here / "take.csv").exists() and (here / "body.bvh").exists()  # (what they write: here)
+    assert "monitor  http://127.0.0.1:" in results[0][1], results[0][1]
+    for name in ("take.csv", "body.bvh", "midi_pan.mid", "evaluate_tqt.csv", "gestures.json"):
+        assert (here / name).is_file(), f"{name}: not written here (what the shipped patches write)"
