@@ -36,8 +36,10 @@ MONITOR_PORT = 9002
 
 EPILOG = """\
 examples:
-  pointat run patches/pointing_at.pat --for 30     run the Pointing-at chain on the simulated glove
+  pointat run pointing_at --for 30                 run the Pointing-at chain on the simulated glove
   pointat run glove_tqt --monitor                  and watch it at http://127.0.0.1:9002/monitor (OSCQuery too)
+  pointat run record_glove --out takes             a shipped patch's files (take.csv) into takes/ (default: here)
+  pointat patches --copy gestures --to mine        a shipped patch as your own, in mine/ (made if need be)
   pointat run my.pat --set fuse.k=0.2              override a parameter
   pointat run --rt my.pat                          at real-time priority, as Pd's -rt
   pointat run --spin 2 my.pat                      poll instead of sleeping: lower latency, a busy CPU
