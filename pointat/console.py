@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__
+from .userfiles import open_user_file
 
 __all__ = ["about", "banner", "describe", "files"]
 
@@ -24,9 +25,9 @@ def about(path: str | os.PathLike[str]) -> str:
     'The Pointing-at glove, with its filter.'
     """
     try:
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            head = fh.read(4096)
-    except OSError:
+        with open_user_file(path, "patch") as fh:  # never a wait on a pipe
+            head = fh.read(4096).decode("utf-8", errors="replace")
+    except (OSError, ValueError):
         return ""
     words: list[str] = []
     for line in head.splitlines():

@@ -99,7 +99,7 @@ def _expand(
     if not _stack:  # the top patch: an abstraction checked, run or converted on its own has its defaults;
         # any other $name is a mistake at its own line, not one to meet inside an abstraction it is given to
         spec = _with_arguments(spec, {**spec.args, "0": Path(spec.path).stem})
-        _stack = (str(Path(spec.path).resolve()),)
+        _stack = (os.path.realpath(spec.path),)  # (Path.resolve raises on a loop of links before 3.13)
     out = PatchSpec(path=spec.path, args=dict(spec.args))
     out.doc = spec.doc
     # (instance, port name) -> [(node, port)] for inlets; -> (node, port) for outlets
@@ -178,7 +178,7 @@ def _expand(
 
 def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
     """The file of an abstraction instance: its type, relative to the patch that holds it."""
-    return (Path(parent.path).parent / decl.type).resolve()
+    return Path(os.path.realpath(Path(parent.path).parent / decl.type))  # a loop of links: read's error
 
 
 def _instantiate(parent: PatchSpec, decl: NodeDecl, stack: tuple[str, ...], outer: str = "") -> PatchSpec:
