@@ -31,11 +31,13 @@ import base64
 import html
 import io
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from pointat import shipped
 from pointat.devices.mote_frame import ADC_NULL
 from pointat.errors import PointatError
 from pointat.maths import scalar as sq
@@ -581,12 +583,20 @@ def output_paths(take: str | Path, out: str | Path | None = None) -> tuple[Path,
 
     >>> [str(p) for p in output_paths("a/x.csv.gz")], [str(p) for p in output_paths("t.csv", "b/y.png")]
     (['a/x.png', 'a/x.html'], ['b/y.png', 'b/y.html'])
+
+    A take the package ships (``pointat:data/glove_take.csv.gz``) is drawn into the current folder:
+    nothing is written inside the installed package.
+
+    >>> [str(p) for p in output_paths(shipped.resolve("pointat:data/glove_take.csv.gz"))]
+    ['glove_take.png', 'glove_take.html']
     """
     if out is None:
         base = Path(take)
         if base.suffix.lower() == ".gz":
             base = base.with_suffix("")
         base = base.with_suffix("")
+        if Path(os.path.realpath(take)).is_relative_to(shipped.PACKAGE):
+            base = Path(base.name)
     else:
         base = Path(out)
         if base.suffix.lower() in (".png", ".html"):
@@ -612,6 +622,7 @@ def plot_take(
     and ``OUT.html`` (:func:`output_paths`) and return their paths.  ``truth=False``: no error panel,
     whatever the take holds."""
     require_matplotlib()
+    take_path = shipped.resolve(str(take_path))  # (pointat:data/glove_take.csv.gz: the shipped take)
     take = read_take(take_path, truth=truth)
     result = track(take)
     png = draw(take, result)

@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from pointat import shipped
 from pointat.checking import check
 from pointat.cli import main
@@ -146,3 +148,14 @@ def test_a_patch_name_gets_a_did_you_mean(tmp_path, capsys):
     assert "(did you mean 'pd/glove_to_pd_vbap'?)" in capsys.readouterr().err
     assert main(["check", str(tmp_path / "nope.pat")]) == 2
     assert "cannot read patch" in capsys.readouterr().err
+
+
+def test_the_shipped_take_is_plotted_into_the_current_folder(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("matplotlib")
+    monkeypatch.chdir(tmp_path)
+    before = _listing()
+    data = {p.name for p in shipped.folder("data").iterdir()}
+    assert main(["plot", "pointat:data/glove_take.csv.gz"]) == 0
+    assert capsys.readouterr().out.split() == ["glove_take.png", "glove_take.html"]
+    assert (tmp_path / "glove_take.png").stat().st_size > 1000
+    assert _listing() == before and {p.name for p in shipped.folder("data").iterdir()} == data
