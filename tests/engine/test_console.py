@@ -117,3 +117,19 @@ def test_a_filter_has_no_input_only_when_its_own_glove_is_down_and_the_other_glo
     # the flag the status lines show beside every pointer: a filter's, never "no input"
     assert _worst_flag({"f1": {"flag": "no input"}, "f2": {"flag": "ok"}}) == ""
     assert _worst_flag({"f1": {"flag": "no input"}, "f2": {"flag": "mag_disturbed"}}) == "mag_disturbed"
+
+
+def test_before_any_data_the_status_lines_say_waiting_not_ok_at_0_hz():
+    from pointat.observe import Observer
+
+    rt = patch(TWO_GLOVES)
+    try:
+        lines = Observer(rt).attach().status_lines()
+    finally:
+        rt.shutdown()
+    assert lines == [
+        "o1: waiting for a direction (none sent yet)",
+        "o2: waiting for a direction (none sent yet)",
+        "g1.adc: waiting for data",
+        "g2.adc: waiting for data",
+    ], lines
