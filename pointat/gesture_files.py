@@ -24,6 +24,7 @@ import io
 import json
 import math
 import os
+import unicodedata
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -289,6 +290,14 @@ def export_model(path: str | os.PathLike[str], folder: str | os.PathLike[str]) -
         dest = root / check_name("label", e.label) / f"{counts[e.label]}.csv"
         inside(root, dest)  # and again once resolved: a label folder that is a link out of DIR
         plan.append((dest, e))
+    folded: dict[str, str] = {}  # labels one folder on a system that ignores case (macOS, Windows)
+    for label in counts:
+        other = folded.setdefault(unicodedata.normalize("NFC", label).casefold(), label)
+        if other != label:
+            raise ValueError(
+                f"{path}: labels {other!r} and {label!r} would share a folder where case is ignored: nothing"
+                " written"
+            )
     there = [str(dest) for dest, _ in plan if dest.exists()]
     if there:
         raise ValueError(f"{there[0]} already there ({len(there)} files): nothing written")

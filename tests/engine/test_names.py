@@ -163,3 +163,11 @@ def test_a_plugins_type_name_never_writes_a_pd_stub_outside_its_folder(tmp_path)
     with pytest.raises(BadName, match="outside"):
         write_stubs(tmp_path / "a" / "stubs", registry=registry)
     assert not (tmp_path / "evil.pd").exists()
+
+
+def test_export_refuses_labels_that_would_share_a_folder_where_case_is_ignored(tmp_path):
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(_model(["circle", "Circle"])))
+    with pytest.raises(ValueError, match="labels 'circle' and 'Circle' would share a folder"):
+        export_model(path, tmp_path / "out")
+    assert not (tmp_path / "out").exists()
