@@ -149,7 +149,8 @@ def read_recording(path: str | os.PathLike[str], label: str = "") -> Recording:
 
 
 def _is_recording(p: Path) -> bool:
-    return p.is_file() and (p.name.endswith(".csv") or p.name.endswith(".csv.gz"))
+    # (not is_file: a pipe or a dangling link named like a recording is read, and refused by name)
+    return not p.is_dir() and (p.name.endswith(".csv") or p.name.endswith(".csv.gz"))
 
 
 def read_folder(folder: str | os.PathLike[str]) -> list[Recording]:
