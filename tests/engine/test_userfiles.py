@@ -16,6 +16,8 @@ import threading
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from pointat.errors import PointatError
 from pointat.userfiles import UserFileError, lines, read_bytes, read_json, read_text
@@ -239,3 +241,30 @@ def test_a_model_file_with_a_bad_label_loses_nothing_already_loaded(tmp_path):
         assert sorted(e.label for e in hand.examples) == ["level", "level", "up"]
     finally:
         rt.shutdown()
+
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=8),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
+    max_leaves=20,
+)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    raw=st.binary(max_size=300)
+    | _JSON.map(lambda d: json.dumps({"pointat_presets": 1, "presets": d}).encode())
+    | _JSON.map(lambda d: json.dumps(d).encode())
+)
+def test_a_presets_file_of_any_bytes_loads_or_is_refused_and_kept(tmp_path, raw):
+    from pointat.presets import Presets
+
+    class Rt:
+        nodes: dict = {}
+
+    path = tmp_path / "any.presets.json"
+    path.write_bytes(raw)
+    presets = Presets(Rt(), path)  # never raises
+    presets.close()
+    assert presets.writable or path.read_bytes() == raw
+    assert all(isinstance(v, dict) for v in presets.presets.values())
