@@ -60,7 +60,7 @@ def running_patch(tmp_path):
             url, control = m.group(1), int(m.group(2))
     try:
         assert url is not None, ("no monitor line in the banner", lines, proc.poll())
-        yield url, rx, control
+        yield url, rx, control, proc
     finally:
         proc.terminate()
         proc.communicate(timeout=10)
@@ -110,7 +110,7 @@ def _wait(driver, script: str, until, seconds: float = 10.0):
 
 
 def test_the_monitor_shows_the_glove_moving_over_the_loudspeakers(running_patch, browser, tmp_path):
-    url, _rx, _control = running_patch
+    url, _rx, _control, _proc = running_patch
     browser.get(url)
     frames = _wait(browser, "return window.pointatMonitor.frames", lambda n: n >= 25)
     assert frames >= 25, "the page got no readings over its WebSocket"
@@ -155,7 +155,7 @@ def test_the_monitor_shows_the_glove_moving_over_the_loudspeakers(running_patch,
 
 
 def test_the_browsers_websocket_gets_oscquery_listen_messages(running_patch, browser):
-    url, _rx, _control = running_patch
+    url, _rx, _control, _proc = running_patch
     browser.get(url)
     got = browser.execute_async_script(
         """
@@ -215,7 +215,7 @@ return {
 def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
     running_patch, browser, tmp_path, device
 ):
-    url, _rx, control = running_patch
+    url, _rx, control, proc = running_patch
     width, height = WIDTHS[device]
     browser.execute_cdp_cmd(
         "Emulation.setDeviceMetricsOverride",
@@ -258,6 +258,15 @@ def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
     # the glove back: all is well again
     look = _wait(browser, LOOK, lambda v: v["state"] == "ok" and not v["stale"], 60.0)
     assert look["state"] == "ok" and not look["stale"] and look["filter"] == "ok", look
+
+    # the patch gone (stopped, crashed): the page does not go on showing its last direction as live
+    proc.terminate()
+    proc.wait(timeout=30)
+    look = _wait(browser, LOOK, lambda v: v["state"] == "patch", 30.0)
+    assert look["state"] == "patch" and look["alert"].startswith("PATCH NOT REACHABLE"), look
+    assert look["stale"] and look["opacity"] < 0.5, look
+    browser.execute_script("window.scrollTo(0, 0)")
+    (tmp_path / f"monitor-{device}-offline.png").write_bytes(browser.get_screenshot_as_png())
 
 
 def _seconds(alert: str) -> float:
