@@ -47,28 +47,33 @@ function setConn(ok) {
 function stale(p) { return !state.connected || p.state === "dropout" || p.state === "waiting"; }
 function colour(p, k) { return stale(p) ? STALE : COLOURS[k % COLOURS.length]; }
 
+// the worst of what is true now, as [state, class, title, detail] (null: all is well); the state is also
+// the page's body[data-state], for the style sheet and for tests
 function alertOf(snap) {
-  if (!state.connected) return ["bad", "PATCH NOT REACHABLE", "the page shows the last it heard; it keeps trying"];
+  if (!state.connected) return ["offline", "bad", "PATCH NOT REACHABLE", "the page shows the last it heard; it keeps trying"];
   const down = snap.pointers.filter((p) => p.state === "dropout");
   const silent = snap.streams.filter((s) => s.state === "dropout");
   if (down.length || silent.length) {
     const secs = Math.max(0, ...down.map((p) => p.silent_s), ...silent.map((s) => s.silent_s));
     const who = [...down.map((p) => p.name), ...silent.map((s) => s.name)].join(", ");
-    return ["bad", `NO DATA for ${secs.toFixed(1)} s`, `${who}: the glove is off, out of range or its battery flat; the directions shown are old`];
+    return ["dropout", "bad", `NO DATA for ${secs.toFixed(1)} s`, `${who}: the glove is off, out of range or its battery flat; the directions shown are old`];
   }
   const waiting = snap.pointers.filter((p) => p.state === "waiting");
-  if (waiting.length) return ["warn", "WAITING FOR DATA", `${waiting.map((p) => p.name).join(", ")}: no direction yet (hold the glove still while the gyro nulls are measured)`];
+  if (waiting.length) {
+    const nulls = (snap.nodes || []).some((n) => /calibrating/.test(n.text)) ? ": hold the glove still, its gyro nulls are being measured" : "";
+    return ["waiting", "warn", "WAITING FOR DATA", `${waiting.map((p) => p.name).join(", ")}: no direction yet${nulls}`];
+  }
   const troubled = Object.entries(snap.flags).filter(([, f]) => f.flag !== "ok");
-  if (troubled.length) return ["warn", troubled.map(([n, f]) => `${n}: ${f.flag}`).join(" · "), "the filter's direction may be off while this lasts"];
+  if (troubled.length) return ["flag", "warn", troubled.map(([n, f]) => `${n}: ${f.flag}`).join(" · "), "the filter's direction may be off while this lasts"];
   return null;
 }
 
 function drawAlert(snap) {
   const a = alertOf(snap), el = $("alert");
-  document.body.dataset.state = a ? a[1].split(" ")[0].toLowerCase() : "ok";
+  document.body.dataset.state = a ? a[0] : "ok";
   if (!a) { el.hidden = true; return; }
-  el.hidden = false; el.className = a[0];
-  el.innerHTML = `${esc(a[1])}<small>${esc(a[2])}</small>`;
+  el.hidden = false; el.className = a[1];
+  el.innerHTML = `${esc(a[2])}<small>${esc(a[3])}</small>`;
 }
 
 // -- views -------------------------------------------------------------------------------------------

@@ -240,8 +240,8 @@ def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
     # a real dropout: the simulated glove goes silent (no frames into the base station's pty) for 10 s
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.sendto(_osc("/pointat/glove/dropout", 10.0), ("127.0.0.1", control))
-    look = _wait(browser, LOOK, lambda v: v["state"] == "no" and _seconds(v["alert"]) >= 1.0, 30.0)
-    assert look["state"] == "no", look
+    look = _wait(browser, LOOK, lambda v: v["state"] == "dropout" and _seconds(v["alert"]) >= 1.0, 30.0)
+    assert look["state"] == "dropout", look
     assert re.match(r"NO DATA for \d+\.\d s", look["alert"]), look
     assert look["alertSize"] >= 24, look  # big: read from across a stage
     assert look["stale"] and look["opacity"] < 0.5, look  # the big readout greyed
@@ -262,8 +262,8 @@ def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
     # the patch gone (stopped, crashed): the page does not go on showing its last direction as live
     proc.terminate()
     proc.wait(timeout=30)
-    look = _wait(browser, LOOK, lambda v: v["state"] == "patch", 30.0)
-    assert look["state"] == "patch" and look["alert"].startswith("PATCH NOT REACHABLE"), look
+    look = _wait(browser, LOOK, lambda v: v["state"] == "offline", 30.0)
+    assert look["state"] == "offline" and look["alert"].startswith("PATCH NOT REACHABLE"), look
     assert look["stale"] and look["opacity"] < 0.5, look
     browser.execute_script("window.scrollTo(0, 0)")
     (tmp_path / f"monitor-{device}-offline.png").write_bytes(browser.get_screenshot_as_png())
