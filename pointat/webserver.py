@@ -159,6 +159,7 @@ class MonitorServer:
         self.control_dropped = 0
         self.refused = 0
         self.turned_away = 0  # connections over MAX_CONNECTIONS
+        self.most_open = 0  # the most connections served at once
         self._refusals_told: set[str] = set()
         self._refusal_log = LogLimit(log.warning)
         self._gone_log = LogLimit(log.info)
@@ -297,6 +298,7 @@ class MonitorServer:
             full = len(self._open) >= self.MAX_CONNECTIONS
             if not full:
                 self._open[sock] = str(addr[0])
+                self.most_open = max(self.most_open, len(self._open))
         if full:
             self.turned_away += 1
             self._full_log(

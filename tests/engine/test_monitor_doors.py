@@ -12,9 +12,12 @@ import logging
 import os
 import socket
 import struct
+import threading
 import time
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from pointat.checking import check
 from pointat.devices.osc_wire import encode_message
@@ -231,3 +234,285 @@ def _write(tmp_path, text: str) -> str:
     path = tmp_path / "glove.pat"
     path.write_text(text)
     return str(path)
+
+
+# -- availability -----------------------------------------------------------------------------------
+class _SmallServer(MonitorServer):
+    """The same server with a small house and a short patience, so that a test fills and empties it."""
+
+    MAX_CONNECTIONS = 16
+    OPEN_TIMEOUT = 1.0
+
+
+def test_many_slow_connections_neither_starve_the_glove_nor_hold_threads(tmp_path, caplog):
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rt = build(
+        check(read_spec(_write(tmp_path, PATCH.format(port=rx.getsockname()[1]))), REG, parse_overrides([]))
+    )
+    obs = Observer(rt).attach()
+    server = _SmallServer(rt, obs, "127.0.0.1", 0, advertise=False)
+    server.start()
+    th = rt.run_in_thread(60)
+    obs.start()
+    threads_before = threading.active_count()
+    slow: list[socket.socket] = []
+    try:
+        with caplog.at_level(logging.INFO, logger="pointat.monitor"):
+            for _ in range(200):  # a slowloris: requests begun and never ended
+                s = socket.create_connection(("127.0.0.1", server.port), timeout=30)
+                s.sendall(f"GET /monitor/state HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nX-a: ".encode())
+                slow.append(s)
+            assert _streaming(rx, 100), "the glove's output starved"
+            # at most MAX_CONNECTIONS held (each with the library's reader thread), the rest turned away
+            assert threading.active_count() - threads_before <= 3 * _SmallServer.MAX_CONNECTIONS + 4
+            assert server.turned_away > 0 and server.most_open == _SmallServer.MAX_CONNECTIONS
+            # every slow one is closed by the server (after OPEN_TIMEOUT, or at once when turned away)
+            for s in slow:
+                try:
+                    while s.recv(4096):
+                        pass
+                except ConnectionResetError:
+                    pass
+            status, _ = _request(server.port, ["GET /?HOST_INFO HTTP/1.1", f"Host: 127.0.0.1:{server.port}"])
+            assert status == 200
+        lines = [r.getMessage() for r in caplog.records if "turned away" in r.getMessage()]
+        assert 1 <= len(lines) <= 5, lines  # 184 turned away, told in a few lines
+        assert _streaming(rx)
+    finally:
+        for s in slow:
+            s.close()
+        obs.stop()
+        rt.stop()
+        th.join(5)
+        server.close()
+        rx.close()
+
+
+def test_a_websocket_asking_for_nothing_is_closed_when_idle(served):
+    _rt, server, _rx = served
+    server.IDLE_TIMEOUT = 0.5  # (read by the session when it waits)
+    s = ws_connect(server.port)
+    s.settimeout(30)
+    opcode, payload = ws_receive(s)
+    assert opcode == 8 and b"idle" in payload
+    s.close()
+    # one that watches the monitor stays
+    s = ws_connect(server.port)
+    s.settimeout(30)
+    ws_send(s, 1, json.dumps({"COMMAND": "MONITOR"}).encode())
+    for _ in range(20):
+        opcode, _payload = ws_receive(s)
+        assert opcode == 1
+    s.close()
+
+
+# -- any bytes --------------------------------------------------------------------------------------
+class _Errors(logging.Handler):
+    """What the server logs at ERROR or with a traceback (there must be none)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.DEBUG)
+        self.records: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.levelno >= logging.ERROR or record.exc_info:
+            self.records.append(f"{record.name}: {record.getMessage()}")
+
+
+@pytest.fixture(scope="module")
+def house(tmp_path_factory):
+    """One running glove patch and its server for a property's examples: (server, rx, errors)."""
+    tmp = tmp_path_factory.mktemp("house")
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rt = build(
+        check(read_spec(_write(tmp, PATCH.format(port=rx.getsockname()[1]))), REG, parse_overrides([]))
+    )
+    obs = Observer(rt).attach()
+    server = MonitorServer(rt, obs, "127.0.0.1", 0, advertise=False)
+    errors = _Errors()
+    logging.getLogger().addHandler(errors)
+    hook = threading.excepthook
+    threading.excepthook = lambda a: errors.records.append(f"thread {a.thread.name}: {a.exc_type.__name__}")
+    server.start()
+    th = rt.run_in_thread(600)
+    obs.start()
+    try:
+        yield server, rx, errors
+    finally:
+        threading.excepthook = hook
+        logging.getLogger().removeHandler(errors)
+        obs.stop()
+        rt.stop()
+        th.join(5)
+        server.close()
+        rx.close()
+
+
+def _exchange(port: int, data: bytes, *, handshake: bool = False) -> bytes:
+    """Send ``data`` (after a valid handshake, answered, when asked) and read until the server closes
+    or is silent for a quarter of a second (a request begun and not ended waits for its end)."""
+    with socket.create_connection(("127.0.0.1", port), timeout=5) as s:
+        reply = b""
+        if handshake:
+            key = base64.b64encode(os.urandom(16)).decode()
+            s.sendall(
+                f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n".encode()
+            )
+            while b"\r\n\r\n" not in reply:
+                chunk = s.recv(4096)
+                assert chunk, "no answer to a valid handshake"
+                reply += chunk
+            assert reply.startswith(b"HTTP/1.1 101 ")
+        try:
+            s.sendall(data)
+            if handshake:
+                s.sendall(bytes([0x88, 0x82, 0, 0, 0, 0, 0x03, 0xE8]))  # the client's close
+        except OSError:  # the server closed first
+            pass
+        s.settimeout(0.25)
+        try:
+            while chunk := s.recv(65536):
+                reply += chunk
+        except (TimeoutError, ConnectionResetError):
+            pass
+    return reply
+
+
+def _serves_on(server: MonitorServer, rx: socket.socket, errors: _Errors) -> None:
+    assert not errors.records, errors.records
+    status, _ = _request(server.port, ["GET /?HOST_INFO HTTP/1.1", f"Host: 127.0.0.1:{server.port}"])
+    assert status == 200
+    assert _streaming(rx, 5)
+
+
+_REQUEST = (
+    b"GET /monitor/state?token=x HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nOrigin: http://127.0.0.1:{port}\r\n"
+    b"Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+    b"Sec-WebSocket-Version: 13\r\nCookie: a=b\r\n\r\n"
+)
+
+
+@st.composite
+def mutated_requests(draw):
+    """A request the page sends, bytes replaced, put in, cut out; or any bytes at all."""
+    if draw(st.booleans()):
+        return draw(st.binary(max_size=400))
+    data = bytearray(_REQUEST)
+    for _ in range(draw(st.integers(1, 4))):
+        i = draw(st.integers(0, len(data)))
+        kind = draw(st.sampled_from(["set", "insert", "cut"]))
+        chunk = draw(st.binary(min_size=1, max_size=20))
+        if kind == "set":
+            data[i : i + len(chunk)] = chunk
+        elif kind == "insert":
+            data[i:i] = chunk
+        else:
+            del data[i : i + len(chunk)]
+    return bytes(data)
+
+
+@settings(derandomize=True, database=None, deadline=None, max_examples=80,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])  # fmt: skip
+@given(data=mutated_requests())
+def test_any_request_bytes_are_answered_or_closed_and_the_server_serves_on(house, data):
+    server, rx, errors = house
+    reply = _exchange(server.port, data.replace(b"{port}", str(server.port).encode()))
+    assert reply == b"" or reply.startswith(b"HTTP/1.1 ")
+    _serves_on(server, rx, errors)
+
+
+@st.composite
+def frames(draw):
+    """Client frames with every header field drawn (FIN, reserved bits, opcode, mask bit, length and its
+    form, payload), now and then a real command; or any bytes."""
+    if draw(st.integers(0, 4)) == 0:
+        return draw(st.binary(max_size=300))
+    out = b""
+    for _ in range(draw(st.integers(1, 5))):
+        opcode = draw(st.sampled_from([0, 1, 2, 3, 8, 9, 10, 11, 15]))
+        payload = draw(
+            st.one_of(
+                st.binary(max_size=200),
+                st.sampled_from(
+                    [
+                        b'{"COMMAND": "MONITOR"}',
+                        b'{"COMMAND": "LISTEN", "DATA": "/pointat/out/rate"}',
+                        encode_message("/pointat/out/rate", [100.0]),
+                        b"[" * 5000,
+                    ]
+                ),  # fmt: skip
+            )
+        )
+        fin, rsv, masked = draw(st.booleans()), draw(st.integers(0, 7)), draw(st.integers(0, 9)) > 0
+        n = draw(st.one_of(st.just(len(payload)), st.sampled_from([0, 125, 126, 127, 65535, 65536, 2**63])))
+        b0 = (0x80 if fin else 0) | rsv << 4 | opcode
+        m = 0x80 if masked else 0
+        if n < 126 and draw(st.booleans()):
+            head = bytes([b0, m | n])
+        elif n < 1 << 16:
+            head = bytes([b0, m | 126]) + n.to_bytes(2, "big")
+        else:
+            head = bytes([b0, m | 127]) + n.to_bytes(8, "big")
+        key = draw(st.binary(min_size=4, max_size=4)) if masked else b""
+        body = bytes(b ^ key[i % 4] for i, b in enumerate(payload)) if masked else payload
+        out += head + key + body
+    return out
+
+
+@settings(derandomize=True, database=None, deadline=None, max_examples=100,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])  # fmt: skip
+@given(data=frames())
+def test_any_frames_on_an_open_socket_close_it_or_are_taken_and_the_server_serves_on(house, data):
+    server, rx, errors = house
+    _exchange(server.port, data, handshake=True)
+    _serves_on(server, rx, errors)
+    assert server.rt.nodes["out"].p.rate == 100.0  # (the only value a frame sets is the one it has)
+
+
+def test_a_stage_tablet_needs_the_allow_list_and_the_token(tmp_path):
+    """Served on this machine's network address (as with --monitor-host 0.0.0.0) to a tablet in
+    --monitor-allow: the page wants the printed URL's token and keeps it as a cookie for its socket;
+    an OSCQuery tool there (no Origin) reads the tree without it."""
+    from pointat.webaccess import _lan_address
+
+    lan = _lan_address()
+    if lan is None:
+        pytest.skip("no network address on this machine")
+    rt = build(check(read_spec(_write(tmp_path, PATCH.format(port=9))), REG, parse_overrides([])))
+    obs = Observer(rt).attach()
+    server = MonitorServer(rt, obs, lan, 0, advertise=False, allow=[f"{lan}/32"])
+    server.start()
+    port, token = server.port, server.access.token
+    host = f"Host: {lan}:{port}"
+    try:
+        assert server.url == f"http://{lan}:{port}/monitor?token={token}"
+
+        def get(target: str, *extra: str) -> tuple[int, bytes]:
+            with socket.create_connection((lan, port), timeout=5) as s:  # from lan: not loopback
+                s.sendall(("\r\n".join([f"GET {target} HTTP/1.1", host, *extra, "", ""])).encode())
+                reply = b""
+                while chunk := s.recv(65536):
+                    reply += chunk
+            return int(reply.split(b" ", 2)[1]), reply
+
+        assert get("/monitor")[0] == 403
+        assert get("/monitor?token=wrong")[0] == 403
+        status, reply = get(f"/monitor?token={token}")
+        assert status == 200 and f"Set-Cookie: pointat_token_{port}={token};".encode() in reply
+        origin = f"Origin: http://{lan}:{port}"
+        upgrade = ["Upgrade: websocket", "Connection: Upgrade", "Sec-WebSocket-Version: 13"]
+        upgrade.append("Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==")
+        with socket.create_connection((lan, port), timeout=5) as s:
+            lines = ["GET / HTTP/1.1", host, origin, f"Cookie: pointat_token_{port}={token}", *upgrade]
+            s.sendall(("\r\n".join([*lines, "", ""])).encode())
+            assert s.recv(4096).startswith(b"HTTP/1.1 101 ")
+        assert get("/", origin, *upgrade)[0] == 403  # the socket without the cookie
+        assert get("/?HOST_INFO")[0] == 200  # an OSCQuery tool
+        with socket.create_connection((lan, port), timeout=5) as s:
+            s.sendall(f"GET /?HOST_INFO HTTP/1.1\r\nHost: evil.example:{port}\r\n\r\n".encode())
+            assert s.recv(64).startswith(b"HTTP/1.1 403 ")
+    finally:
+        server.close()
