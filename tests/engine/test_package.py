@@ -3,6 +3,8 @@
 import subprocess
 import sys
 
+import pytest
+
 import pointat
 
 
@@ -22,6 +24,7 @@ def test_math_and_devices_do_not_load_the_engine():
     assert out.stdout.strip() == "[]"
 
 
+@pytest.mark.slow  # (a wheel built: seconds)
 def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path):
     """pip install . puts exactly one top-level package, pointat, into site-packages, with the node
     packages, the shipped patches, the examples and the sample data inside it."""

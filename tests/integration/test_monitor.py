@@ -211,6 +211,7 @@ return {
 """
 
 
+@pytest.mark.slow  # (a real 10 s dropout at each width)
 @pytest.mark.parametrize("device", sorted(WIDTHS))
 def test_a_dropout_is_shown_big_and_grey_at_a_phones_and_a_tablets_width(
     running_patch, browser, tmp_path, device
