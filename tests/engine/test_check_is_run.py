@@ -208,28 +208,52 @@ test_check_says_ok_exactly_when_run_starts = _property(40)
 test_check_says_ok_exactly_when_run_starts_long = pytest.mark.slow(_property(400))
 
 
-def _pointat(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "pointat.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=120
-    )
+#: Through the real program: the issue's case and its neighbours ({--set: whether both say ok}).
+CLI_CASES = {
+    "nulls.calibration=missing.json": False,  # issue 44: check said ok, and run refused
+    "nulls.calibration=spoilt.json": False,
+    "nulls.calibration=cal.json": True,
+}
 
 
-@pytest.mark.parametrize(
-    "sets, ok",
-    [
-        (["nulls.calibration=missing.json"], False),  # issue 44: check said ok, and run refused
-        (["nulls.calibration=spoilt.json"], False),
-        (["nulls.calibration=cal.json"], True),
-    ],
-)
-def test_the_command_line_check_and_run_agree(sets, ok, tmp_path):
-    """Through the real program: the issue's case and its neighbours."""
-    Calibration().save(tmp_path / "cal.json")
-    (tmp_path / "spoilt.json").write_text('{"gyro": [1, 2,\n')
-    patch = ROOT / "patches" / "glove_tqt.pat"
-    given = beside(patch) + [a for s in sets for a in ("--set", s)]
-    checked = _pointat("check", "glove_tqt", *given, cwd=tmp_path)
-    ran = _pointat("run", "glove_tqt", "--for", "0", *given, cwd=tmp_path)
+@pytest.fixture(scope="module")
+def cli_runs(tmp_path_factory):
+    """``pointat check glove_tqt`` and ``pointat run glove_tqt --for 0`` with each case's ``--set``, from
+    a folder holding the files, all at once (each is mostly a Python start-up): {case: (check, run)}."""
+    folder = tmp_path_factory.mktemp("cli")
+    Calibration().save(folder / "cal.json")
+    (folder / "spoilt.json").write_text('{"gyro": [1, 2,\n')
+    ports = beside(ROOT / "patches" / "glove_tqt.pat")
+
+    def start(*args: str) -> subprocess.Popen:
+        return subprocess.Popen(
+            [sys.executable, "-m", "pointat.cli", *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=folder,
+        )
+
+    procs = {
+        case: (
+            start("check", "glove_tqt", *ports, "--set", case),
+            start("run", "glove_tqt", "--for", "0", *ports, "--set", case),
+        )
+        for case in CLI_CASES
+    }
+    done = {}
+    for case, pair in procs.items():
+        outs = [p.communicate(timeout=300) for p in pair]  # (first: then the exit status is there)
+        done[case] = tuple(
+            subprocess.CompletedProcess(p.args, p.returncode, *o) for p, o in zip(pair, outs, strict=True)
+        )
+    return done
+
+
+@pytest.mark.parametrize("case", sorted(CLI_CASES))
+def test_the_command_line_check_and_run_agree(case, cli_runs):
+    ok = CLI_CASES[case]
+    checked, ran = cli_runs[case]
     assert (checked.returncode == 0) == ok, checked.stderr
     assert (ran.returncode == 0) == ok, ran.stderr
     assert "Traceback" not in checked.stderr + ran.stderr
