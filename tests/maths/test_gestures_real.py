@@ -1,0 +1,128 @@
+"""The gesture node's defaults on real people's motion (samples of seglearn's watch set and of BROAD in
+``tests/data/gestures``, with their sources and licences): taught by others or by the performer in a
+first take, never much below plain 1-NN DTW on the same split, and real motion that is no gesture rarely
+taken for one.  The defaults were chosen on other recordings (``benchmarks/gesture_real.py``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchmarks.gesture_sets import G, Take, cut_repetitions
+from pointat.gesture_eval import baseline, evaluate
+from pointat.maths.gestures import GestureModel, Recognizer
+
+DATA = Path(__file__).resolve().parent.parent / "data" / "gestures"
+CH = ("acc", "gyr")
+
+
+@pytest.fixture(scope="module")
+def reps() -> dict[tuple[int, str], list]:
+    """Person, exercise -> the recording's repetitions (as a pedal pressed at each would cut them)."""
+    z = np.load(DATA / "watch_sample.npz")
+    ends = np.cumsum(z["lengths"])
+    out = {}
+    for k, (a, b) in enumerate(zip(np.r_[0, ends[:-1]], ends, strict=True)):
+        acc, gyr = z["acc"][a:b] / 4000.0 * G, z["gyr"][a:b] / 1000.0
+        take = Take(
+            str(z["label"][k]), int(z["person"][k]), 1, np.arange(b - a) / 50.0, {"acc": acc, "gyr": gyr}
+        )
+        out[(take.person, take.label)] = cut_repetitions(take)
+    return out
+
+
+@pytest.fixture(scope="module")
+def no_gesture() -> list[tuple[np.ndarray, np.ndarray]]:
+    """Four minutes of BROAD's real hand motion (fast rotation and translation; tapping): times, frames."""
+    z = np.load(DATA / "broad_sample.npz")
+    return [
+        (z[f"{k}_t"].astype(float), np.column_stack([z[f"{k}_acc"] / 200.0, z[f"{k}_gyr"] / 1000.0]))
+        for k in ("21", "24")
+    ]
+
+
+def _new_person(reps, person):
+    train = [r[1] for (p, _), r in reps.items() if p != person]
+    test = [x for (p, _), r in reps.items() if p == person for x in r]
+    return train, test
+
+
+def _three(reps, person):
+    mine = [r for (p, _), r in reps.items() if p == person]
+    return [x for r in mine for x in r[:3]], [r[k] for k in range(3, 40) for r in mine if k < len(r)]
+
+
+def test_a_new_person_taught_by_two_others_is_named_as_plain_dtw_names_them(reps):
+    """Each of three people taught by the two others (one repetition of each exercise from each): the
+    node's defaults, rejection and early decisions on, beside plain 1-NN DTW without rejection."""
+    ours, plain = [], []
+    for person in (1, 2, 3):
+        train, test = _new_person(reps, person)
+        ours.append(evaluate(train, test, CH).accuracy)
+        plain.append(baseline(train, test, CH).accuracy)
+    assert np.mean(ours) >= np.mean(plain) - 0.03 and min(ours) >= 0.4, (ours, plain)
+
+
+@pytest.mark.parametrize("person", [1, 2, 3])
+def test_three_examples_of_a_first_take_hold_for_the_rest_of_it(reps, person):
+    train, test = _three(reps, person)
+    ours, plain = evaluate(train, test, CH).accuracy, baseline(train, test, CH).accuracy
+    assert ours >= 0.8 and ours >= plain - 0.03, (ours, plain)
+
+
+def test_the_null_class_costs_few_real_gestures(reps):
+    """The failure this default replaced: a reach fitted on three examples refused half of a person's
+    gestures on another day.  The null class's reach is the gesture's own distance from keeping still."""
+    lost = []
+    for person in (1, 2, 3):
+        train, test = _new_person(reps, person)
+        on = evaluate(train, test, CH).accuracy
+        off = evaluate(train, test, CH, {"reject": 0.0}).accuracy
+        lost.append(off - on)
+    assert max(lost) <= 0.08 and np.mean(lost) <= 0.04, lost
+
+
+@pytest.mark.parametrize("channels", [("acc", "gyr"), ("acc",)])
+def test_real_motion_that_is_no_gesture_is_rarely_taken_for_one(reps, no_gesture, channels):
+    """A model of 21 exercises' examples (three people's) over BROAD's fast rotation and translation,
+    then its finger tapping (sharp jolts: the hardest real motion here, see the benchmark's report)."""
+    train = [x for r in reps.values() for x in r[:3]]
+    model = GestureModel(channels).train([r.example(channels) for r in train])
+    told = []
+    for t, frames in no_gesture:
+        rec = Recognizer(model)
+        x = frames if channels == CH else frames[:, :3]
+        n = 0
+        for ti, f in zip(t, x, strict=True):
+            n += sum(e[0] == "decision" and e[1].label is not None for e in rec.push(float(ti), f))
+        told.append(n)
+    # two minutes each: the goal, 0.5 a minute, holds on ordinary motion; on tapping these defaults
+    # give 1.5 (said in benchmarks/GESTURES_REAL.md, and held here so that it gets no worse)
+    assert told[0] <= 1 and told[1] <= 3, f"false triggers in two minutes: {told}"
+
+
+def test_adapt_follows_the_performer_and_keeps_the_taught_examples(reps):
+    train, test = _three(reps, 1)
+    plain = evaluate(train, test, CH)
+    adapted = evaluate(train, test, CH, {}, {"adapt": True, "keep": 5})
+    assert adapted.accuracy >= plain.accuracy - 0.02, (adapted.accuracy, plain.accuracy)
+    model = GestureModel(CH).train([r.example(CH) for r in train])
+    rec = Recognizer(model, adapt=True, keep=5, early=False)
+    taught = list(model.examples)
+    events = []
+    for r in test:
+        e = r.example(CH)
+        rec.reset()
+        rec.gate(True, float(e.t[0]))
+        for t, f in zip(e.t, e.frames, strict=True):
+            events += rec.push(float(t), f)
+        events += rec.gate(False, float(e.t[-1]))
+    told = [e for e in events if e[0] == "adapted"]
+    assert told, "nothing was recognised with a clear margin"
+    for label in model.classes:
+        own = [x for x in model.examples if x.label == label]
+        assert len(own) <= 5
+        if any(e[1] == label for e in told):
+            assert all(any(x is y for y in own) for x in taught if x.label == label)
