@@ -2,6 +2,11 @@
 
 The steps are modules of their own: :mod:`pointat.expansion` (:func:`read_spec`, :func:`expand`),
 :mod:`pointat.checking` (:func:`check`: every problem at once) and here :func:`build` and :func:`load`.
+
+:func:`ready` is the one validation ``pointat check`` and ``pointat run`` share: check with the files
+read, build, prepare.  Where check stops is where run starts opening things: a device, a port, a socket,
+a file to write (:meth:`Node.start`), and the compiled glove chains (which never stop a start).  So a
+patch check passes is one run starts, but for a device that is not there or a port another program holds.
 """
 
 from __future__ import annotations
