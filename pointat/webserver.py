@@ -124,7 +124,7 @@ class MonitorServer:
     """
 
     #: Connections served at once (HTTP and WebSocket); more are answered 503 and closed at once.
-    MAX_CONNECTIONS = 64
+    MAX_CONNECTIONS = 32
     #: Seconds a client has to send its request (a slow or silent one is closed after).
     OPEN_TIMEOUT = 5.0
     #: Seconds a client may take to accept what is sent to it before it is dropped.
