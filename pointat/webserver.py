@@ -78,7 +78,10 @@ class _LibraryLog(logging.Filter):
             return False
         exc = record.exc_info[1] if record.exc_info else None
         text = record.getMessage()
-        if text == "unexpected internal error":
+        if text == "keepalive ping failed":  # a client that stopped answering: closed, as any gone one
+            record.levelno, record.levelname = logging.INFO, "INFO"
+            text, exc = "a client stopped answering pings; its connection closed", None
+        elif text == "unexpected internal error":
             # a client's bytes or end of stream before the handshake's answer: the library fails its own
             # assertion (or reads past the end), closes that connection and serves on (found by
             # tests/fuzz_websocket.py): a client's doing, told as a warning
@@ -98,22 +101,53 @@ _library_log.addFilter(_LibraryLog())
 
 
 class _Client:
-    """One WebSocket client: what it listens to, and whether it is still there."""
+    """One WebSocket client: what it listens to, and what waits to be sent to it.
+
+    A thread of its own sends: whoever has something for the client (the observer's thread above all)
+    leaves the latest message of its kind (the monitor's reading, each path's value) and never waits on
+    a reader that does not keep up; such a reader misses readings, and one that stops reading is dropped
+    (:attr:`MonitorServer.SEND_TIMEOUT`, or the pings).
+    """
 
     def __init__(self, connection: ServerConnection):
         self.connection = connection
         self.listening: dict[str, Any] = {}  # path -> the value last sent
         self.monitor = False
         self.alive = True
+        self._outbox: dict[str, tuple[bytes, bool]] = {}  # kind -> the latest message, text or not
+        self._ready = threading.Condition()
+        self.sender = threading.Thread(target=self._send_all, name="pointat-monitor-send", daemon=True)
+        quiet_thread(self.sender).start()
 
-    def send(self, message: bytes, text: bool = False) -> None:
-        """A message to the client (any thread); a client gone or too slow to read it is dropped."""
-        if not self.alive:
-            return
-        try:
-            self.connection.send(message, text=text)
-        except (ConnectionClosed, OSError):
+    def send(self, kind: str, message: bytes, text: bool = False) -> None:
+        """Leave ``message`` for the client (any thread, never waiting); it replaces one of the same
+        ``kind`` not sent yet."""
+        with self._ready:
+            if self.alive:
+                self._outbox[kind] = (message, text)
+                self._ready.notify()
+
+    def stop(self) -> None:
+        with self._ready:
             self.alive = False
+            self._outbox.clear()
+            self._ready.notify()
+
+    def _send_all(self) -> None:
+        while True:
+            with self._ready:
+                while self.alive and not self._outbox:
+                    self._ready.wait()
+                if not self.alive:
+                    return
+                messages = list(self._outbox.values())
+                self._outbox.clear()
+            for message, text in messages:
+                try:
+                    self.connection.send(message, text=text)
+                except (ConnectionClosed, OSError):  # gone, or stuck SEND_TIMEOUT: the session ends too
+                    self.stop()
+                    return
 
 
 class MonitorServer:
@@ -398,7 +432,7 @@ class MonitorServer:
             else:
                 self.gone(self.peer(connection), exc)
         finally:
-            client.alive = False
+            client.stop()
 
     def _command(self, client: _Client, payload: str) -> None:
         try:
@@ -411,13 +445,13 @@ class MonitorServer:
             value = value_of(self.rt, data)
             if value is not None:
                 client.listening[data] = value
-                client.send(encode_message(data, value))
+                client.send(data, encode_message(data, value))
         elif verb == "IGNORE" and isinstance(data, str):
             client.listening.pop(data, None)
         elif verb == "MONITOR":
             client.monitor = True
             snap = self.observer.snapshot()
-            client.send(json.dumps({**snap, "url": self.url}).encode(), text=True)
+            client.send("monitor", json.dumps({**snap, "url": self.url}).encode(), text=True)
         else:
             self._malformed_log(
                 "monitor: WebSocket command %r ignored (LISTEN, IGNORE, MONITOR)", str(verb)[:40]
@@ -435,12 +469,12 @@ class MonitorServer:
             if c.monitor:
                 if text is None:
                     text = json.dumps({k: v for k, v in snap.items() if not k.endswith("history")}).encode()
-                c.send(text, text=True)
+                c.send("monitor", text, text=True)
             for path, last in list(c.listening.items()):
                 value = value_of(self.rt, path)
                 if value is not None and value != last:
                     c.listening[path] = value
-                    c.send(encode_message(path, value))
+                    c.send(path, encode_message(path, value))
 
     # -- OSC ---------------------------------------------------------------------------------------
     def _read_osc(self) -> None:

@@ -516,3 +516,35 @@ def test_a_stage_tablet_needs_the_allow_list_and_the_token(tmp_path):
             assert s.recv(64).startswith(b"HTTP/1.1 403 ")
     finally:
         server.close()
+
+
+def test_readers_that_never_read_hold_up_neither_the_glove_nor_the_other_pages(served):
+    _rt, server, rx = served
+    stuck = []
+    for _ in range(3):
+        s = socket.socket()
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        s.connect(("127.0.0.1", server.port))
+        key = base64.b64encode(os.urandom(16)).decode()
+        s.sendall(
+            f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n".encode()
+        )
+        ws_send(s, 1, json.dumps({"COMMAND": "MONITOR"}).encode())
+        ws_send(s, 1, json.dumps({"COMMAND": "LISTEN", "DATA": "/pointat/out/aed"}).encode())
+        stuck.append(s)  # and never read
+    try:
+        page = ws_connect(server.port)
+        page.settimeout(30)
+        ws_send(page, 1, json.dumps({"COMMAND": "MONITOR"}).encode())
+        readings = 0
+        while readings < 100:  # 4 s of readings at 25 a second, each one whole JSON
+            opcode, payload = ws_receive(page)
+            if opcode == 1:
+                json.loads(payload)
+                readings += 1
+        page.close()
+        assert _streaming(rx, 100)
+    finally:
+        for s in stuck:
+            s.close()
