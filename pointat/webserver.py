@@ -366,12 +366,16 @@ class MonitorServer:
         headers = request.headers
         peer = self.peer(connection)
         why = self.access.refusal(
-            peer, headers.get("Host"), headers.get("Origin"), request.path, headers.get("Cookie")
+            peer,
+            _header(headers, "Host"),
+            _header(headers, "Origin"),
+            request.path,
+            _header(headers, "Cookie", "; "),
         )
         if why is not None:
             self.refuse(why)
             return _response(HTTPStatus.FORBIDDEN, b"forbidden\n", "text/plain; charset=utf-8")
-        if "websocket" in headers.get("Upgrade", "").lower():
+        if "websocket" in (_header(headers, "Upgrade") or "").lower():
             return None
         try:
             return self._answer(request.path)
@@ -540,6 +544,12 @@ class _Connection(ServerConnection):
         except Exception as exc:
             self.monitor.gone(self.monitor.peer(self), exc)
             raise
+
+
+def _header(headers: Headers, name: str, sep: str = ", ") -> str | None:
+    """A header's value, several joined (two Hosts or two Origins then name no server: refused)."""
+    values = headers.get_all(name)
+    return sep.join(values) if values else None
 
 
 def _send_timeout(sock: socket.socket, seconds: float) -> None:

@@ -305,6 +305,8 @@ def valid_request(rng: random.Random, port: int) -> bytes:
         lines.append(f"Origin: {rng.choice((f'http://127.0.0.1:{port}', 'http://evil.example', 'null'))}")
     if rng.random() < 0.2:
         lines.append("Cookie: " + rng.choice(("a=b", "pointat_token_1=x; c", '"', "=" * 50)))
+    if rng.random() < 0.1:  # a header twice
+        lines.insert(rng.randrange(1, len(lines) + 1), rng.choice(lines[1:]))
     return ("\r\n".join([*lines, "", ""])).encode()
 
 

@@ -162,6 +162,10 @@ def test_a_dns_rebinding_reads_nothing(served):
         assert status == 200, (target, reply[:200])
     status, _ = _handshake(port, None, host="evil.example")
     assert status == 403
+    # two Hosts, or two Origins, name no one server
+    for extra in ([f"Host: 127.0.0.1:{port}"], ["Host: evil.example"], ["Origin: a", "Origin: b"]):
+        status, _ = _request(port, ["GET /monitor/state HTTP/1.1", f"Host: 127.0.0.1:{port}", *extra])
+        assert status == 403, extra
     assert _streaming(rx)
 
 
@@ -397,11 +401,15 @@ _REQUEST = (
 
 @st.composite
 def mutated_requests(draw):
-    """A request the page sends, bytes replaced, put in, cut out; or any bytes at all."""
+    """A request the page sends, a header line doubled, bytes replaced, put in, cut out; or any bytes."""
     if draw(st.booleans()):
         return draw(st.binary(max_size=400))
-    data = bytearray(_REQUEST)
-    for _ in range(draw(st.integers(1, 4))):
+    lines = _REQUEST.split(b"\r\n")
+    if draw(st.booleans()):
+        i = draw(st.integers(1, len(lines) - 3))
+        lines.insert(draw(st.integers(1, len(lines) - 2)), lines[i])
+    data = bytearray(b"\r\n".join(lines))
+    for _ in range(draw(st.integers(0, 4))):
         i = draw(st.integers(0, len(data)))
         kind = draw(st.sampled_from(["set", "insert", "cut"]))
         chunk = draw(st.binary(min_size=1, max_size=20))
