@@ -597,8 +597,9 @@ def _advertise(name: str, host: str, port: int, osc_port: int) -> Any:
     log line) without it.
 
     Served on loopback, zeroconf answers on loopback only: its sockets are held to the loopback device
-    (``SO_BINDTODEVICE``), so nothing on the network reaches its port 5353; where they cannot be, the
-    server is not advertised.  Served on one address, on that interface; on every interface, on all.
+    (``SO_BINDTODEVICE``), so nothing on the network reaches its port 5353; served on one address, they
+    are held to that address's interface; where they cannot be, the server is not advertised.  Served
+    on every interface, it answers on all.
     """
     try:
         from zeroconf import InterfaceChoice, ServiceInfo, Zeroconf
@@ -620,9 +621,11 @@ def _advertise(name: str, host: str, port: int, osc_port: int) -> Any:
         zc = Zeroconf(interfaces=interfaces)
         for th in set(threading.enumerate()) - before:  # its event loop, asleep on its sockets
             quiet_thread(th)
-        if loopback and not _hold_to_loopback(zc):
+        wildcard = host in ("", "0.0.0.0")
+        device = _loopback_device() if loopback else None if wildcard else _device_of(host)
+        if not wildcard and not _hold_to(zc, device):
             zc.close()
-            log.info("the OSCQuery server is not advertised: zeroconf cannot be held to loopback here")
+            log.info("the OSCQuery server is not advertised: zeroconf cannot be held to %s here", host)
             return None
         label = f"{name} {time.strftime('%H%M%S')}"[:63]
         for kind, p in (("_oscjson._tcp.local.", port), ("_osc._udp.local.", osc_port)):
@@ -645,10 +648,22 @@ def _loopback_device() -> str | None:
     return None
 
 
-def _hold_to_loopback(zc: Any) -> bool:
-    """Hold every socket of ``zc`` to the loopback device; False where that cannot be done (not Linux,
-    or zeroconf's sockets not where they were)."""
-    device = _loopback_device()
+def _device_of(address: str) -> str | None:
+    """The network interface that has ``address``, or None."""
+    try:
+        import ifaddr
+
+        for adapter in ifaddr.get_adapters():
+            if any(ip.ip == address for ip in adapter.ips):
+                return str(adapter.name)
+    except Exception:  # no list of interfaces: not held, so not advertised
+        pass
+    return None
+
+
+def _hold_to(zc: Any, device: str | None) -> bool:
+    """Hold every socket of ``zc`` to ``device`` (its port 5353 is bound to every address); False where
+    that cannot be done (no such device, not Linux, or zeroconf's sockets not where they were)."""
     option = getattr(socket, "SO_BINDTODEVICE", None)
     engine = getattr(zc, "engine", None)
     transports = [*getattr(engine, "readers", ()), *getattr(engine, "senders", ())]
