@@ -375,10 +375,18 @@ class MonitorServer:
         if why is not None:
             self.refuse(why)
             return _response(HTTPStatus.FORBIDDEN, b"forbidden\n", "text/plain; charset=utf-8")
+        method = getattr(request, "method", "GET")  # (the library reads other methods since 16)
+        if method not in ("GET", "HEAD"):
+            response = _response(HTTPStatus.METHOD_NOT_ALLOWED, b"GET only\n", "text/plain; charset=utf-8")
+            response.headers["Allow"] = "GET, HEAD"
+            return response
         if "websocket" in (_header(headers, "Upgrade") or "").lower():
             return None
         try:
-            return self._answer(request.path)
+            response = self._answer(request.path)
+            if method == "HEAD":
+                response.body = b""  # (its Content-Length stays the GET's)
+            return response
         except Exception as exc:  # a bug here must not close the server: told, and a 500
             log.error("monitor: GET %s failed: %s: %s", request.path[:100], type(exc).__name__, exc)
             return _response(HTTPStatus.INTERNAL_SERVER_ERROR, b"error\n", "text/plain; charset=utf-8")

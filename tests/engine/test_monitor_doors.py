@@ -556,3 +556,16 @@ def test_readers_that_never_read_hold_up_neither_the_glove_nor_the_other_pages(s
     finally:
         for s in stuck:
             s.close()
+
+
+def test_head_is_answered_without_a_body_and_other_methods_are_refused(served):
+    _rt, server, _rx = served
+    port = server.port
+    status, reply = _request(port, ["HEAD /?HOST_INFO HTTP/1.1", f"Host: 127.0.0.1:{port}"])
+    head, _, body = reply.partition(b"\r\n\r\n")
+    assert status == 200 and body == b"" and b"Content-Length: " in head
+    for method in ("POST", "PUT", "DELETE", "OPTIONS"):
+        status, reply = _request(port, [f"{method} /pointat/out/rate HTTP/1.1", f"Host: 127.0.0.1:{port}"])
+        assert status == 405 and b"Allow: GET, HEAD" in reply, (method, reply[:200])
+    status, _ = _request(port, ["POST / HTTP/1.1", "Host: evil.example"])
+    assert status == 403  # who asks is looked at first
