@@ -31,6 +31,7 @@ from pointat.gesture_files import MOST_EXAMPLES, load_model, model_text
 from pointat.maths.dtw import warm
 from pointat.maths.gestures import (
     CHANNELS,
+    CUTS,
     NULL,
     REJECT,
     RELATIVE,
@@ -376,6 +377,7 @@ def recognizer_options(p: Any) -> dict[str, Any]:
         "early": p.early,
         "adapt": p.adapt,
         "keep": p.keep,
+        "cut": p.cut,
     }
 
 
@@ -385,7 +387,9 @@ class GestureNode(_Learner):
 
     Movements are cut from rest to rest (a movement starts when the hand moves faster than ``start``
     times the examples' typical peak, and ends ``settle`` ms after it slows), or by a gate: ``gate 1``
-    ... ``gate 0`` (a button or a pedal held while the gesture is made).  Each is compared to every
+    ... ``gate 0`` (a button or a pedal held while the gesture is made).  ``cut=spot`` finds them with
+    no rest between them (repetitions one after another): every example is matched anywhere in the
+    stream, and the best of overlapping matches is told half an example after it ends.  Each is compared to every
     example by dynamic time warping (1-NN DTW, all features warped together; the accelerometer as it
     is, so the hand's attitude counts), with a null class.  A movement is no gesture (``none``) when:
 
@@ -450,6 +454,13 @@ class GestureNode(_Learner):
             "list",
             RELATIVE,
             "channels taken relative to how the movement began: acc (the hand's attitude left out), q",
+        ),
+        Param(
+            "cut",
+            "symbol",
+            "rest",
+            "how movements are found: from rest to rest, or spot (repetitions with no rest between them)",
+            choices=CUTS,
         ),
         Param("adapt", "bool", False, "learn from movements recognised with a clear margin", live=True),
         Param(

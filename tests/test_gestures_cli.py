@@ -108,7 +108,7 @@ def test_the_node_s_parameters_are_options_of_evaluate(basic_motions, capsys):
     assert main([*base, "--set", "reject=0.000001"]) == 0  # so near its examples nothing is a gesture
     assert all(d["decided"] is None for d in json.loads(capsys.readouterr().out)["decisions"])
     for bad, said in (
-        ("bogus=1", "NAME one of the gesture node's parameters (adapt, band, early"),
+        ("bogus=1", "NAME one of the gesture node's parameters (adapt, band, cut, early"),
         ("reject", "expected NAME=VALUE"),
         ("warp=sideways", "parameter 'warp' expects one of each, together; got 'sideways'"),
         ("reject=-1", "parameter 'reject' expects a number >= 0; got -1"),

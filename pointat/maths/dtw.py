@@ -38,7 +38,7 @@ import numpy as np
 
 from pointat.maths.numba_cache import user_cache
 
-__all__ = ["band", "dtw_distance", "dtw_many", "dtw_prefix", "dtw_prefix_many", "warm"]
+__all__ = ["Spring", "band", "dtw_distance", "dtw_many", "dtw_prefix", "dtw_prefix_many", "warm"]
 
 
 def band(n: int, m: int, fraction: float) -> int:
@@ -144,6 +144,36 @@ def _prefix_many(
             out[t, 1] = j / m
 
 
+def _spring(
+    x: np.ndarray, bank: np.ndarray, starts: np.ndarray, t: int, d: np.ndarray, s: np.ndarray, out: np.ndarray
+) -> None:
+    """One frame ``x`` (D,) of a stream, its step ``t``, against every template of a bank, a match free to
+    start at any step (SPRING: Sakurai, Faloutsos and Yamamuro 2007, subsequence DTW).  ``d`` and ``s``
+    hold each template's column of cumulative costs and their paths' start steps (template ``j`` at
+    ``starts[j] + j``, ``m + 1`` cells; ``d`` infinite but its first cell at the start), updated in place;
+    ``out[j] = (cost, start)``: the best match ending now, :math:`D / (n + m)` as :func:`dtw_distance`'s."""
+    for j in range(starts.shape[0] - 1):
+        at = starts[j] + j
+        m = starts[j + 1] - starts[j]
+        diag, diag_s = d[at], s[at]
+        d[at], s[at] = 0.0, t
+        for i in range(1, m + 1):
+            c = 0.0
+            for k in range(x.shape[0]):
+                diff = x[k] - bank[starts[j] + i - 1, k]
+                c += diff * diff
+            best, best_s = d[at + i - 1], s[at + i - 1]  # this step, the template's previous frame
+            if diag < best:  # the previous step, the template's previous frame
+                best, best_s = diag, diag_s
+            old, old_s = d[at + i], s[at + i]
+            if old < best:  # the previous step, this frame of the template
+                best, best_s = old, old_s
+            diag, diag_s = old, old_s
+            d[at + i], s[at + i] = c + best, best_s
+        out[j, 0] = d[at + m] / (t - s[at + m] + 1 + m)
+        out[j, 1] = s[at + m]
+
+
 _compiled: dict[str, Callable[..., Any]] = {}
 
 
@@ -157,10 +187,10 @@ def _kernel(name: str) -> Callable[..., Any]:
         glb = globals()
         space: dict[str, Any] = {"np": np, "math": math, "__name__": __name__}
         with user_cache(numba):  # (never beside this file: inside an installed package)
-            for each in ("band", "_cumulative", "_distance", "_prefix", "_many", "_prefix_many"):
+            for each in ("band", "_cumulative", "_distance", "_prefix", "_many", "_prefix_many", "_spring"):
                 code = glb[each]
                 space[each] = jit(type(code)(code.__code__, space, each))
-        _compiled.update({k: space[k] for k in ("_distance", "_prefix", "_many", "_prefix_many")})
+        _compiled.update({k: space[k] for k in ("_distance", "_prefix", "_many", "_prefix_many", "_spring")})
         fn = _compiled[name]
     return fn
 
@@ -231,6 +261,33 @@ def dtw_prefix_many(
     return out
 
 
+class Spring:
+    """Matches of templates anywhere in a stream, frame by frame (:func:`_spring`): :meth:`push` gives,
+    for each template, the cost of the best match ending at this frame and the step it started at."""
+
+    def __init__(self, templates: Sequence[np.ndarray]):
+        if not len(templates):
+            raise ValueError("no templates")
+        self.bank = np.ascontiguousarray(np.concatenate([_frames(t, "a template") for t in templates]))
+        self.starts = np.cumsum([0, *(len(t) for t in templates)]).astype(np.int64)
+        self.out = np.empty((len(templates), 2))
+        self.reset()
+
+    def reset(self) -> None:
+        self.step = 0
+        self.d = np.full(len(self.bank) + len(self.starts) - 1, np.inf)
+        self.d[self.starts[:-1] + np.arange(len(self.starts) - 1)] = 0.0
+        self.s = np.zeros(len(self.d))
+
+    def push(self, x: np.ndarray) -> np.ndarray:
+        """One feature frame (D,): rows (cost, start step) per template."""
+        _kernel("_spring")(
+            np.ascontiguousarray(x, dtype=float), self.bank, self.starts, self.step, self.d, self.s, self.out
+        )
+        self.step += 1
+        return self.out
+
+
 def warm() -> None:
     """Compile (or load from numba's cache) every kernel now, not at its first use: a patch calls this
     before its clock starts, so that the first gesture's early check holds no timer up."""
@@ -239,3 +296,4 @@ def warm() -> None:
     dtw_prefix_many(a, [a])
     dtw_distance(a, a)
     dtw_prefix(a, a)
+    Spring([a]).push(a[0])

@@ -48,11 +48,12 @@ from typing import Any
 
 import numpy as np
 
-from pointat.maths.dtw import dtw_many, dtw_prefix_many
+from pointat.maths.dtw import Spring, dtw_many, dtw_prefix_many
 from pointat.maths.quaternion import quat_conjugate, quat_multiply, quat_to_matrix, quat_to_rotvec
 
 __all__ = [
     "CHANNELS",
+    "CUTS",
     "GRAVITY",
     "NULL",
     "REJECT",
@@ -65,6 +66,7 @@ __all__ = [
     "PostureModel",
     "Recognizer",
     "Segmenter",
+    "Spotter",
     "Stroke",
     "StrokeDetector",
     "channel_slices",
@@ -92,6 +94,10 @@ REJECT = 3.0
 
 #: The channel groups whose peak strength a gesture's performances keep to (:meth:`GestureModel.strength`).
 _STRONG = ("acc", "gyr")
+
+#: How a stream is cut into movements: from ``rest`` to rest (:class:`Segmenter`), or every template
+#: matched anywhere (``spot``: :class:`Spotter`, for repetitions with no rest between them).
+CUTS = ("rest", "spot")
 
 #: The label of examples of movements that are no gesture.
 NULL = "null"
@@ -650,6 +656,116 @@ class GestureModel:
         return start * float(np.median(self.peaks)) if self.peaks else DEFAULT_ON[kind]
 
 
+class Spotter:
+    """Trained movements found in a stream that never rests (repetitions one after another): every
+    template matched anywhere, frame by frame (:class:`~pointat.maths.dtw.Spring`, subsequence DTW on
+    the features at the model's frame rate, taken as they are: nothing is relative to a start), the
+    best match of those that overlap told once no better one can follow (``hold`` s after its end),
+    under the model's rules of rejection (:meth:`GestureModel.decide`: reach, keeping still, pace and
+    strength).  :meth:`push` returns decisions: (Decision, time of the match's last frame).
+    """
+
+    #: A match is no longer nor shorter than this many times its template.
+    STRETCH = 2.5
+
+    def __init__(self, model: GestureModel, hold: float | None = None) -> None:
+        self.model = model
+        self.templates = [
+            segment_features(e.t, e.frames, model.channels, model.frame_rate, model.size, ()) / model.scales
+            for e in model.examples
+        ]
+        # a match is told once no better one can follow: half a typical template after its end
+        self.hold = (
+            hold
+            if hold is not None
+            else 0.5 * float(np.median([len(x) for x in self.templates])) / model.frame_rate
+        )
+        self.spring = Spring(self.templates)
+        self.span = max(len(x) for x in self.templates) * model.PACE + 2
+        self.reset()
+
+    def reset(self) -> None:
+        self.spring.reset()
+        self.raw: deque[tuple[float, np.ndarray]] = deque()
+        self.feats: deque[np.ndarray] = deque()
+        self.times: deque[float] = deque()
+        self._next = math.nan
+        self._last: tuple[float, np.ndarray] | None = None
+        self._pending: list[tuple[float, int, int, int]] = []  # cost, template, start and end steps
+        self._free = 0  # steps before this one belong to a match already told
+
+    def push(self, t: float, frame: np.ndarray) -> list[tuple[Decision, float]]:
+        out: list[tuple[Decision, float]] = []
+        m = self.model
+        self.raw.append((t, frame))
+        while self.raw and self.raw[0][0] < t - self.span / m.frame_rate - 1.0:
+            self.raw.popleft()
+        if self._last is None or not math.isfinite(self._next):
+            self._last, self._next = (t, frame), t
+        t0, f0 = self._last
+        while self._next <= t:  # feature frames on the model's grid, between the last two frames
+            w = 0.0 if t <= t0 else (self._next - t0) / (t - t0)
+            x = transform((f0 + w * (frame - f0))[None, :], m.channels, m.size, ())[0] / m.scales
+            out += self._step(self._next, x)
+            self._next += 1.0 / m.frame_rate
+        self._last = (t, frame)
+        return out
+
+    def _step(self, t: float, x: np.ndarray) -> list[tuple[Decision, float]]:
+        step = self.spring.step
+        rows = self.spring.push(x)
+        self.feats.append(x)
+        self.times.append(t)
+        if len(self.feats) > self.span:
+            self.feats.popleft()
+            self.times.popleft()
+        first = step - len(self.feats) + 1  # the step of feats[0]
+        pending = self._pending
+        for j, (cost, start) in enumerate(rows):
+            start = int(start)
+            label = self.model.labels[j]
+            if start < self._free or start < first or label == NULL:
+                continue
+            m = len(self.templates[j])
+            if not m / self.STRETCH <= step - start + 1 <= m * self.STRETCH:
+                continue
+            share = cost / self.model.threshold(label)  # (the classes compared at their own scale)
+            if share > 1.0:
+                continue
+            for k, p in enumerate(pending):  # the best of the matches that overlap by half or more
+                if min(step, p[3]) - max(start, p[2]) + 1 > 0.5 * min(step - start, p[3] - p[2]) + 0.5:
+                    if share < p[0]:
+                        pending[k] = (float(share), j, start, step)
+                    break
+            else:
+                pending.append((float(share), j, start, step))
+        out = []
+        pending.sort(key=lambda p: p[3])
+        while pending and (step - pending[0][3]) / self.model.frame_rate >= self.hold:
+            p = pending.pop(0)
+            if p[2] < self._free or p[2] < first:
+                continue
+            decision = self._decide(p, first)
+            if decision is not None:
+                self._free = p[3] + 1 - len(self.templates[p[1]]) // 4  # (a next one may begin as it ends)
+                out.append((decision, self.times[p[3] - first]))
+        return out
+
+    def _decide(self, p: tuple[float, int, int, int], first: int) -> Decision | None:
+        _, _, start, end = p
+        m = self.model
+        x = np.array([self.feats[k - first] for k in range(start, end + 1)])
+        ts = [self.times[k - first] for k in range(start, end + 1)]
+        raw = np.array([f for ti, f in self.raw if ts[0] <= ti <= ts[-1]] or [self.raw[-1][1]])
+        decision = m.decide(
+            dtw_many(x, self.templates, 1.0),
+            duration=ts[-1] - ts[0],
+            still=m.still(x),
+            strength=m.strength(raw),
+        )
+        return decision if decision.label is not None else None
+
+
 class Recognizer:
     """Trained movements found in a stream, frame by frame: what the ``gesture`` node and
     ``pointat gestures evaluate`` run.
@@ -679,9 +795,13 @@ class Recognizer:
         longest: float = 4.0,
         adapt: bool = False,
         keep: int = 10,
+        cut: str = "rest",
     ) -> None:
+        if cut not in CUTS:
+            raise ValueError(f"cut must be one of {', '.join(CUTS)}; got {cut!r}")
         self.model = model
-        self.adapt, self.keep = adapt, keep
+        self.adapt, self.keep, self.cut = adapt, keep, cut
+        self.spotter: Spotter | None = None
         self.start, self.settle, self.refractory = start, settle, refractory
         self.use_early, self.share, self.margin, self.check = early, share, margin, check
         self.longest_default = longest
@@ -703,6 +823,7 @@ class Recognizer:
         self.reset()
 
     def reset(self) -> None:
+        self.spotter = None
         self.frames.clear()
         self.energy.reset()
         self.segmenter.reset()
@@ -730,6 +851,11 @@ class Recognizer:
 
     def push(self, t: float, frame: np.ndarray) -> list[tuple[Any, ...]]:
         """One frame at time ``t``: the events it brings."""
+        if self.cut == "spot" and self.gated is None and self.record is None and self.model.trained:
+            if self.spotter is None or self.spotter.model is not self.model or self._spot_stale():
+                self.spotter = Spotter(self.model)
+                self._spotted = len(self.model.examples)
+            return [("decision", d, when) for d, when in self.spotter.push(t, frame)]
         events: list[tuple[Any, ...]] = []
         frames = self.frames
         frames.append((t, frame))
@@ -772,6 +898,12 @@ class Recognizer:
                     self._quiet_until = t + self.refractory
                     events.append(("decision", decision, math.nan))
         return events
+
+    def _spot_stale(self) -> bool:
+        return (
+            self._spotted != len(self.model.examples)
+            or self.spotter.templates[0].shape[1] != (self.model.templates[0].shape[1])
+        )
 
     def _began(self) -> float:
         return self.segmenter.began if self.gated is None else -math.inf

@@ -12,7 +12,7 @@ import pytest
 from pointat.devices.gesture_sim import perform, performed, rehearse, score, sensor_stream
 from pointat.devices.glove_sim import Burst, GloveSimulator, MotionScript, Segment, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
-from pointat.maths.dtw import dtw_distance, dtw_many, dtw_prefix, dtw_prefix_many
+from pointat.maths.dtw import Spring, dtw_distance, dtw_many, dtw_prefix, dtw_prefix_many
 from pointat.maths.gestures import (
     NULL,
     Example,
@@ -60,6 +60,23 @@ def test_dtw_equals_the_plain_recurrence(seed):
         assert many[0] == pytest.approx(alone, rel=1e-12) and many[1] == 0.0
         rows = dtw_prefix_many(a, [b], fraction)
         assert rows[0, 0] == pytest.approx(cost, rel=1e-12, nan_ok=True)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_spring_finds_a_template_in_a_stream_at_its_own_dtw_distance(seed):
+    """Subsequence DTW (Spring): the best match ending at each frame; where a warped copy of the template
+    lies in the stream, the match starts and ends there, at whole-series DTW's distance of that span."""
+    rng = np.random.default_rng(seed)
+    template = np.cumsum(rng.normal(0, 1, (20, 3)), axis=0)
+    copy = template[np.sort(rng.integers(0, 20, 26))]  # warped: frames held or skipped
+    copy[0], copy[-1] = template[0], template[-1]
+    stream = np.vstack([rng.normal(50, 1, (30, 3)), copy, rng.normal(-50, 1, (30, 3))])
+    spring = Spring([template, template[::-1]])
+    rows = [spring.push(x).copy() for x in stream]
+    end = int(np.argmin([r[0, 0] for r in rows]))
+    start = int(rows[end][0, 1])
+    assert 30 <= start <= 32 and 30 + len(copy) - 3 <= end <= 30 + len(copy) - 1  # (a held frame may be left)
+    assert rows[end][0, 0] == pytest.approx(dtw_distance(stream[start : end + 1], template, 1.0), rel=1e-12)
 
 
 def test_dtw_refuses_what_it_cannot_compare():

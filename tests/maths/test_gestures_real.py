@@ -103,6 +103,47 @@ def test_real_motion_that_is_no_gesture_is_rarely_taken_for_one(reps, no_gesture
     assert told[0] <= 1 and told[1] <= 3, f"false triggers in two minutes: {told}"
 
 
+@pytest.fixture(scope="module")
+def takes() -> dict[tuple[int, str], tuple[np.ndarray, np.ndarray]]:
+    """Person, exercise -> the whole recording (times, frames acc gyr): repetitions with no rest."""
+    z = np.load(DATA / "watch_sample.npz")
+    ends = np.cumsum(z["lengths"])
+    return {
+        (int(z["person"][k]), str(z["label"][k])): (
+            np.arange(b - a) / 50.0,
+            np.column_stack([z["acc"][a:b] / 4000.0 * G, z["gyr"][a:b] / 1000.0]),
+        )
+        for k, (a, b) in enumerate(zip(np.r_[0, ends[:-1]], ends, strict=True))
+    }
+
+
+def test_repetitions_with_no_rest_between_them_are_spotted(reps, takes):
+    """Each person's seven recordings streamed whole, taught with the first three repetitions of each:
+    from rest to rest finds few (there is no rest), ``cut=spot`` finds them."""
+    for person in (1, 2, 3):
+        model = GestureModel(CH).train(
+            [x.example(CH) for (p, _), r in reps.items() if p == person for x in r[:3]]
+        )
+        found = {}
+        for cut in ("rest", "spot"):
+            right = wrong = total = 0
+            for (p, label), (t, frames) in takes.items():
+                if p != person:
+                    continue
+                rec = Recognizer(model, cut=cut)
+                events = [e for ti, f in zip(t, frames, strict=True) for e in rec.push(float(ti), f)]
+                told = [e[1].label for e in events if e[0] == "decision" and e[1].label is not None]
+                n = len(reps[(p, label)])
+                right += min(n, told.count(label))
+                wrong += len(told) - min(n, told.count(label))
+                total += n
+            found[cut] = (right / total, wrong / total)
+        assert found["rest"][0] < 0.5 and found["spot"][0] >= 0.8 and found["spot"][1] <= 0.25, (
+            person,
+            found,
+        )
+
+
 def test_adapt_follows_the_performer_and_keeps_the_taught_examples(reps):
     train, test = _three(reps, 1)
     plain = evaluate(train, test, CH)
