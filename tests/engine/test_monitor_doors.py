@@ -569,3 +569,41 @@ def test_head_is_answered_without_a_body_and_other_methods_are_refused(served):
         assert status == 405 and b"Allow: GET, HEAD" in reply, (method, reply[:200])
     status, _ = _request(port, ["POST / HTTP/1.1", "Host: evil.example"])
     assert status == 403  # who asks is looked at first
+
+
+def test_the_reproduction_of_issue_45_against_pointat_run_glove_tqt(tmp_path):
+    """As the issue reproduced it: ``pointat run glove_tqt --monitor``, another site's page sends
+    ``/pointat/base/close`` over the socket, and a rebinding asks for ``/monitor/state``.  Both are
+    refused and the glove goes on at 100 directions a second."""
+    import subprocess
+    import sys
+
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    cmd = [sys.executable, "-m", "pointat.cli", "run", "glove_tqt", "--monitor", "0", "--for", "60"]
+    cmd += ["--set", f"out.port={rx.getsockname()[1]}", "--set", "ctl.port=0", "--compiled", "off"]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        port = None
+        for line in proc.stdout:
+            if "  monitor  http://127.0.0.1:" in line:
+                port = int(line.split("http://127.0.0.1:")[1].split("/")[0])
+                break
+        assert port is not None, "no monitor line in the banner"
+        assert _streaming(rx, 50)
+        status, s = _handshake(port, "http://evil.example")
+        assert status == 403
+        try:
+            ws_send(s, 2, encode_message("/pointat/base/close", []))
+        except OSError:
+            pass
+        s.close()
+        status, reply = _request(port, ["GET /monitor/state HTTP/1.1", "Host: evil.example"])
+        assert status == 403 and b"pointers" not in reply
+        assert _streaming(rx, 300), "the glove was silenced"  # 3 s more of directions
+    finally:
+        proc.terminate()
+        out, _ = proc.communicate(timeout=20)
+        rx.close()
+    assert "Traceback" not in out, out[-3000:]
+    assert "refused (403)" in out
