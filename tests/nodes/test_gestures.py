@@ -84,6 +84,30 @@ def test_taught_over_live_control_saved_and_loaded_at_the_next_start(tmp_path):
     assert score(got, truth[:10])[0] >= 9
 
 
+def test_adapt_takes_clear_performances_as_examples_and_save_keeps_them(tmp_path):
+    """adapt set live after training: movements recognised with a clear margin become examples of their
+    class (told on status, at most keep a class, the taught ones kept), and save writes them."""
+    model = tmp_path / "moves.json"
+    script, truth = performance(4, 30, loop=True, lead=3.0)
+    rt = patch(_gestures_patch(tmp_path, str(model), seed=4), file=str(PATCHES / "gestures.pat"))
+    try:
+        _teach(rt, truth)
+        assert control(rt, "/pointat/moves/keep", [4], rt.clock.now()) is None
+        assert control(rt, "/pointat/moves/adapt", [1], rt.clock.now()) is None
+        rt.advance(truth[24][2] + 0.5 - rt.clock.now())
+        assert control(rt, "/pointat/moves/save", [], rt.clock.now()) is None
+        rt.advance(0.5)
+        got = [(m.time, m.value[0]) for m in rt.nodes["got"].messages]
+        adapted = [m.value for m in rt.nodes["st"].messages if m.value[0] == "adapted"]
+    finally:
+        rt.shutdown()
+    right, wrong, missed, false = score(got, truth[9:25])
+    assert right >= 14 and wrong == false == 0, (right, wrong, missed, false)
+    assert adapted and all(label in ("circle", "flick", "nod") and n <= 4 for _, label, n in adapted)
+    saved = [e["label"] for e in json.loads(model.read_text())["examples"]]
+    assert all(saved.count(label) <= 4 for label in set(saved)) and len(saved) > 9
+
+
 def test_the_shipped_patch_recognises_the_simulated_glove(tmp_path):
     """patches/gestures.json (taught from the simulated glove's first nine gestures) on the rest of its
     performance: the patch works as it ships."""
