@@ -248,6 +248,9 @@ class LogLimit:
     ['client 0 left', 'client 1 left']
     >>> limit.held
     3
+    >>> limit.flush("clients left")
+    >>> lines[-1]
+    '3 more clients left, not logged one by one'
     """
 
     def __init__(
@@ -280,3 +283,9 @@ class LogLimit:
             msg += f" (and {self.held} more like it before, not logged one by one)"
             self.held = 0
         self.emit(msg, *args)
+
+    def flush(self, what: str) -> None:
+        """Tell how many were held back since the last line (at the end: none goes untold)."""
+        if self.held:
+            self.emit("%d more %s, not logged one by one", self.held, what)
+            self.held = 0

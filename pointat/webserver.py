@@ -321,6 +321,10 @@ class MonitorServer:
             self.osc.close()
         except OSError:
             pass
+        self._refusal_log.flush("requests refused (403)")
+        self._gone_log.flush("clients gone or failed")
+        self._malformed_log.flush("malformed packets or commands dropped")
+        self._full_log.flush("connections turned away (503)")
         for th in self._threads:  # the server's own threads end with it (zeroconf's registration aside)
             if th.name != "pointat-zeroconf":
                 th.join(1.0)
