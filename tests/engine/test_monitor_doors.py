@@ -607,3 +607,20 @@ def test_the_reproduction_of_issue_45_against_pointat_run_glove_tqt(tmp_path):
         rx.close()
     assert "Traceback" not in out, out[-3000:]
     assert "refused (403)" in out
+
+
+@pytest.mark.parametrize(
+    ("allow", "said"),
+    [(None, "needs an allow-list"), ("192.168.1.300", "'192.168.1.300' is not an IP address or network")],
+)
+def test_pointat_run_refuses_a_monitor_beyond_loopback_without_a_good_allow_list(tmp_path, allow, said):
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-m", "pointat.cli", "run", "glove_tqt", "--monitor", "0", "--for", "5"]
+    cmd += ["--monitor-host", "0.0.0.0", "--set", "out.port=9", "--set", "ctl.port=0", "--compiled", "off"]
+    if allow is not None:
+        cmd += ["--monitor-allow", allow]
+    run = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert run.returncode != 0 and said in run.stderr, run.stderr[-2000:]
+    assert "Traceback" not in run.stderr
