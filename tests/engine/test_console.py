@@ -133,3 +133,40 @@ def test_before_any_data_the_status_lines_say_waiting_not_ok_at_0_hz():
         "g1.adc: waiting for data",
         "g2.adc: waiting for data",
     ], lines
+
+
+def test_a_glove_gone_silent_is_a_dropout_of_its_pointer_and_no_input_of_its_filter_only(monkeypatch):
+    """The observer on a clock of the test's: glove 1 sends, then falls silent for a second; glove 2 has
+    sent nothing yet."""
+    from types import SimpleNamespace
+
+    from pointat import observe
+
+    now = [100.0]
+    monkeypatch.setattr(observe, "time", SimpleNamespace(monotonic=lambda: now[0], sleep=lambda s: None))
+    rt = patch(TWO_GLOVES)
+    try:
+        obs = observe.Observer(rt).attach()
+        glove1 = next(s for s in obs.streams if s.key == "g1.adc")
+        for _ in range(10):  # 100 Hz for a tenth of a second
+            glove1.hits(1)
+            rt.nodes["o1"].heard += 1
+            now[0] += 0.01
+        snap = obs.read()
+        o1, o2 = snap["pointers"]
+        assert (o1["state"], o2["state"]) == ("ok", "waiting")
+        assert snap["flags"]["f1"]["flag"] == "ok"
+        now[0] += 1.0  # nothing more from glove 1
+        snap = obs.read()
+        o1, o2 = snap["pointers"]
+        assert o1["state"] == "dropout" and 0.9 < o1["silent_s"] < 1.1, o1
+        assert o2["state"] == "waiting", o2
+        assert snap["flags"]["f1"]["flag"] == "no input" and snap["flags"]["f2"]["flag"] == "ok", snap[
+            "flags"
+        ]
+        lines = obs.status_lines()
+        assert lines[0].startswith("o1: NO DATA for 1.") and lines[2].startswith("g1.adc: NO DATA for 1."), (
+            lines
+        )
+    finally:
+        rt.shutdown()
