@@ -444,8 +444,14 @@ class GestureNode(_Learner):
             live=True,
             minimum=0.0,
         ),
-        Param("early", "bool", True, "tell a gesture before it ends when the evidence allows", live=True),
-        Param("band", "float", 0.2, "DTW's band, a share of the longer movement", minimum=0.0, maximum=1.0),
+        Param(
+            "early",
+            "bool",
+            True,
+            "tell a gesture before it ends when the evidence allows (with gyr or q)",
+            live=True,
+        ),
+        Param("band", "float", 0.5, "DTW's band, a share of the longer movement", minimum=0.0, maximum=1.0),
         Param(
             "warp", "symbol", "together", "all features warped together, or each on its own", choices=WARPS
         ),
