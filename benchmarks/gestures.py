@@ -57,7 +57,7 @@ from benchmarks.latency import (
 from pointat.devices.gesture_sim import perform, performance, performed, rehearse, score, sensor_stream
 from pointat.devices.glove_sim import Burst, GloveSimulator, MotionScript, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
-from pointat.gesture_eval import evaluate
+from pointat.gesture_eval import baseline, evaluate
 from pointat.gesture_files import Recording, dump_model
 from pointat.maths.gestures import Example, GestureModel, Recognizer
 
@@ -100,7 +100,10 @@ def basic_motions_table(goals: list[list[str]]) -> str:
     for name, model, rec in VARIANTS:
         if "settle" in rec:  # (each recording is gated: nothing to settle)
             continue
-        ev = evaluate(train, test, ("gyr", "acc"), model, rec)
+        if name == "plain 1-NN DTW":  # (raw channels, whole length, no scaling: not the node's model)
+            ev = baseline(train, test, ("gyr", "acc"))
+        else:
+            ev = evaluate(train, test, ("gyr", "acc"), model, rec)
         lat = ev.latency()
         rejected = sum(d[2] is None for d in ev.decisions)
         lines.append(
@@ -108,7 +111,11 @@ def basic_motions_table(goals: list[list[str]]) -> str:
         )
         if name == VARIANTS[0][0]:
             goals.append(
-                ["BasicMotions (UEA) >= 97.5 %, its own split", _pct(ev.accuracy), _ok(ev.accuracy >= 0.975)]
+                [
+                    "BasicMotions (UEA) >= 97.5 %, its own split (defaults chosen on other recordings)",
+                    _pct(ev.accuracy),
+                    _ok(ev.accuracy >= 0.975),
+                ]
             )
     return "\n".join(lines) + "\n"
 
@@ -202,17 +209,21 @@ def uwave_table(folder: Path, progress: Callable[[str], None], goals: list[list[
         "| variant | day 1 -> days 2-7 (3 examples a gesture) | worst person | new person (1 example a gesture from each of 7 others) | worst person |",
         "|---|---|---|---|---|",
     ]
-    for name, model_opts, rec_opts in (VARIANTS[0], VARIANTS[-1]):
+    scorers = (
+        (VARIANTS[0][0], lambda tr, te: evaluate(tr, te, ("acc",)).accuracy),
+        ("plain 1-NN DTW (baseline)", lambda tr, te: baseline(tr, te, ("acc",)).accuracy),
+    )
+    for name, accuracy in scorers:
         days, persons = [], []
         for p in people:
             first = [r for r in data.get((p, 1), []) if _repeat(r) <= 3]
             later = [r for (q, d), rs in data.items() if q == p and d > 1 for r in rs]
             if first and later:
-                days.append(evaluate(first, later, ("acc",), model_opts, rec_opts).accuracy)
+                days.append(accuracy(first, later))
             others = [r for (q, d), rs in data.items() if q != p and d == 1 for r in rs if _repeat(r) == 1]
             mine = [r for (q, _), rs in data.items() if q == p for r in rs]
             if others and mine:
-                persons.append(evaluate(others, mine, ("acc",), model_opts, rec_opts).accuracy)
+                persons.append(accuracy(others, mine))
             progress(f"gestures: uWave {name}, person {p}")
         lines.append(
             f"| {name} | {_pct(float(np.mean(days)))} | {_pct(min(days))} | {_pct(float(np.mean(persons)))} | {_pct(min(persons))} |"
