@@ -362,6 +362,24 @@ def test_leave_one_out_scores_each_trial_with_the_point_best_on_the_others():
     # held out 0: point 1 is best on trials 1, 2 (mean 1.5); held out 1: point 1 (1.5); held out 2: point 0 (1.0)
     assert chosen.tolist() == [1, 1, 0] and loo.tolist() == [2.0, 2.0, 9.0]
     assert grid_points({"a": (1, 2), "b": (3,)}) == [{"a": 1, "b": 3}, {"a": 2, "b": 3}]
+    # two sets: each set's mean counts as much, however many trials it has
+    s = np.array([[1.0] * 8 + [3.5], [2.0] * 8 + [1.0]])
+    groups = np.array(["broad"] * 8 + ["tyrex"])
+    assert leave_one_out(s)[0].tolist() == [0] * 9
+    assert leave_one_out(s, groups=groups)[0].tolist() == [1] * 8 + [
+        0
+    ]  # (the tyrex trial held out: none left)
+
+
+def test_the_flag_statistics_count_raisings_and_what_the_truth_calls_disturbed():
+    from benchmarks.magflags import flag_stats
+    from benchmarks.realdata import trial_set
+
+    flag = np.array([True, False, False, True, True, False])
+    truth = np.array([False, False, False, True, False, True])
+    assert flag_stats(flag, truth, 10.0) == (2, 2.0, 50.0, 50.0)
+    assert trial_set("Guillaume_iPhone5_Dist_AR.csv.gz") == "tyrex"
+    assert trial_set("32_disturbed_attached_magnet_1cm.csv.gz") == "broad"
 
 
 def test_the_throughput_report_gives_medians_ranges_whole_process_and_batch_against_batch():

@@ -443,7 +443,10 @@ def test_a_glove_that_rested_a_few_seconds_knows_its_bias_and_points_right():
 
 
 def test_robust_ignores_a_magnetic_disturbance():
-    """A magnet near the sensor (|B| +50%, 30° off) for 10 s: gated, the heading keeps to the gyro."""
+    """A magnet near the sensor (|B| +50%, 30° off) for 10 s: gated, the heading keeps to the gyro.  The flag
+    is up within a tenth of a second of the span's start (the field's norm and dip are low-passed over
+    mag_tau, 0.4 s), until the low-passed field is back and half a second more (its hysteresis), and down
+    again after."""
     dt, q, gyro, acc, mag = synthetic(seed=4, seconds=40.0)
     disturbed = mag.copy()
     span = slice(int(20 / dt), int(30 / dt))
@@ -455,7 +458,8 @@ def test_robust_ignores_a_magnetic_disturbance():
     for i in range(len(q)):
         f.update(gyro[i], acc[i], disturbed[i], dt)
         flags.append(TQTFlags.MAG_DISTURBED in f.flags)
-    assert np.mean(flags[span]) == 1.0
+    assert all(flags[span.start + int(0.1 / dt) : span.stop + int(0.5 / dt)])
+    assert not any(flags[span.stop + int(2.0 / dt) :]) and not any(flags[: span.start])
     assert np.degrees(quat_angle(out_r, q)).max() < 0.2
     assert np.degrees(quat_angle(out_p, q)).max() > 1.0  # the seeds' filter follows the magnet
 
@@ -719,3 +723,77 @@ def test_the_steps_triad_is_accmag_quat():
         assert ok == (ref is not None)
         if ok:
             np.testing.assert_allclose(q, ref, atol=1e-12)
+
+
+def _heading_errors(out, q):
+    """Heading error (degrees) of each estimate: the error quaternion's turn about the earth vertical."""
+    e = quat_multiply(out, np.asarray(q) * np.array([1.0, -1.0, -1.0, -1.0]))
+    return np.degrees(2.0 * np.arctan(np.abs(e[:, 3] / e[:, 0])))
+
+
+@pytest.mark.parametrize("start", ["in motion near steel", "where the dip differs"])
+def test_a_wrong_first_reference_is_replaced_while_the_sensor_turns(start):
+    """The issue's smartphone failure: the reference taken from a first sample that is wrong (its field 30 %
+    stronger and 20° off for the first second, or a dip given for another place: 71° where the field's is
+    65° minus 15°) refused the magnetometer for good.  A candidate field that holds its norm and dip while
+    the sensor turns replaces it within a few seconds: the flag goes down and stays down, and the heading
+    the first samples got wrong is corrected (at k_heading: what the first second's field pulled it off by,
+    20°, is within a degree 45 s later)."""
+    dt, q, gyro, acc, mag = synthetic(seed=5, seconds=60.0, rest=0.0)
+    settings = {}
+    if start == "in motion near steel":
+        first = slice(0, int(1.0 / dt))
+        mag[first] = 1.3 * quat_inverse_rotate(
+            quat_from_axis_angle([0, 0, 1], math.radians(20.0)), mag[first]
+        )
+    else:  # the field of a place whose dip is 50°, the dip of another given
+        field = 45.0 * np.array([math.cos(math.radians(50.0)), 0.0, -math.sin(math.radians(50.0))])
+        mag = quat_inverse_rotate(q, field)
+        settings["dip"] = math.radians(71.0)
+    f = TQTFilter(**settings)
+    out, flags = [], []
+    for i in range(len(q)):
+        out.append(f.update(gyro[i], acc[i], mag[i], dt))
+        flags.append(TQTFlags.MAG_DISTURBED in f.flags)
+    flags = np.array(flags)
+    assert flags[int(2.0 / dt)]  # the field disagrees with the reference: ignored, and said
+    assert not flags[int(10.0 / dt) :].any()  # taken back within seconds of turning, for good
+    heading = _heading_errors(np.array(out), q)
+    assert heading[int(50.0 / dt) :].max() < 1.0
+
+
+def test_a_field_that_holds_still_while_the_sensor_rests_is_not_taken():
+    """A candidate is timed only while the sensor turns: a sensor put down beside a magnet (the field 40 %
+    stronger from 20 s on) keeps the magnetometer ignored, and its heading, for as long as it rests."""
+    dt, q, gyro, acc, mag = synthetic(seed=6, seconds=20.0, rest=0.0)
+    still = 60.0
+    n = int(still / dt)
+    q_rest = np.repeat(q[-1:], n, axis=0)
+    gyro = np.concatenate([gyro, np.zeros((n, 3))])
+    acc = np.concatenate([acc, np.repeat(acc[-1:], n, axis=0)])
+    mag = np.concatenate([mag, 1.4 * np.repeat(mag[-1:], n, axis=0)])
+    q = np.concatenate([q, q_rest])
+    f = TQTFilter(mag_reject_time=1e9)
+    out, flags = [], []
+    for i in range(len(q)):
+        out.append(f.update(gyro[i], acc[i], mag[i], dt))
+        flags.append(TQTFlags.MAG_DISTURBED in f.flags)
+    assert all(flags[int(20.5 / dt) :])
+    assert np.degrees(quat_angle(np.array(out[int(20.0 / dt) :]), q[int(20.0 / dt) :])).max() < 0.2
+
+
+def test_the_bias_of_a_sensor_that_never_rests_is_learned_from_the_heading():
+    """A phone in the hand never rests: a gyro bias about the vertical would hold the heading off by
+    bias / k_heading.  Until the sensor has rested bias_tau in all, the heading correction's rate is
+    learned as bias (motion_bias_tau): turning slowly about every axis (up to ~0.75 rad/s), most of a
+    bias of 0.6 °/s is learned in three minutes, and the heading error falls by a third and more."""
+    bias = np.radians((0.3, -0.2, 0.5))
+    dt, q, gyro, acc, mag = synthetic(seed=7, seconds=240.0, rest=0.0, bias=tuple(bias), speed=0.3)
+    late = int(180.0 / dt)
+    heading = {}
+    for tau in (0.0, 30.0):
+        f = TQTFilter(motion_bias_tau=tau)
+        heading[tau] = _heading_errors(run(f, dt, gyro, acc, mag)[late:], q[late:]).mean()
+        assert f.bias_seconds == 0.0  # it never rested
+    assert np.linalg.norm(np.array(f.bias) - bias) < 0.35 * np.linalg.norm(bias)
+    assert heading[30.0] < 0.67 * heading[0.0]

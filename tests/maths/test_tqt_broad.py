@@ -11,7 +11,7 @@ import pytest
 
 from pointat.maths.evaluation import BROAD_RATE, BROAD_SAMPLE, broad_rmse, load_broad
 from pointat.maths.quaternion import matrix_to_quat, nwu_to_enu
-from pointat.maths.tqt import TQTFilter
+from pointat.maths.tqt import TQTFilter, TQTFlags
 
 
 @pytest.fixture(scope="module")
@@ -63,6 +63,21 @@ def test_robust_mode_on_broad(trial):
     assert total < 1.6
     assert heading < 1.5
     assert incl < 0.7
+
+
+def test_the_disturbance_flag_does_not_flicker_on_an_undisturbed_trial(trial):
+    """The issue's replay: on this trial (undisturbed, slow rotation) the flag changed 1,220 times in 200 s,
+    each change a status message to the receiver.  With the field low-passed and the hysteresis it is
+    never raised (measured: 0)."""
+    f = TQTFilter()
+    dt = 1.0 / BROAD_RATE
+    g, a, m = trial["gyr"].tolist(), trial["acc"].tolist(), trial["mag"].tolist()
+    flags = []
+    for i in range(len(g)):
+        f.update(g[i], a[i], m[i], dt)
+        flags.append(TQTFlags.MAG_DISTURBED in f.flags)
+    changes = int(np.sum(np.diff(np.array(flags, dtype=int)) != 0))
+    assert changes <= 4
 
 
 def test_paper_mode_on_broad(trial):

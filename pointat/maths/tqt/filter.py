@@ -63,10 +63,25 @@ class TQTFilter(_TQTParams):
        :math:`\tau_a`, however hard it strikes.  The gravity rows' Gauss-Newton fit, solved exactly (the
        rotation by :math:`\theta = \angle(e, \text{up})` about :math:`e \times \text{up}`), is applied with
        :math:`\alpha = k\Delta t`.
-    4. *Magnetic gating.*  The magnetometer is ignored while its norm deviates more than
-       ``mag_norm_tol`` (relative) or its dip more than ``mag_dip_tol`` from the reference, learned on the
-       first sample and refined at rest (within the gate only).  Gating on the accelerometer norm is not
-       done: it made every variant worse on BROAD.
+    4. *Magnetic gating, with a reference learned over time* (after VQF, Laidig & Seel 2023 §IV-C).  The
+       field's norm and dip seen through the estimate, low-passed over ``mag_tau`` seconds, are compared
+       with a reference; while either is off by more than ``mag_norm_tol`` (relative) or ``mag_dip_tol`` the field
+       is taken for disturbed (``MAG_DISTURBED``), the heading correction stops, and it is taken back
+       only after half a second within the gate (the flag's hysteresis).  The reference starts from the
+       first sample (its dip from the angle between the measured vectors) and follows the accepted field
+       over 20 s.  Beside it a *candidate* follows the field as it is lately; a candidate that keeps its
+       norm and dip while the sensor turns (above 20°/s: a field that holds while the sensor turns is
+       the earth's, not a magnet's it carries) for ``mag_new_time`` seconds replaces a reference the
+       field disagrees with, and within 5 s a first reference never confirmed by 5 s of accepted field
+       (a start in motion, a first sample near steel, a place whose dip differs).  After
+       ``mag_reject_time`` seconds of disturbance in all, the field corrects the heading at half the
+       gain until it is accepted again.  The heading follows the plain mean of the accepted field over
+       its first 1 / ``k_heading`` seconds (gain :math:`\max(k_{heading}, 1/t)`), so that a start in
+       motion does not leave its TRIAD heading for 20 s.  Until the sensor has rested ``bias_tau`` seconds in
+       all, the heading correction's rate is taken into the gyro bias about the vertical
+       (``motion_bias_tau``): a bias a sensor that never rests cannot learn would otherwise hold the
+       heading off by bias / ``k_heading``.
+       Gating on the accelerometer norm is not done: it made every variant worse on BROAD.
     5. *Saturation* (when the source gives ``acc_range`` / ``gyro_range``, the sensor's full scale per
        axis).  No chunk of acceleration goes into :math:`e` from just before a spell of accelerometer
        saturation (clips less than 1 s apart) to 1 s after it: strokes are left out whole, swing and
@@ -102,12 +117,24 @@ class TQTFilter(_TQTParams):
         ``False``: accelerometer / magnetometer only tracking.
     dip : float, optional, keyword-only
         Magnetic dip (radians, positive below the horizon); default: learned from the first valid sample.
+        Robust mode learns on from either (extension 4): a dip given for another place is replaced.
     k_heading : float, keyword-only
         Robust mode: heading-correction gain (1/s).  Default 0.05.
     acc_tau : float, keyword-only
         Robust mode: time constant (s) of the earth-frame acceleration average.  Default 2.0.
     mag_norm_tol, mag_dip_tol : float, keyword-only
-        Robust mode: magnetic gate, relative norm deviation (0.1) and dip deviation in radians (5°).
+        Robust mode: magnetic gate, relative norm deviation (0.1) and dip deviation in radians (15°).
+    mag_new_time, mag_reject_time : float, keyword-only
+        Robust mode: seconds a new field must hold its norm and dip while the sensor turns before it
+        replaces the reference (20), and seconds of disturbance after which the field corrects the heading
+        at half its gain all the same (60).
+    mag_tau : float, keyword-only
+        Robust mode: time constant (s) of the low-pass of the field's norm and dip that the gate judges
+        (0.4; VQF's is 0.05): a moment's tilt error or noise does not flip the flag.
+    motion_bias_tau : float, keyword-only
+        Robust mode: time constant (s, 30) with which the heading correction's rate is learned as gyro
+        bias about the vertical, while the sensor has rested less than ``bias_tau`` in all (a phone in the
+        hand, which never rests long enough; a sensor that has rested knows its bias); 0: at rest only.
     rest_time, rest_gyro, rest_acc, bias_tau, bias_clip : float, keyword-only
         Robust mode rest detection: minimum duration (s, 1.5), gyro deviation (rad/s, 2°/s), accelerometer
         deviation relative to its norm (0.05, ~0.5 m/s²), bias time constant (s, 10.0), largest bias learned
@@ -119,9 +146,9 @@ class TQTFilter(_TQTParams):
 
     Notes
     -----
-    The evidence for the defaults: ``benchmarks/LOO.md`` (leave-one-trial-out over the ten BROAD trials,
-    Laidig et al. 2021, one vendored in ``pointat/data``, choosing only among settings that keep the strike
-    claim) and ``tests/maths/test_tqt_strokes.py`` (simulated strokes, shakes and clipping with known
+    The evidence for the defaults: ``benchmarks/LOO.md`` (leave-one-trial-out, over the ten BROAD trials,
+    Laidig et al. 2021, one vendored in ``pointat/data``, and for the magnetic settings the Tyrex
+    smartphone trials too, choosing only among settings that keep the strike claim) and ``tests/maths/test_tqt_strokes.py`` (simulated strokes, shakes and clipping with known
     truth).  Each default is what nine of the ten leave-one-out folds chose:
 
     * ``k = 1`` and ``acc_tau = 2`` s (f_c ≈ 0.067 Hz together): the tilt follows the vertical averaged
@@ -132,7 +159,12 @@ class TQTFilter(_TQTParams):
       the room; a slow heading correction lets the gyro carry the heading through them.
     * ``bias_tau = 10`` s: the bias is the mean of every rest until 10 s of rest are in, then a running
       average over 10 s (a glove that rested 3 s knows its bias; one that warms up follows it).  The rest
-      and gate thresholds are VQF's (Laidig & Seel 2023) and the REFERENCE's (10 %, 5°).
+      thresholds are VQF's (Laidig & Seel 2023).
+    * The magnetic settings (``mag_dip_tol = 15°``, ``mag_new_time = 20`` s, ``mag_tau = 0.4`` s,
+      ``motion_bias_tau = 30`` s; ``mag_norm_tol = 0.1`` is VQF's) were chosen leave-one-trial-out on
+      BROAD's ten trials and the 42 Tyrex smartphone trials together (``benchmarks/LOO.md``); the
+      structure's constants (the reference's 20 s, the candidate's 20°/s and 5 s, the flag's 0.5 s
+      hysteresis, the 60 s rejection time and half gain after it) are VQF's.
     * Paper mode: ``k = 0.1, rho = 0.5`` (f_c ≈ 0.016 Hz) is the best plain setting; McGhee suggests
       0.1 <= k <= 1.
 

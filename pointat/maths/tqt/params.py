@@ -37,7 +37,9 @@ class TQTFlags(IntFlag):
     DT_INVALID = step.F_DT_INVALID
     #: no valid accelerometer + magnetometer pair seen yet: the output is the identity
     UNINITIALISED = step.F_UNINITIALISED
-    #: robust mode: the field's norm or dip is off its reference, the magnetometer was ignored
+    #: robust mode: the field's norm or dip is off its reference: the magnetometer is ignored (after
+    #: ``mag_reject_time`` seconds of it, used at half gain); raised when the field (low-passed over ``mag_tau``)
+    #: leaves the gate, lowered after half a second within it
     MAG_DISTURBED = step.F_MAG_DISTURBED
     #: robust mode: the sensor is at rest, the gyro bias is being learned
     REST = step.F_REST
@@ -75,7 +77,11 @@ class _TQTParams:
         k_heading: float = 0.05,
         acc_tau: float = 2.0,
         mag_norm_tol: float = 0.1,
-        mag_dip_tol: float = math.radians(5.0),
+        mag_dip_tol: float = math.radians(15.0),
+        mag_new_time: float = 20.0,
+        mag_reject_time: float = 60.0,
+        motion_bias_tau: float = 30.0,
+        mag_tau: float = 0.4,
         rest_time: float = 1.5,
         rest_gyro: float = math.radians(2.0),
         rest_acc: float = 0.05,
@@ -95,6 +101,10 @@ class _TQTParams:
             ("acc_tau", acc_tau),
             ("mag_norm_tol", mag_norm_tol),
             ("mag_dip_tol", mag_dip_tol),
+            ("mag_new_time", mag_new_time),
+            ("mag_reject_time", mag_reject_time),
+            ("motion_bias_tau", motion_bias_tau),
+            ("mag_tau", mag_tau),
             ("rest_time", rest_time),
             ("rest_gyro", rest_gyro),
             ("rest_acc", rest_acc),
@@ -121,6 +131,10 @@ class _TQTParams:
         self.acc_tau = float(acc_tau)
         self.mag_norm_tol = float(mag_norm_tol)
         self.mag_dip_tol = float(mag_dip_tol)
+        self.mag_new_time = float(mag_new_time)
+        self.mag_reject_time = float(mag_reject_time)
+        self.motion_bias_tau = float(motion_bias_tau)
+        self.mag_tau = float(mag_tau)
         self.rest_time = float(rest_time)
         self.rest_gyro = float(rest_gyro)
         self.rest_acc = float(rest_acc)
@@ -162,6 +176,10 @@ class _TQTParams:
             self.dip is not None,
             self.acc_range,
             self.gyro_range,
+            self.mag_new_time,
+            self.mag_reject_time,
+            self.motion_bias_tau,
+            self.mag_tau,
         ) + [self.rho, float(self.iterations)]
 
     @property
@@ -200,7 +218,8 @@ class _TQTParams:
         raise NotImplementedError
 
     _TUNABLE = (
-        "k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "bias_tau", "acc_range", "gyro_range",
+        "k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "mag_new_time", "mag_reject_time",
+        "motion_bias_tau", "mag_tau", "bias_tau", "acc_range", "gyro_range",
     )  # fmt: skip
 
     def retune(self, **gains: float) -> None:

@@ -23,6 +23,12 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
   swings with impacts.  Only once the gyro alone has turned the estimate by :data:`TURN_BUDGET` does a
   chunk join all the same: a long spell of fast turning would cost more in gyro drift than a clipped
   chunk costs in bias.  The average is at most two chunks late (0.2 s, beside its 2 s time constant).
+* **The magnetic reference is learned over time** (:func:`_magnetic_gate`): it starts from the first
+  sample, follows the accepted field, and is replaced by a candidate field that has held its norm and
+  dip while the sensor turned, so that a start in motion or a place whose dip differs from the first
+  sample's does not refuse the magnetometer for good (the heading drifting unseen).  The disturbance flag
+  has hysteresis: up at once when the low-passed field leaves the gate, down after :data:`_MAG_CALM`
+  seconds within it.
 * **A saturated gyro** is flagged, nothing more.  Leaning on gravity and the field after it (the average
   started anew, faster corrections) fixed the simulated rolls but made every real recording with a
   clipped gyro worse (BROAD with the gyro clipped at 300 and 500 °/s; ``benchmarks/README.md``).
@@ -75,8 +81,23 @@ TURN_BUDGET = math.pi
 _SHAKE_ON = 0.5
 _SHAKE_OFF = 0.3
 _SHAKE_TAU = 0.25
-# learning rate (time constant, s) of the magnetic norm / dip reference at rest
-_MAG_REF_TAU = 5.0
+# time constant (s) of the gravity norm's refinement at rest
+_GNORM_TAU = 5.0
+# time constant (s) of the magnetic reference and of the candidate: learned while the field is accepted
+_MAG_REF_TAU = 20.0
+# seconds the field must stay within the gate before a disturbance is over (the flag's hysteresis)
+_MAG_CALM = 0.5
+# a candidate field is timed only while the sensor turns at least this fast (rad/s, the gyro's 0.5 s
+# low-pass): a field that keeps its norm and dip while the sensor turns is the earth's, not a magnet's
+_MAG_NEW_GYRO = math.radians(20.0)
+# seconds of steady turning that replace a reference never yet confirmed (the first sample's: a start in
+# motion, or in a disturbed spot), and seconds of accepted field that confirm it
+_MAG_NEW_FIRST = 5.0
+# a single sample off the reference by this many times the gate corrects nothing, whatever the low-pass
+# says: a magnet brought near is left out from its first sample (in the heading's plain-mean start, too)
+_MAG_RAW = 3.0
+# after the magnetometer's rejection time is used up, the heading correction runs at this fraction
+_MAG_LATE_FACTOR = 0.5
 # time constant (s) of the gyro / accelerometer low-pass the rest detector compares against (as VQF)
 _REST_TAU = 0.5
 # below this squared half-angle the exponential map uses its Taylor series (error < 1e-18)
@@ -123,7 +144,16 @@ S_SHAKING = 38  # 1.0: shaking (with hysteresis)
 S_GNORM = 39  # |gravity| in the accelerometer's unit (first reading, refined at rest)
 S_TURN = 40  # radians the gyro has turned the estimate since a chunk last joined the average
 S_BIAS_T = 41  # seconds of rest in the bias estimate (a plain mean of them while fewer than bias_tau)
-STATE_SIZE = 42
+S_MAG_LPN = 42  # low-pass of the field's norm
+S_MAG_LPD = 43  # and of its dip (rad), through the estimate
+S_MAG_DIST = 44  # 1.0: the field is taken for disturbed (the flag)
+S_MAG_CALM_T = 45  # seconds in a row the field has been within the gate
+S_MAG_REJ_T = 46  # seconds of rejection used (the rejection time's budget)
+S_CAND_N = 47  # candidate reference: norm
+S_CAND_D = 48  # dip
+S_CAND_T = 49  # seconds of turning it has held steady
+S_MAG_T = 50  # seconds of field accepted (the heading gain's plain-mean start; confirms the reference)
+STATE_SIZE = 51
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -132,8 +162,10 @@ P_REST_TIME, P_REST_GYRO, P_REST_ACC, P_BIAS_CLIP = 6, 7, 8, 9
 P_USE_GYRO, P_HAS_DIP = 10, 11
 P_ACC_RANGE, P_GYRO_RANGE = 12, 13  # full scale per axis (0: not known)
 # per-dt coefficients, recomputed when dt changes
-P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_C_SAT = 14, 15, 16, 17, 18, 19, 20, 21
-PARAM_SIZE = 22
+P_MAG_NEW_TIME, P_MAG_REJECT_TIME, P_MOTION_BIAS_TAU, P_MAG_TAU = 14, 15, 16, 17
+P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_C_SAT = 18, 19, 20, 21, 22, 23, 24, 25
+P_C_MAGLP, P_C_GNORM, P_C_MBIAS = 26, 27, 28
+PARAM_SIZE = 29
 
 _LONG_AGO = 1e9  # "seconds since" for a saturation never seen
 
@@ -153,6 +185,10 @@ def params(
     has_dip: bool,
     acc_range: float,
     gyro_range: float,
+    mag_new_time: float,
+    mag_reject_time: float,
+    motion_bias_tau: float,
+    mag_tau: float,
 ) -> list[float]:
     """The parameter vector (validated by the caller); its per-``dt`` coefficients are filled on the first
     step."""
@@ -162,6 +198,8 @@ def params(
     p[P_REST_TIME], p[P_REST_GYRO], p[P_REST_ACC], p[P_BIAS_CLIP] = rest_time, rest_gyro, rest_acc, bias_clip
     p[P_USE_GYRO], p[P_HAS_DIP] = float(use_gyro), float(has_dip)
     p[P_ACC_RANGE], p[P_GYRO_RANGE] = acc_range, gyro_range
+    p[P_MAG_NEW_TIME], p[P_MAG_REJECT_TIME] = mag_new_time, mag_reject_time
+    p[P_MOTION_BIAS_TAU], p[P_MAG_TAU] = motion_bias_tau, mag_tau
     p[P_DT] = -1.0
     return p
 
@@ -191,6 +229,10 @@ def _coefficients(p, dt):  # type: ignore[no-untyped-def]
     # without a gyro nothing carries the heading between corrections: it follows the field as fast as tilt
     p[P_ALPHA_MAG] = p[P_ALPHA] if no_gyro else min(p[P_K_HEADING] * dt, 1.0)
     p[P_C_SAT] = 1.0 - math.exp(-dt / _SHAKE_TAU)
+    p[P_C_MAGLP] = 1.0 - math.exp(-dt / p[P_MAG_TAU]) if p[P_MAG_TAU] > 0.0 else 1.0
+    p[P_C_GNORM] = 1.0 - math.exp(-dt / _GNORM_TAU)
+    # the heading correction's rate (k_heading psi) integrated into the bias over motion_bias_tau: k_heading / tau
+    p[P_C_MBIAS] = p[P_K_HEADING] / p[P_MOTION_BIAS_TAU] if p[P_MOTION_BIAS_TAU] > 0.0 else 0.0
 
 
 def _rotate(w, x, y, z, vx, vy, vz):  # type: ignore[no-untyped-def]
@@ -323,6 +365,8 @@ def begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-unty
             sin_dip = -(ax * mx + ay * my + az * mz) / (math.sqrt(a2) * s[S_MAG_NORM])
             d = math.asin(max(-1.0, min(1.0, sin_dip)))
             s[S_DIP], s[S_NX], s[S_NZ] = d, math.cos(d), -math.sin(d)
+        s[S_MAG_LPN] = s[S_CAND_N] = s[S_MAG_NORM]
+        s[S_MAG_LPD] = s[S_CAND_D] = s[S_DIP]
     if not was:  # this sample set the orientation: nothing more to do
         return flags, False
     return flags, True
@@ -398,7 +442,6 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         if s[S_TURN] < TURN_BUDGET:
             s[S_TURN] += dt * math.sqrt((gx - bx) ** 2 + (gy - by) ** 2 + (gz - bz) ** 2)
     # (2) rest detection and gyro bias; shaking
-    rest = False
     if a_ok:
         a = math.sqrt(ax * ax + ay * ay + az * az)
         s[S_SHAKE] += p[P_C_SAT] * (abs(a - s[S_GNORM]) / s[S_GNORM] - s[S_SHAKE])
@@ -432,7 +475,6 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         ):
             s[S_REST_T] += dt
             if s[S_REST_T] >= p[P_REST_TIME]:
-                rest = True
                 flags |= F_REST
                 # the mean of every rest so far until bias_tau of it is in, then a running average that
                 # forgets: a glove that rested 3 s knows its bias, and one that warms up follows it
@@ -444,7 +486,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
                     by + c * (lgy - by),
                     bz + c * (lgz - bz),
                 )
-                s[S_GNORM] += p[P_C_REF] * (math.sqrt(la2) - s[S_GNORM])
+                s[S_GNORM] += p[P_C_GNORM] * (math.sqrt(la2) - s[S_GNORM])
         else:
             s[S_REST_T] = 0.0
     else:
@@ -479,22 +521,104 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     if m_use:
         bex, bey, bez = _rotate(w, x, y, z, mx, my, mz)
         bh = math.hypot(bex, bey)
-        norm = math.sqrt(bh * bh + bez * bez)
-        dip = math.atan2(-bez, bh)
-        ref = s[S_MAG_NORM]
-        if abs(norm - ref) > p[P_MAG_NORM_TOL] * ref or (dip_gate and abs(dip - s[S_DIP]) > p[P_MAG_DIP_TOL]):
+        norm, dip = math.sqrt(bh * bh + bez * bez), math.atan2(-bez, bh)
+        if _magnetic_gate(s, p, norm, dip, dt, dip_gate):
             flags |= F_MAG_DISTURBED
-        elif bh > 0.0:
-            half = -0.5 * p[P_ALPHA_MAG] * math.atan2(bey, bex)
+        k = _heading_gain(s, p, dt)
+        ref = s[S_MAG_NORM]
+        if abs(norm - ref) > _MAG_RAW * p[P_MAG_NORM_TOL] * ref or (
+            dip_gate and abs(dip - s[S_DIP]) > _MAG_RAW * p[P_MAG_DIP_TOL]
+        ):
+            k = 0.0
+        if k > 0.0 and bh > 0.0:
+            psi = math.atan2(bey, bex)
+            if (
+                p[P_C_MBIAS] > 0.0
+                and k == p[P_ALPHA_MAG]
+                and flags & F_REST == 0
+                and s[S_BIAS_T] < p[P_BIAS_TAU]
+            ):
+                _motion_bias(s, p, w, x, y, z, psi)
+            half = -0.5 * k * psi
             cz, sz = math.cos(half), math.sin(half)
             w, x, y, z = cz * w - sz * z, cz * x - sz * y, cz * y + sz * x, cz * z + sz * w
             _turn_average(s, cz, 0.0, 0.0, sz)
-            if rest:
-                c = p[P_C_REF]
-                s[S_MAG_NORM] = ref + c * (norm - ref)
-                s[S_DIP] += c * (dip - s[S_DIP])
     _store(s, w, x, y, z)
     return flags
+
+
+def _magnetic_gate(s, p, norm, dip, dt, dip_gate):  # type: ignore[no-untyped-def]
+    """Judge the field (its norm and dip through the estimate, low-passed) against the reference, learn the
+    reference while it is accepted, and replace it by a candidate that has held steady while the sensor
+    turned (VQF's rejection, Laidig & Seel 2023 §IV-C).  Returns whether the field is taken for
+    disturbed: at once when the low-passed field leaves the gate, over only after :data:`_MAG_CALM`
+    seconds within it."""
+    c = p[P_C_MAGLP]
+    ln = s[S_MAG_LPN] + c * (norm - s[S_MAG_LPN])
+    ld = s[S_MAG_LPD] + c * (dip - s[S_MAG_LPD])
+    s[S_MAG_LPN], s[S_MAG_LPD] = ln, ld
+    tol_n, tol_d = p[P_MAG_NORM_TOL], p[P_MAG_DIP_TOL]
+    ref = s[S_MAG_NORM]
+    if abs(ln - ref) > tol_n * ref or (dip_gate and abs(ld - s[S_DIP]) > tol_d):
+        s[S_MAG_DIST], s[S_MAG_CALM_T] = 1.0, 0.0
+    else:
+        s[S_MAG_CALM_T] += dt
+        if s[S_MAG_CALM_T] >= _MAG_CALM:
+            s[S_MAG_DIST] = 0.0
+    cr = p[P_C_REF]
+    if s[S_MAG_DIST] == 0.0:
+        s[S_MAG_NORM] = ref + cr * (ln - ref)
+        _set_dip(s, s[S_DIP] + cr * (ld - s[S_DIP]))
+    # a candidate: the field as it has been lately, timed while the sensor turns and the field holds
+    cn = s[S_CAND_N]
+    if abs(ln - cn) <= tol_n * cn and (not dip_gate or abs(ld - s[S_CAND_D]) <= tol_d):
+        g2 = s[S_LPG] * s[S_LPG] + s[S_LPG + 1] * s[S_LPG + 1] + s[S_LPG + 2] * s[S_LPG + 2]
+        if g2 >= _MAG_NEW_GYRO * _MAG_NEW_GYRO:
+            s[S_CAND_T] += dt
+        s[S_CAND_N] = cn + cr * (ln - cn)
+        s[S_CAND_D] += cr * (ld - s[S_CAND_D])
+        new = p[P_MAG_NEW_TIME] if s[S_MAG_T] >= _MAG_NEW_FIRST else min(_MAG_NEW_FIRST, p[P_MAG_NEW_TIME])
+        if s[S_MAG_DIST] != 0.0 and s[S_CAND_T] >= new:
+            s[S_MAG_NORM] = s[S_CAND_N]
+            _set_dip(s, s[S_CAND_D])
+            s[S_MAG_DIST], s[S_MAG_CALM_T] = 0.0, _MAG_CALM
+    else:
+        s[S_CAND_N], s[S_CAND_D], s[S_CAND_T] = ln, ld, 0.0
+    return s[S_MAG_DIST] != 0.0
+
+
+def _motion_bias(s, p, w, x, y, z, psi):  # type: ignore[no-untyped-def]
+    """Take the heading correction's rate, :math:`k_{heading}\\psi`, into the gyro bias about the earth
+    vertical (in the sensor frame) with time constant ``motion_bias_tau``: a bias the sensor never rests
+    long enough to learn (a phone in the hand) would otherwise hold the heading off by
+    :math:`b / k_{heading}`.  Only until the sensor has rested ``bias_tau`` seconds in all: a bias
+    learned at rest is better than one learned from a field that varies over the room (BROAD's trials,
+    which start at rest, lost 0.3° with it).  The bias stays within ``bias_clip`` per axis."""
+    ux, uy, uz = _rotate(w, -x, -y, -z, 0.0, 0.0, 1.0)
+    c = p[P_C_MBIAS] * psi * p[P_DT]
+    clip = p[P_BIAS_CLIP]
+    s[S_BIAS] = max(-clip, min(clip, s[S_BIAS] + c * ux))
+    s[S_BIAS + 1] = max(-clip, min(clip, s[S_BIAS + 1] + c * uy))
+    s[S_BIAS + 2] = max(-clip, min(clip, s[S_BIAS + 2] + c * uz))
+
+
+def _set_dip(s, d):  # type: ignore[no-untyped-def]
+    s[S_DIP], s[S_NX], s[S_NZ] = d, math.cos(d), -math.sin(d)
+
+
+def _heading_gain(s, p, dt):  # type: ignore[no-untyped-def]
+    """The heading correction's fraction this sample: none while the field is disturbed, until the
+    rejection time is used up (then a fraction of it); a plain mean of the accepted field at the start."""
+    k = p[P_ALPHA_MAG]
+    if s[S_MAG_DIST] != 0.0:
+        if s[S_MAG_REJ_T] < p[P_MAG_REJECT_TIME]:
+            s[S_MAG_REJ_T] += dt
+            return 0.0
+        return _MAG_LATE_FACTOR * k
+    s[S_MAG_REJ_T] = max(s[S_MAG_REJ_T] - dt / _MAG_LATE_FACTOR, 0.0)
+    t = s[S_MAG_T] + dt
+    s[S_MAG_T] = t
+    return max(k, dt / t)
 
 
 def robust_bank(g, a, m, dt, here, state, p, flags):  # type: ignore[no-untyped-def]

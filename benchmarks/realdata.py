@@ -1,0 +1,104 @@
+"""Real recordings with optical truth for choosing robust ``tqt``'s defaults: BROAD and the Tyrex smartphones.
+
+Both sets come as BROAD's CSV (:func:`pointat.maths.evaluation.load_broad`); each trial's sample time is
+read from its ``t`` column (BROAD 285.7 Hz, the phones 95-199 Hz).  :func:`run_tqt` runs
+:func:`pointat.maths.tqt.step.robust_step` itself over a whole trial, compiled by numba with a loop over
+the samples (the step's every helper compiled as :mod:`pointat.maths.tqt.compiled` does, so that the
+figures are those of :class:`~pointat.maths.tqt.TQTFilter` to the bit, a few hundred times sooner);
+:func:`run_vqf` runs VQF with the trial's sample time.
+"""
+
+from __future__ import annotations
+
+import types
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pointat.maths.evaluation import broad_rmse, load_broad
+from pointat.maths.quaternion import nwu_to_enu
+from pointat.maths.tqt import TQTFilter, step
+
+__all__ = ["dt_of", "run_tqt", "run_vqf", "score", "trial_set", "trials"]
+
+_loaded: dict[str, dict[str, np.ndarray]] = {}
+
+
+def trials(*folders: Path) -> list[Path]:
+    """The trials (``*.csv.gz``) of every folder that exists, sorted by name within each."""
+    out: list[Path] = []
+    for folder in folders:
+        if folder.is_dir():
+            out += sorted(folder.glob("*.csv.gz"))
+    return out
+
+
+def trial_set(path: Path | str) -> str:
+    """``"tyrex"`` for a smartphone trial (named after its person, phone and motion), else ``"broad"``."""
+    name = Path(path).name
+    return "tyrex" if ("Dist_" in name and ("Nexus" in name or "iPhone" in name)) else "broad"
+
+
+def load(path: Path | str) -> dict[str, np.ndarray]:
+    """:func:`~pointat.maths.evaluation.load_broad`, kept for the process's next call."""
+    key = str(path)
+    if key not in _loaded:
+        _loaded[key] = load_broad(path)
+    return _loaded[key]
+
+
+def dt_of(d: dict[str, np.ndarray]) -> float:
+    """The trial's sample time (s): the mean step of its uniform time grid."""
+    t = d["t"]
+    return float((t[-1] - t[0]) / (len(t) - 1))
+
+
+def _run(g, a, m, dt, s, p, q, flags):  # type: ignore[no-untyped-def]
+    for i in range(g.shape[0]):
+        flags[i] = robust_step(s, p, g[i, 0], g[i, 1], g[i, 2], a[i, 0], a[i, 1], a[i, 2],  # noqa: F821
+                               m[i, 0], m[i, 1], m[i, 2], dt)  # fmt: skip
+        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = s[0], s[1], s[2], s[3]
+
+
+_compiled: Callable[..., Any] | None = None
+
+
+def _kernel() -> Callable[..., Any]:
+    global _compiled
+    if _compiled is None:
+        from numba import njit
+
+        jit = njit(nogil=True)
+        space = dict(vars(step))
+        for name, value in vars(step).items():
+            if isinstance(value, types.FunctionType) and value.__module__ == step.__name__:
+                space[name] = jit(types.FunctionType(value.__code__, space, name, value.__defaults__))
+        _compiled = jit(types.FunctionType(_run.__code__, space, "_run"))
+    return _compiled
+
+
+def run_tqt(d: dict[str, np.ndarray], **settings: float) -> tuple[np.ndarray, np.ndarray]:
+    """Robust ``tqt`` with ``settings`` over trial ``d``: (sensor -> ENU quaternions (N, 4), flag bits (N,))."""
+    f = TQTFilter(**settings)  # type: ignore[arg-type]
+    s, p = np.array(f._s), np.array(f._p)
+    n = len(d["t"])
+    q, flags = np.empty((n, 4)), np.empty(n, np.int64)
+    g, a, m = (np.ascontiguousarray(d[k]) for k in ("gyr", "acc", "mag"))
+    _kernel()(g, a, m, dt_of(d), s, p, q, flags)
+    return nwu_to_enu(q), flags
+
+
+def run_vqf(d: dict[str, np.ndarray], **params: float) -> np.ndarray:
+    """VQF 9D (its C++) with ``params`` over trial ``d``, sensor -> ENU."""
+    import vqf
+
+    f = vqf.VQF(dt_of(d), **params)
+    g, a, m = (np.ascontiguousarray(d[k]) for k in ("gyr", "acc", "mag"))
+    return np.asarray(f.updateBatch(g, a, m)["quat9D"])
+
+
+def score(d: dict[str, np.ndarray], q: np.ndarray) -> tuple[float, float, float]:
+    """BROAD's total, heading and inclination RMSE (degrees) of ``q`` on trial ``d``."""
+    return broad_rmse(q, d["q_gt"], d["movement"])
