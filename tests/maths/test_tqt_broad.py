@@ -58,11 +58,13 @@ def run_filter(trial, **params):
 
 
 def test_robust_mode_on_broad(trial):
-    """Measured: total 1.44°, heading 1.31°, inclination 0.60°."""
+    """Measured: total 1.70°, heading 1.49°, inclination 0.82° (VQF's defaults 1.99°).  Before issue 46's
+    defaults (a 2 s acceleration average, the field learned only at rest) this trial was 1.58°: the
+    defaults are chosen on BROAD and the Tyrex phones together, and the phones want the longer average."""
     total, heading, incl = run_filter(trial)
-    assert total < 1.6
-    assert heading < 1.5
-    assert incl < 0.7
+    assert total < 1.8
+    assert heading < 1.6
+    assert incl < 0.9
 
 
 def test_the_disturbance_flag_does_not_flicker_on_an_undisturbed_trial(trial):

@@ -75,13 +75,14 @@ class _TQTParams:
         use_gyro: bool = True,
         dip: float | None = None,
         k_heading: float = 0.05,
-        acc_tau: float = 2.0,
+        acc_tau: float = 4.0,
         mag_norm_tol: float = 0.1,
-        mag_dip_tol: float = math.radians(15.0),
+        mag_dip_tol: float = math.radians(10.0),
         mag_new_time: float = 20.0,
         mag_reject_time: float = 60.0,
         motion_bias_tau: float = 30.0,
         mag_tau: float = 0.4,
+        k_heading_unrested: float = 0.1,
         rest_time: float = 1.5,
         rest_gyro: float = math.radians(2.0),
         rest_acc: float = 0.05,
@@ -105,6 +106,7 @@ class _TQTParams:
             ("mag_reject_time", mag_reject_time),
             ("motion_bias_tau", motion_bias_tau),
             ("mag_tau", mag_tau),
+            ("k_heading_unrested", k_heading_unrested),
             ("rest_time", rest_time),
             ("rest_gyro", rest_gyro),
             ("rest_acc", rest_acc),
@@ -135,6 +137,7 @@ class _TQTParams:
         self.mag_reject_time = float(mag_reject_time)
         self.motion_bias_tau = float(motion_bias_tau)
         self.mag_tau = float(mag_tau)
+        self.k_heading_unrested = float(k_heading_unrested)
         self.rest_time = float(rest_time)
         self.rest_gyro = float(rest_gyro)
         self.rest_acc = float(rest_acc)
@@ -180,6 +183,7 @@ class _TQTParams:
             self.mag_reject_time,
             self.motion_bias_tau,
             self.mag_tau,
+            self.k_heading_unrested,
         ) + [self.rho, float(self.iterations)]
 
     @property
@@ -194,13 +198,13 @@ class _TQTParams:
         .. math:: \omega_c^2 = \tfrac12\Big(\sqrt{(k^2 + a^2)^2 + 4k^2a^2} - (k^2 + a^2)\Big), \qquad
                   a = 1 / \tau_a, \qquad f_c = \omega_c / 2\pi
 
-        (0.067 Hz at the defaults k = 1, acc_tau = 2 s, where k / 2 pi would say 0.16 Hz).  The heading
+        (0.038 Hz at the defaults k = 1, acc_tau = 4 s, where k / 2 pi would say 0.16 Hz).  The heading
         correction of robust mode has its own, :attr:`heading_crossover`.  Without a gyro there is no
         low-pass: :math:`k / 2\pi`.
 
         >>> from pointat.maths.tqt import TQTFilter
         >>> round(TQTFilter(1.0, mode="paper").crossover, 4), round(TQTFilter(1.0).crossover, 4)
-        (0.1592, 0.0667)
+        (0.1592, 0.0376)
         """
         if self.mode == "paper" or not self.use_gyro:
             return crossover_from_gain(self.k)
@@ -219,7 +223,7 @@ class _TQTParams:
 
     _TUNABLE = (
         "k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "mag_new_time", "mag_reject_time",
-        "motion_bias_tau", "mag_tau", "bias_tau", "acc_range", "gyro_range",
+        "motion_bias_tau", "mag_tau", "k_heading_unrested", "bias_tau", "acc_range", "gyro_range",
     )  # fmt: skip
 
     def retune(self, **gains: float) -> None:

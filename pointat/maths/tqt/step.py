@@ -162,10 +162,10 @@ P_REST_TIME, P_REST_GYRO, P_REST_ACC, P_BIAS_CLIP = 6, 7, 8, 9
 P_USE_GYRO, P_HAS_DIP = 10, 11
 P_ACC_RANGE, P_GYRO_RANGE = 12, 13  # full scale per axis (0: not known)
 # per-dt coefficients, recomputed when dt changes
-P_MAG_NEW_TIME, P_MAG_REJECT_TIME, P_MOTION_BIAS_TAU, P_MAG_TAU = 14, 15, 16, 17
-P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_C_SAT = 18, 19, 20, 21, 22, 23, 24, 25
-P_C_MAGLP, P_C_GNORM, P_C_MBIAS = 26, 27, 28
-PARAM_SIZE = 29
+P_MAG_NEW_TIME, P_MAG_REJECT_TIME, P_MOTION_BIAS_TAU, P_MAG_TAU, P_K_HEADING_UNRESTED = 14, 15, 16, 17, 18
+P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_C_SAT = 19, 20, 21, 22, 23, 24, 25, 26
+P_C_MAGLP, P_C_GNORM, P_C_MBIAS, P_ALPHA_MAG_UNRESTED = 27, 28, 29, 30
+PARAM_SIZE = 31
 
 _LONG_AGO = 1e9  # "seconds since" for a saturation never seen
 
@@ -189,6 +189,7 @@ def params(
     mag_reject_time: float,
     motion_bias_tau: float,
     mag_tau: float,
+    k_heading_unrested: float,
 ) -> list[float]:
     """The parameter vector (validated by the caller); its per-``dt`` coefficients are filled on the first
     step."""
@@ -199,7 +200,7 @@ def params(
     p[P_USE_GYRO], p[P_HAS_DIP] = float(use_gyro), float(has_dip)
     p[P_ACC_RANGE], p[P_GYRO_RANGE] = acc_range, gyro_range
     p[P_MAG_NEW_TIME], p[P_MAG_REJECT_TIME] = mag_new_time, mag_reject_time
-    p[P_MOTION_BIAS_TAU], p[P_MAG_TAU] = motion_bias_tau, mag_tau
+    p[P_MOTION_BIAS_TAU], p[P_MAG_TAU], p[P_K_HEADING_UNRESTED] = motion_bias_tau, mag_tau, k_heading_unrested
     p[P_DT] = -1.0
     return p
 
@@ -228,11 +229,12 @@ def _coefficients(p, dt):  # type: ignore[no-untyped-def]
     p[P_ALPHA] = min(p[P_K] * dt, 1.0)
     # without a gyro nothing carries the heading between corrections: it follows the field as fast as tilt
     p[P_ALPHA_MAG] = p[P_ALPHA] if no_gyro else min(p[P_K_HEADING] * dt, 1.0)
+    p[P_ALPHA_MAG_UNRESTED] = p[P_ALPHA] if no_gyro else min(p[P_K_HEADING_UNRESTED] * dt, 1.0)
     p[P_C_SAT] = 1.0 - math.exp(-dt / _SHAKE_TAU)
     p[P_C_MAGLP] = 1.0 - math.exp(-dt / p[P_MAG_TAU]) if p[P_MAG_TAU] > 0.0 else 1.0
     p[P_C_GNORM] = 1.0 - math.exp(-dt / _GNORM_TAU)
     # the heading correction's rate (k_heading psi) integrated into the bias over motion_bias_tau: k_heading / tau
-    p[P_C_MBIAS] = p[P_K_HEADING] / p[P_MOTION_BIAS_TAU] if p[P_MOTION_BIAS_TAU] > 0.0 else 0.0
+    p[P_C_MBIAS] = p[P_K_HEADING_UNRESTED] / p[P_MOTION_BIAS_TAU] if p[P_MOTION_BIAS_TAU] > 0.0 else 0.0
 
 
 def _rotate(w, x, y, z, vx, vy, vz):  # type: ignore[no-untyped-def]
@@ -534,7 +536,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
             psi = math.atan2(bey, bex)
             if (
                 p[P_C_MBIAS] > 0.0
-                and k == p[P_ALPHA_MAG]
+                and dt < k * s[S_MAG_T]
                 and flags & F_REST == 0
                 and s[S_BIAS_T] < p[P_BIAS_TAU]
             ):
@@ -609,7 +611,8 @@ def _set_dip(s, d):  # type: ignore[no-untyped-def]
 def _heading_gain(s, p, dt):  # type: ignore[no-untyped-def]
     """The heading correction's fraction this sample: none while the field is disturbed, until the
     rejection time is used up (then a fraction of it); a plain mean of the accepted field at the start."""
-    k = p[P_ALPHA_MAG]
+    # the gyro's bias not yet known from rest: its own gain (the heading leans more on the field)
+    k = p[P_ALPHA_MAG] if s[S_BIAS_T] >= p[P_BIAS_TAU] else p[P_ALPHA_MAG_UNRESTED]
     if s[S_MAG_DIST] != 0.0:
         if s[S_MAG_REJ_T] < p[P_MAG_REJECT_TIME]:
             s[S_MAG_REJ_T] += dt
