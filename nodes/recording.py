@@ -222,10 +222,10 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
 
     def _header_there(self) -> list[str] | None:
         """The header of the CSV file to append to; None when there is none yet."""
-        try:
-            return _csv_header(read_lines(Path(self.p.file))) or None
-        except FileNotFoundError:
+        path = Path(self.p.file)
+        if not os.path.lexists(path):  # (the user-file reader says a missing file as an error of its own)
             return None
+        return _csv_header(read_lines(path)) or None
 
     def _still_there(self) -> None:
         """Once a second: a file deleted while it is written takes every row into the void; start it anew."""
