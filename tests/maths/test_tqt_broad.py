@@ -82,6 +82,17 @@ def test_the_disturbance_flag_does_not_flicker_on_an_undisturbed_trial(trial):
     assert changes <= 4
 
 
+def test_no_rail_is_found_where_the_accelerometer_does_not_clip(trial):
+    """Not told a full scale, the filter looks for one in the data (a reading beyond 1.5 g met exactly three
+    times): this trial's readings never clip, and nothing is flagged saturated."""
+    f = TQTFilter()
+    dt = 1.0 / BROAD_RATE
+    g, a, m = trial["gyr"].tolist(), trial["acc"].tolist(), trial["mag"].tolist()
+    for i in range(len(g)):
+        f.update(g[i], a[i], m[i], dt)
+        assert TQTFlags.ACC_SATURATED not in f.flags
+
+
 def test_paper_mode_on_broad(trial):
     """The seeds' filter (k = 0.1, rho = 0.5).  Measured: total 3.26°, heading 2.36°, inclination 2.25°."""
     total, heading, incl = run_filter(trial, mode="paper")

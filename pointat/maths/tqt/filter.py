@@ -84,10 +84,13 @@ class TQTFilter(_TQTParams):
        heading off by bias / gain.
        Gating on the accelerometer norm is not done: it made every variant worse on BROAD.
     5. *Saturation* (when the source gives ``acc_range`` / ``gyro_range``, the sensor's full scale per
-       axis).  No chunk of acceleration goes into :math:`e` from just before a spell of accelerometer
+       axis; when it gives no ``acc_range``, the accelerometer's is found from the data: the largest
+       reading beyond 1.5 g met to the bit three times is the rail, and the average forgets what it took
+       before).  No chunk of acceleration goes into :math:`e` from just before a spell of accelerometer
        saturation (clips less than 1 s apart) to 1 s after it: strokes are left out whole, swing and
        impact, never one side of them, so the average stays unbiased; once the gyro alone has turned
-       the estimate by half a turn a chunk goes in all the same.  A saturated gyro is flagged only.
+       the estimate by half a turn, or the spell has lasted 8 s (a runner's every step clips: the
+       motion's own), a chunk goes in all the same.  A saturated gyro is flagged only.
 
     Nothing a hand can produce is refused: a reading counts as corrupt only beyond half again the full
     scale, or with none known beyond :data:`~pointat.maths.tqt.ACC_LIMIT` (1000) times the first
@@ -146,8 +149,8 @@ class TQTFilter(_TQTParams):
         (rad/s per axis, 2°/s).
     acc_range, gyro_range : float, keyword-only
         Robust mode: the sensor's full scale per axis, in the readings' units (m/s² or whatever the
-        accelerometer reads in; rad/s), 0 (default) when not known.  A reading at or beyond it is
-        saturated (extension 5).
+        accelerometer reads in; rad/s), 0 (default) when not known (the accelerometer's is then found
+        from the data if it clips).  A reading at or beyond it is saturated (extension 5).
 
     Notes
     -----

@@ -43,7 +43,8 @@ class TQTFlags(IntFlag):
     MAG_DISTURBED = step.F_MAG_DISTURBED
     #: robust mode: the sensor is at rest, the gyro bias is being learned
     REST = step.F_REST
-    #: robust mode: an accelerometer axis reached its full scale (``acc_range``) within the last second
+    #: robust mode: an accelerometer axis reached its full scale (``acc_range``, or the rail found in the
+    #: data when none is told) within the last second
     ACC_SATURATED = step.F_ACC_SATURATED
     #: robust mode: a gyro axis reached its full scale (``gyro_range``) within the last second
     GYRO_SATURATED = step.F_GYRO_SATURATED

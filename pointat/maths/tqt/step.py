@@ -15,14 +15,16 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
 * **Nothing a hand can produce is refused.**  A reading is refused only when it is not a number, zero,
   beyond the sensor's own full scale by half again (``acc_range``: impossible, so corrupt), or, with no
   known full scale, more than :data:`ACC_LIMIT` (1000) times the first reading.
-* **Saturation is known, not guessed**, when the source says its full scale (``acc_range``,
-  ``gyro_range``): an axis at its rail reads less than the truth.  Leaving out only the clipped samples
+* **Saturation is known** when the source says its full scale (``acc_range``, ``gyro_range``), and
+  **found** when it does not (:func:`_found_range`: a clipped axis reads its rail again and again, to the
+  bit; the average then forgets what it took before the rail was known): an axis at its rail reads less than the truth.  Leaving out only the clipped samples
   would leave out one side of a zero-mean stroke, so the acceleration average is fed in *chunks* of
   :data:`CHUNK` seconds, and none joins it from a chunk before a spell of saturation (saturations less
   than :data:`SATURATION_SPELL` apart) to that long after the spell: the strokes are left out whole,
   swings with impacts.  Only once the gyro alone has turned the estimate by :data:`TURN_BUDGET` does a
   chunk join all the same: a long spell of fast turning would cost more in gyro drift than a clipped
-  chunk costs in bias.  The average is at most two chunks late (0.2 s, beside its 2 s time constant).
+  chunk costs in bias; and a spell longer than :data:`_SPELL_MAX` is the motion's own (running), not
+  strokes.  The average is at most two chunks late (0.2 s, beside its time constant).
 * **The magnetic reference is learned over time** (:func:`_magnetic_gate`): it starts from the first
   sample, follows the accepted field, and is replaced by a candidate field that has held its norm and
   dip while the sensor turned, so that a start in motion or a place whose dip differs from the first
@@ -96,6 +98,14 @@ _MAG_NEW_FIRST = 5.0
 # a single sample off the reference by this many times the gate corrects nothing, whatever the low-pass
 # says: a magnet brought near is left out from its first sample (in the heading's plain-mean start, too)
 _MAG_RAW = 3.0
+# a spell of accelerometer saturation longer than this (s) is the motion's own (a runner's every step:
+# the Tyrex phones clip at 2 g for two minutes), not strokes: the average takes its chunks again
+_SPELL_MAX = 8.0
+# with no full scale told, the largest reading (beyond _CLIP_LEAST g) met exactly _CLIP_REPEAT times is the
+# rail (twice found a false rail in BROAD's five-decimal CSV); saturation is tested a hair under it
+_CLIP_REPEAT = 3
+_CLIP_LEAST = 1.5
+_CLIP_MARGIN = 1e-3
 # after the magnetometer's rejection time is used up, the heading correction runs at this fraction
 _MAG_LATE_FACTOR = 0.5
 # time constant (s) of the gyro / accelerometer low-pass the rest detector compares against (as VQF)
@@ -153,7 +163,11 @@ S_CAND_N = 47  # candidate reference: norm
 S_CAND_D = 48  # dip
 S_CAND_T = 49  # seconds of turning it has held steady
 S_MAG_T = 50  # seconds of field accepted (the heading gain's plain-mean start; confirms the reference)
-STATE_SIZE = 51
+S_SPELL_T = 51  # seconds the current spell of accelerometer saturation has lasted
+S_ACC_PEAK = 52  # the largest reading on any axis so far (absolute)
+S_ACC_PEAK_N = 53  # readings that met it exactly
+S_ACC_FOUND = 54  # the full scale found from the data (0: none; used when none is told)
+STATE_SIZE = 55
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -419,15 +433,21 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     r = p[P_GYRO_RANGE]
     g_sat = g_ok and r > 0.0 and (abs(gx) >= r or abs(gy) >= r or abs(gz) >= r)
     r = p[P_ACC_RANGE]
+    if r <= 0.0 and a_ok:  # not told: found from the data, if the sensor clips
+        r = _found_range(s, ax, ay, az)
     a_sat = a_ok and r > 0.0 and (abs(ax) >= r or abs(ay) >= r or abs(az) >= r)
     if g_sat:
         s[S_GYRO_SAT_T] = 0.0
     elif s[S_GYRO_SAT_T] < _LONG_AGO:
         s[S_GYRO_SAT_T] += dt
     if a_sat:
+        if s[S_ACC_SAT_T] >= SATURATION_SPELL:  # a new spell begins
+            s[S_SPELL_T] = 0.0
         s[S_ACC_SAT_T] = 0.0
     elif s[S_ACC_SAT_T] < _LONG_AGO:
         s[S_ACC_SAT_T] += dt
+    if s[S_ACC_SAT_T] < SATURATION_SPELL:
+        s[S_SPELL_T] += dt
     if s[S_ACC_SAT_T] < SATURATION_SPELL:
         flags |= F_ACC_SATURATED
     if s[S_GYRO_SAT_T] < SATURATION_SPELL:
@@ -497,7 +517,8 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     correct = False
     if use_gyro:
         if a_ok:
-            calm = s[S_ACC_SAT_T] >= SATURATION_SPELL
+            # a spell longer than _SPELL_MAX is the motion's own (a runner's every step), not strokes
+            calm = s[S_ACC_SAT_T] >= SATURATION_SPELL or s[S_SPELL_T] >= _SPELL_MAX
             aex, aey, aez = _rotate(w, x, y, z, ax, ay, az)
             _add_to_average(s, p, aex, aey, aez, dt, calm)
         correct = s[S_E_AGE] > 0.0
@@ -587,6 +608,27 @@ def _magnetic_gate(s, p, norm, dip, dt, dip_gate):  # type: ignore[no-untyped-de
     else:
         s[S_CAND_N], s[S_CAND_D], s[S_CAND_T] = ln, ld, 0.0
     return s[S_MAG_DIST] != 0.0
+
+
+def _found_range(s, ax, ay, az):  # type: ignore[no-untyped-def]
+    """The accelerometer's full scale found from the readings when the source does not tell it: the
+    largest reading on any axis, beyond :data:`_CLIP_LEAST` g, met exactly :data:`_CLIP_REPEAT` times (a
+    clipped axis reads its rail again and again; a hand's real peaks never repeat to the last bit).
+    Returns the full scale to test against (a hair under the rail: resampled data smear it), or 0."""
+    m = max(abs(ax), abs(ay), abs(az))
+    if m > s[S_ACC_PEAK]:
+        s[S_ACC_PEAK], s[S_ACC_PEAK_N] = m, 1.0
+    elif m == s[S_ACC_PEAK]:
+        s[S_ACC_PEAK_N] += 1.0
+        if s[S_ACC_PEAK_N] >= _CLIP_REPEAT and m >= _CLIP_LEAST * s[S_GNORM] and m > s[S_ACC_FOUND]:
+            if s[S_ACC_FOUND] == 0.0:
+                # the average took the clipped readings before the rail was known: it forgets them (the
+                # tilt held where it is, the chunk waiting dropped) and learns on from calm chunks
+                e = math.sqrt(s[S_E] * s[S_E] + s[S_E + 1] * s[S_E + 1] + s[S_E + 2] * s[S_E + 2])
+                s[S_E], s[S_E + 1], s[S_E + 2] = 0.0, 0.0, e
+                s[S_PREV] = s[S_PREV + 1] = s[S_PREV + 2] = s[S_PREV_T] = 0.0
+            s[S_ACC_FOUND] = m
+    return s[S_ACC_FOUND] * (1.0 - _CLIP_MARGIN)
 
 
 def _motion_bias(s, p, w, x, y, z, psi):  # type: ignore[no-untyped-def]
