@@ -376,7 +376,7 @@ class TQT(SampleClock, Flagged, Node):
             "k",
             "float",
             0.0,
-            "gravity-correction gain (0: the mode's default: robust 1, without gyro 50; paper 0.1)",
+            "gravity-correction gain (0: the mode's default: robust 0.5, without gyro 50; paper 0.1)",
             unit="1/s",
             live=True,
             minimum=0.0,

@@ -351,10 +351,11 @@ def test_a_parameter_sent_without_a_value_says_it_needs_one():
 
 def test_tqt_k_0_live_is_the_modes_own_gain_and_a_rate_of_0_is_refused_everywhere():
     from pointat.errors import PatchError
+    from pointat.maths.tqt import TQTFilter
 
-    rt = patch("node f tqt mode=robust k=0.5\n")
+    rt = patch("node f tqt mode=robust k=2\n")
     rt.nodes["f"].set_param("k", 0.0)  # as at load: 0 means the mode's default
-    assert rt.nodes["f"].filter.k == 1.0
+    assert rt.nodes["f"].filter.k == TQTFilter.default_k("robust")
     for node in ("gyro_integrator", "complementary", "tqt", "mote", "simulate"):
         with pytest.raises(PatchError, match="parameter 'rate' expects a number > 0; got 0"):
             patch(f"node n {node} rate=0\n")

@@ -32,8 +32,8 @@ What the tests show (``pytest -s`` prints the figures):
   1.5 s, the heading drifts by up to bias × 1.5 s before it and the heading correction (``k_heading`` =
   0.05, 20 s) takes a minute to remove that; what is left at the calibration instant is in the offsets,
   and decays into the performance.  A still hold has no acceleration to reject: the tests hold the pose
-  5 s with fast gains (``k`` = 5, ``k_heading`` = 2, ``acc_tau`` = 0.25 s), back to the defaults when
-  the offsets are taken.
+  5 s with fast gains (``k`` = 5, ``k_heading`` and ``k_heading_unrested`` = 2, ``acc_tau`` = 0.25 s),
+  back to the defaults when the offsets are taken.
 * What the filter errs by in motion, once calibrated, is the linear acceleration of sensors on moving
   segments (centripetal and tangential, 1.3 m/s² RMS at the hand) through its 2 s average of the vertical:
   tilt 0.6° RMS at the hand sensor, 1.3° at most, on ideal sensors; and a gyro sampled at the instant
@@ -57,7 +57,9 @@ from pointat.maths.tqt import TQTBank, TQTFlags
 TAKE = 60.0
 REACH = 0.55  # shoulder to wrist, m
 BIAS_CLIP = math.radians(3.5)  # the glove's gyro biases reach 3 deg/s per axis
-HOLD_GAINS = {"k": 5.0, "k_heading": 2.0, "acc_tau": 0.25}  # still in the pose: nothing to reject
+# still in the pose: nothing to reject (the heading's gain before the bias is known, too: a 5 s hold is
+# less than bias_tau of rest)
+HOLD_GAINS = {"k": 5.0, "k_heading": 2.0, "k_heading_unrested": 2.0, "acc_tau": 0.25}
 
 
 def track(sim, bank, hold_gains=None):
@@ -228,7 +230,8 @@ def test_the_default_bias_clip_refuses_the_glove_simulators_biases():
     beyond = (np.abs(sim.gyro_bias) >= bank.bias_clip).any(axis=1)
     assert beyond.tolist() == [True, False, True]  # seed 0: sensors 1 and 3 have an axis beyond 2 deg/s
     assert (rest == ~beyond).all()
-    assert (bank.bias[beyond] == 0.0).all()
+    # no bias from rest; only what the heading's correction lends it in motion (motion_bias_tau), slowly
+    assert np.degrees(np.abs(bank.bias[beyond])).max() < 0.01
     assert np.degrees(np.abs(bank.bias[~beyond] - sim.gyro_bias[~beyond])).max() < 0.1
 
 

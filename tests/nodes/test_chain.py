@@ -424,7 +424,7 @@ def test_tqt_full_scale_parameters_are_in_g_and_degrees_and_live():
     f.receive(0, method("acc_range", 16.0))
     assert f.filter.acc_range == pytest.approx(16.0 * 9.80665)
     f.receive(0, method("k", 0.0))  # 0: the mode's own gain
-    assert f.filter.k == 1.0
+    assert f.filter.k == f.filter.default_k("robust")
     with pytest.raises(ValueError, match="acc_range must be a finite number >= 0"):
         f.receive(3, make([-1.0, 3.0]))
     assert f.filter.acc_range == pytest.approx(16.0 * 9.80665)  # a refused range changes nothing

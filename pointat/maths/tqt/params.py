@@ -64,7 +64,7 @@ class _TQTParams:
     """Parameters shared by :class:`TQTFilter` and :class:`TQTBank` (validated once, documented there)."""
 
     #: The gain ``k`` of each mode when none is given (robust without a gyro: :data:`K_NO_GYRO`).
-    DEFAULT_K: ClassVar[dict[str, float]] = {"robust": 1.0, "paper": 0.1}
+    DEFAULT_K: ClassVar[dict[str, float]] = {"robust": 0.5, "paper": 0.1}
 
     def __init__(
         self,
@@ -76,7 +76,7 @@ class _TQTParams:
         use_gyro: bool = True,
         dip: float | None = None,
         k_heading: float = 0.05,
-        acc_tau: float = 4.0,
+        acc_tau: float = 2.0,
         mag_norm_tol: float = 0.1,
         mag_dip_tol: float = math.radians(10.0),
         mag_new_time: float = 20.0,
@@ -156,7 +156,7 @@ class _TQTParams:
 
         >>> from pointat.maths.tqt import TQTFilter
         >>> TQTFilter.default_k("robust"), TQTFilter.default_k("robust", use_gyro=False)
-        (1.0, 50.0)
+        (0.5, 50.0)
         """
         if mode == "robust" and not use_gyro:
             return K_NO_GYRO
@@ -199,13 +199,13 @@ class _TQTParams:
         .. math:: \omega_c^2 = \tfrac12\Big(\sqrt{(k^2 + a^2)^2 + 4k^2a^2} - (k^2 + a^2)\Big), \qquad
                   a = 1 / \tau_a, \qquad f_c = \omega_c / 2\pi
 
-        (0.038 Hz at the defaults k = 1, acc_tau = 4 s, where k / 2 pi would say 0.16 Hz).  The heading
+        (0.051 Hz at the defaults k = 0.5, acc_tau = 2 s, where k / 2 pi would say 0.08 Hz).  The heading
         correction of robust mode has its own, :attr:`heading_crossover`.  Without a gyro there is no
         low-pass: :math:`k / 2\pi`.
 
         >>> from pointat.maths.tqt import TQTFilter
         >>> round(TQTFilter(1.0, mode="paper").crossover, 4), round(TQTFilter(1.0).crossover, 4)
-        (0.1592, 0.0376)
+        (0.1592, 0.0667)
         """
         if self.mode == "paper" or not self.use_gyro:
             return crossover_from_gain(self.k)
