@@ -52,7 +52,9 @@ def load_or_refusal(path: str) -> Calibration | str:
         return _load(path)
     except ValueError as exc:
         message = str(exc)
-        assert message.startswith(f"calibration file {path}: "), message
+        # (what the calibration says of its contents, or what the user-file reader says of the bytes:
+        # "PATH:LINE: not UTF-8 text ... expected a calibration file")
+        assert message.startswith((f"calibration file {path}: ", f"{path}:")), message
         return message
 
 
