@@ -393,6 +393,15 @@ class TQT(SampleClock, Flagged, Node):
             live=True,
             minimum=0.0,
         ),
+        Param(
+            "k_heading_unrested",
+            "float",
+            0.1,
+            "heading-correction gain before the sensor has rested long enough to know its gyro's bias (robust mode)",
+            unit="1/s",
+            live=True,
+            minimum=0.0,
+        ),
         Param("dip", "float", float("nan"), "magnetic dip; NaN: learned from the first sample", unit="deg"),
         Param(
             "acc_range",
@@ -498,6 +507,7 @@ def _settings(p: Any) -> dict[str, Any]:
         "use_gyro": p.use_gyro,
         "dip": None if math.isnan(p.dip) else math.radians(p.dip),
         "k_heading": p.k_heading,
+        "k_heading_unrested": p.k_heading_unrested,
         "acc_range": p.acc_range * STANDARD_GRAVITY,
         "gyro_range": math.radians(p.gyro_range),
     }

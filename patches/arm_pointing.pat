@@ -9,8 +9,8 @@
 # whole arm to port 9003 (/pointat/body/SEGMENT/quat|pos|end).  The calibration pose is taken 5 s in
 # (auto=5); with real sensors, stand in the pose facing the front and send /pointat/body/calibrate
 # (pointat send 9001 /pointat/body/calibrate).  While the arm rests in the pose the filters trust gravity
-# and the field at once (fast: the k and k_heading sent to suit), and then go back to their defaults (calm), so the pose is
-# taken settled.
+# and the field at once (fast: the k, k_heading and k_heading_unrested sent to suit), and then go back
+# to their defaults (calm), so the pose is taken settled.
 
 node arm   simulate_body pose=6 heading=35
 node suit  tqt_bank sensors=3
@@ -20,9 +20,9 @@ node out   osc_out profile=pointat host=127.0.0.1 port=9000
 node limbs osc_body host=127.0.0.1 port=9003
 node ctl   osc_in port=9001
 node lb    loadbang
-node fast  msg k 5, k_heading 2
+node fast  msg k 5, k_heading 2, k_heading_unrested 2
 node wait  delay 4500
-node calm  msg k 1, k_heading 0.05
+node calm  msg k 0, k_heading 0.05, k_heading_unrested 0.1
 node both  pack 0 0 0
 node slow  speedlim 500
 node show  print prefix="arm points at: azimuth elevation metres" decimals=2

@@ -15,9 +15,9 @@ node limbs osc_body file=pointat:data/body15.json host=127.0.0.1 port=9003
 node take  bvh_record file=body.bvh skeleton=pointat:data/body15.json rate=100
 node ctl   osc_in port=9001
 node lb    loadbang
-node fast  msg k 5, k_heading 2
+node fast  msg k 5, k_heading 2, k_heading_unrested 2
 node wait  delay 4500
-node calm  msg k 1, k_heading 0.05
+node calm  msg k 0, k_heading 0.05, k_heading_unrested 0.1
 node state print prefix=body
 
 lb -> fast -> bank
