@@ -29,6 +29,7 @@ import numpy as np
 
 from .names import check_name
 from .saving import Saver, clean_stray
+from .shipped import is_shipped
 from .userfiles import read_json
 
 __all__ = ["Presets", "presets_path"]
@@ -43,12 +44,13 @@ MOST_BYTES = 1_000_000
 
 
 def presets_path(patch: str | os.PathLike[str], writable_dir: str | os.PathLike[str] | None = None) -> Path:
-    """Where a patch's presets live: beside it, or in ``writable_dir`` (the current folder) when the
-    patch's own folder cannot be written (a patch shipped inside an installed package)."""
+    """Where a patch's presets live: beside it, or in ``writable_dir`` (the current folder) for a
+    shipped patch (read-only, installed or in a checkout: :func:`pointat.shipped.is_shipped`) or one
+    whose own folder cannot be written."""
     p = Path(patch)
     name = p.stem + ".presets.json"
     folder = p.parent
-    if not os.access(folder, os.W_OK) or "site-packages" in folder.parts:
+    if is_shipped(p) or not os.access(folder, os.W_OK) or "site-packages" in folder.parts:
         folder = Path(writable_dir or os.getcwd())
     return folder / name
 
