@@ -304,6 +304,7 @@ def _pty_run(mode: str, counts: np.ndarray) -> tuple[list[bytes], int]:
     return got, plain
 
 
+@pytest.mark.slow  # (real time through a pty, twice; tests/devices/test_mote_plain.py holds the claim in process)
 def test_frames_straight_from_the_reader_give_the_same_datagrams(both_ways):
     counts = both_ways[2][:1500]
     plain, none = _pty_run("off", counts)
