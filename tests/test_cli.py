@@ -79,13 +79,13 @@ RUN_BRIEFLY = [p for p in PATCHES if "evaluate" not in p.name]
 
 @pytest.fixture(scope="module")
 def shipped_runs(copy_of_repo):
-    """Every shipped patch run for 1.5 s, four at a time (each is mostly a Python start-up and a wait):
+    """Every shipped patch run for 0.75 s (3 s each in tests/test_wheel.py, the slow tier), four at a time (each is mostly a Python start-up and a wait):
     {path: the finished process}."""
     from concurrent.futures import ThreadPoolExecutor
 
     def run(path):
         copy = copy_of_repo / path.relative_to(ROOT)
-        return pointat("run", copy, "--for", "1.5", *beside(copy), timeout=600)
+        return pointat("run", copy, "--for", "0.75", *beside(copy), timeout=600)
 
     with ThreadPoolExecutor(max_workers=4) as pool:
         return dict(zip(RUN_BRIEFLY, pool.map(run, RUN_BRIEFLY), strict=True))

@@ -110,6 +110,7 @@ def test_the_calibration_saved_by_the_shipped_patch_is_the_one_the_next_step_nam
     assert main(["check", "glove_tqt", *sets]) == 0
 
 
+@pytest.mark.slow  # (two runs of the patch; tests/test_wheel.py sees the copy made from an empty folder too)
 def test_the_gesture_examples_are_copied_once_to_be_the_users_own(tmp_path):
     """gestures reads and saves gestures.json: the first run copies the shipped one into the current
     folder (said in the banner) and loads it from there; the next run finds the user's copy."""

@@ -28,6 +28,10 @@ from pointat.registry import Registry
 from pointat.testing import ws_connect, ws_receive, ws_send
 from pointat.webserver import MonitorServer
 
+#: Hypothesis examples of the request and frame properties (derandomized; the long fuzz run is
+#: tests/fuzz_websocket.py): POINTAT_FUZZ_EXAMPLES sets more.
+EXAMPLES = int(os.environ.get("POINTAT_FUZZ_EXAMPLES", "40"))
+
 REG = Registry().load_builtins()
 
 PATCH = """\
@@ -422,7 +426,7 @@ def mutated_requests(draw):
     return bytes(data)
 
 
-@settings(derandomize=True, database=None, deadline=None, max_examples=80,
+@settings(derandomize=True, database=None, deadline=None, max_examples=EXAMPLES,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])  # fmt: skip
 @given(data=mutated_requests())
 def test_any_request_bytes_are_answered_or_closed_and_the_server_serves_on(house, data):
@@ -470,7 +474,7 @@ def frames(draw):
     return out
 
 
-@settings(derandomize=True, database=None, deadline=None, max_examples=100,
+@settings(derandomize=True, database=None, deadline=None, max_examples=EXAMPLES,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])  # fmt: skip
 @given(data=frames())
 def test_any_frames_on_an_open_socket_close_it_or_are_taken_and_the_server_serves_on(house, data):

@@ -8,6 +8,8 @@ import sys
 import threading
 from pathlib import Path
 
+import pytest
+
 from pointat.testing import beside
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -63,6 +65,7 @@ def _run(patch: str, *sets: str, seconds: float | None = None) -> subprocess.Com
     )
 
 
+@pytest.mark.slow  # (two patches run in real time, 3 s and the replay)
 def test_a_take_replays_into_the_datagrams_it_gave_live(tmp_path):
     take = tmp_path / "take.csv"
     live = Listener()
