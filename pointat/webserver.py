@@ -42,6 +42,7 @@ from importlib import resources
 from typing import Any
 from urllib.parse import unquote, urlsplit
 
+from websockets import __version__ as _websockets_version
 from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed, ConnectionClosedOK
 from websockets.http11 import Request, Response
@@ -56,6 +57,10 @@ from .webaccess import Access, LogLimit, is_loopback
 __all__ = ["MonitorServer"]
 
 log = logging.getLogger("pointat.monitor")
+
+#: Whether the websockets library reads a request of another method than GET (17 on): HEAD is then
+#: answered without a body, the others 405; before (16, what Python 3.10 gets) it closes them unanswered.
+READS_METHODS = int(_websockets_version.split(".")[0]) >= 17
 
 _STATIC = {
     "/monitor": ("index.html", "text/html; charset=utf-8"),
@@ -78,6 +83,8 @@ class _LibraryLog(logging.Filter):
             return False
         exc = record.exc_info[1] if record.exc_info else None
         text = record.getMessage()
+        if text == "opening handshake failed":  # a request the library does not take (before 17: any
+            return False  # method but GET, bytes not ASCII): already told, rate-limited, as a client gone
         if text == "keepalive ping failed":  # a client that stopped answering: closed, as any gone one
             record.levelno, record.levelname = logging.INFO, "INFO"
             text, exc = "a client stopped answering pings; its connection closed", None
@@ -386,6 +393,8 @@ class MonitorServer:
             return response
         if "websocket" in (_header(headers, "Upgrade") or "").lower():
             return None
+        if not request.path.isascii():  # (before 17 the library passes bytes that are not ASCII on)
+            return _response(HTTPStatus.BAD_REQUEST, b"bad request\n", "text/plain; charset=utf-8")
         try:
             response = self._answer(request.path)
             if method == "HEAD":

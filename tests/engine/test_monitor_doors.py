@@ -26,7 +26,7 @@ from pointat.loader import build, parse_overrides
 from pointat.observe import Observer
 from pointat.registry import Registry
 from pointat.testing import ws_connect, ws_receive, ws_send
-from pointat.webserver import MonitorServer
+from pointat.webserver import READS_METHODS, MonitorServer
 
 #: Hypothesis examples of the request and frame properties (derandomized; the long fuzz run is
 #: tests/fuzz_websocket.py): POINTAT_FUZZ_EXAMPLES sets more.
@@ -96,7 +96,7 @@ def _request(port: int, lines: list[str], body: bytes = b"") -> tuple[int, bytes
             if not chunk:
                 break
             reply += chunk
-    return int(reply.split(b" ", 2)[1]), reply
+    return (int(reply.split(b" ", 2)[1]) if reply else 0), reply
 
 
 def _handshake(port: int, origin: str | None, host: str | None = None) -> tuple[int, socket.socket]:
@@ -567,12 +567,18 @@ def test_head_is_answered_without_a_body_and_other_methods_are_refused(served):
     port = server.port
     status, reply = _request(port, ["HEAD /?HOST_INFO HTTP/1.1", f"Host: 127.0.0.1:{port}"])
     head, _, body = reply.partition(b"\r\n\r\n")
-    assert status == 200 and body == b"" and b"Content-Length: " in head
+    if READS_METHODS:
+        assert status == 200 and body == b"" and b"Content-Length: " in head
+    else:  # (websockets before 17, Python 3.10's: a method but GET, HEAD too, is closed unanswered)
+        assert status == 0 and reply == b""
     for method in ("POST", "PUT", "DELETE", "OPTIONS"):
         status, reply = _request(port, [f"{method} /pointat/out/rate HTTP/1.1", f"Host: 127.0.0.1:{port}"])
-        assert status == 405 and b"Allow: GET, HEAD" in reply, (method, reply[:200])
+        if READS_METHODS:
+            assert status == 405 and b"Allow: GET, HEAD" in reply, (method, reply[:200])
+        else:  # (websockets before 17, Python 3.10's: a method but GET is closed unanswered)
+            assert status == 0 and reply == b"", (method, reply[:200])
     status, _ = _request(port, ["POST / HTTP/1.1", "Host: evil.example"])
-    assert status == 403  # who asks is looked at first
+    assert status == (403 if READS_METHODS else 0)  # who asks is looked at first
 
 
 def test_the_reproduction_of_issue_45_against_pointat_run_glove_tqt(tmp_path):
