@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from benchmarks.gesture_sets import G, Take, cut_repetitions
+from pointat.devices.gesture_sim import perform
 from pointat.gesture_eval import baseline, evaluate
 from pointat.maths.gestures import GestureModel, Recognizer
 
@@ -92,12 +93,8 @@ def test_real_motion_that_is_no_gesture_is_rarely_taken_for_one(reps, no_gesture
     model = GestureModel(channels).train([r.example(channels) for r in train])
     told = []
     for t, frames in no_gesture:
-        rec = Recognizer(model)
         x = frames if channels == CH else frames[:, :3]
-        n = 0
-        for ti, f in zip(t, x, strict=True):
-            n += sum(e[0] == "decision" and e[1].label is not None for e in rec.push(float(ti), f))
-        told.append(n)
+        told.append(sum(d.label is not None for _, d in perform(Recognizer(model), t, x)))
     # two minutes each: the goal, 0.5 a minute, holds on ordinary motion; on tapping these defaults
     # give 1.5 (said in benchmarks/GESTURES_REAL.md, and held here so that it gets no worse)
     assert told[0] <= 1 and told[1] <= 3, f"false triggers in two minutes: {told}"
@@ -130,9 +127,9 @@ def test_repetitions_with_no_rest_between_them_are_spotted(reps, takes):
             for (p, label), (t, frames) in takes.items():
                 if p != person:
                     continue
-                rec = Recognizer(model, cut=cut)
-                events = [e for ti, f in zip(t, frames, strict=True) for e in rec.push(float(ti), f)]
-                told = [e[1].label for e in events if e[0] == "decision" and e[1].label is not None]
+                told = [
+                    d.label for _, d in perform(Recognizer(model, cut=cut), t, frames) if d.label is not None
+                ]
                 n = len(reps[(p, label)])
                 right += min(n, told.count(label))
                 wrong += len(told) - min(n, told.count(label))
