@@ -44,6 +44,7 @@ from pointat.maths.gestures import (
     Segmenter,
     StrokeDetector,
     channel_slices,
+    relative_channels,
 )
 from pointat.message import Message, as_floats, bang
 from pointat.names import check_name
@@ -490,9 +491,7 @@ which.0 -> cue
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
         super().validate(values)
-        relative = [str(c) for c in values["relative"]]
-        if set(relative) - {"acc", "q"}:
-            raise ValueError(f"relative takes acc and q; got {' '.join(relative)}")
+        relative_channels(values["relative"])
 
     def build(self) -> None:
         self.model = GestureModel(self.channels, **model_options(self.p))

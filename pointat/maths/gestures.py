@@ -75,6 +75,7 @@ __all__ = [
     "StrokeDetector",
     "channel_slices",
     "posture_features",
+    "relative_channels",
     "resample",
     "segment_features",
     "transform",
@@ -143,6 +144,18 @@ def _relative_rotation(q: np.ndarray) -> np.ndarray:
     r"""Rotation vectors (radians) of :math:`q_0^* \otimes q_t`: the turn since the first frame, in the
     sensor's frame at the start (the same gesture facing any way gives the same values)."""
     return quat_to_rotvec(quat_multiply(quat_conjugate(q[0]), q))
+
+
+def relative_channels(relative: Sequence[str]) -> tuple[str, ...]:
+    """``relative`` checked: the channel groups that can be taken relative to how a movement began.
+
+    >>> relative_channels(["acc"])
+    ('acc',)
+    """
+    out = tuple(str(c) for c in relative)
+    if set(out) - {"acc", "q"}:
+        raise ValueError(f"relative takes acc and q; got {' '.join(out)}")
+    return out
 
 
 def _up_in_hand(q: np.ndarray) -> np.ndarray:
@@ -416,9 +429,7 @@ class GestureModel:
         relative: Sequence[str] = RELATIVE,
     ) -> None:
         self.channels = tuple(channels)
-        self.relative = tuple(relative)
-        if set(self.relative) - {"acc", "q"}:
-            raise ValueError(f"relative takes acc and q; got {' '.join(self.relative)}")
+        self.relative = relative_channels(relative)
         self.size = int(size)
         self.width = channel_slices(self.channels, self.size)[self.channels[-1]].stop
         self.rate, self.band, self.reject = float(rate), float(band), float(reject)
