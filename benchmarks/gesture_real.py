@@ -23,8 +23,9 @@ Protocols that mirror a performer (each gated: a recording or a cut repetition i
 
 False triggers: each model of the seglearn protocols, run ungated (cut from rest to rest) over the
 BROAD trials, real hand motion that is no gesture: gestures told per minute.  The curve of ``reject``
-is traced with early decisions off (a threshold applied to the same movements); the defaults are then
-run as they are.  Ungated streams: seglearn's uncut recordings (repetitions with no rest between them)
+is traced with early decisions off (the model's own decision with each ``reject``, on the same
+movements; the strength rule left out, as those decisions do not keep it); the defaults are then run as
+they are.  Ungated streams: seglearn's uncut recordings (repetitions with no rest between them)
 streamed whole, cut from rest to rest and spotted (``cut=spot``), taught by the person or by the others.
 Beside every row, plain 1-NN DTW (:func:`pointat.gesture_eval.baseline`) on the same split, in the same
 run.  About 13 minutes; seglearn's and aeon's wheels are fetched into ``~/.cache/pointat/gesture-sets``
@@ -44,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks import gesture_sets as sets
+from pointat.devices.gesture_sim import perform
 from pointat.gesture_eval import baseline, evaluate
 from pointat.maths.gestures import REJECT, Decision, GestureModel, Recognizer
 
@@ -136,25 +138,17 @@ def accuracy_table(data: Data, people: Sequence[int], progress: Callable[[str], 
 
 
 def _ungated(model: GestureModel, take: sets.Take, step: int, **rec: Any) -> list[Decision]:
-    r = Recognizer(model, **rec)
+    """Every decision of a recognizer of ``model`` over a whole recording (every ``step``-th sample)."""
     x = np.column_stack([take.groups[c] for c in model.channels])
-    out = []
-    for t, f in zip(take.t[::step], x[::step], strict=True):
-        out += [e[1] for e in r.push(float(t), f) if e[0] == "decision"]
-    return out
+    return [d for _, d in perform(Recognizer(model, **rec), take.t[::step], x[::step])]
 
 
 def _accepted(model: GestureModel, d: Decision, k: float) -> bool:
-    """The decision ``d`` (made with rejection off) as it would be with ``reject=k``."""
-    if d.nearest == "null":
-        return False
+    """The decision ``d`` (made with rejection off) as the model decides it with ``reject=k``."""
     saved, model.reject = model.reject, k
     try:
-        return (
-            d.distance <= model.threshold(d.nearest)
-            and d.distance < d.still
-            and model.fits(d.nearest, d.duration)
-        )
+        distances = np.array([d.per_class[label] for label in model.labels])
+        return model.decide(distances, duration=d.duration, still=d.still).label is not None
     finally:
         model.reject = saved
 
