@@ -689,6 +689,7 @@ class Spotter:
 
     def __init__(self, model: GestureModel, hold: float | None = None) -> None:
         self.model = model
+        self.made_from = model.templates  # (training anew makes another list: a spotter anew)
         self.templates = [
             segment_features(e.t, e.frames, model.channels, model.frame_rate, model.size, ()) / model.scales
             for e in model.examples
@@ -871,9 +872,8 @@ class Recognizer:
     def push(self, t: float, frame: np.ndarray) -> list[tuple[Any, ...]]:
         """One frame at time ``t``: the events it brings."""
         if self.cut == "spot" and self.gated is None and self.record is None and self.model.trained:
-            if self.spotter is None or self.spotter.model is not self.model or self._spot_stale():
+            if self.spotter is None or self.spotter.made_from is not self.model.templates:  # (trained again)
                 self.spotter = Spotter(self.model)
-                self._spotted = len(self.model.examples)
             return [("decision", d, when) for d, when in self.spotter.push(t, frame)]
         events: list[tuple[Any, ...]] = []
         frames = self.frames
@@ -917,12 +917,6 @@ class Recognizer:
                     self._quiet_until = t + self.refractory
                     events.append(("decision", decision, math.nan))
         return events
-
-    def _spot_stale(self) -> bool:
-        return (
-            self._spotted != len(self.model.examples)
-            or self.spotter.templates[0].shape[1] != (self.model.templates[0].shape[1])
-        )
 
     def _began(self) -> float:
         return self.segmenter.began if self.gated is None else -math.inf
