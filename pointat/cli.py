@@ -754,6 +754,7 @@ SEND_WAIT = 0.2
 
 def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
     from . import gesture_eval
+    from .gesture_files import read_folder
 
     if args.gestures_command == "export":
         from .gesture_files import export_model
@@ -776,7 +777,7 @@ def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
         model_options, recognizer_options = gesture_eval.options(
             [*args.sets, *(["early=false"] if args.no_early else [])]
         )
-        train, test = gesture_eval.read_folder(args.train), gesture_eval.read_folder(args.test)
+        train, test = read_folder(args.train), read_folder(args.test)
         ev = gesture_eval.evaluate(train, test, args.channels, model_options, recognizer_options)
         plain = gesture_eval.baseline(train, test, ev.channels) if args.baseline else None
     except ValueError as exc:

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from pointat.gesture_files import COLUMNS, Recording, read_folder
+from pointat.gesture_files import COLUMNS, Recording
 from pointat.maths.dtw import dtw_many
 from pointat.maths.gestures import NULL, GestureModel, Recognizer
 
@@ -34,7 +34,6 @@ __all__ = [
     "Evaluation",
     "baseline",
     "evaluate",
-    "evaluate_folders",
     "format_report",
     "options",
     "shared_channels",
@@ -205,13 +204,6 @@ def baseline(
         spent = time.perf_counter() - start
         out.decisions.append((r.path, r.label, labels[int(np.argmin(d))], False, 0.0, spent * 1000.0))
     return out
-
-
-def evaluate_folders(
-    train_dir: str, test_dir: str, channels: Sequence[str] | None = None, **options: Any
-) -> Evaluation:
-    """:func:`evaluate` on two folders laid out as ``DIR/<label>/<example>.csv``."""
-    return evaluate(read_folder(train_dir), read_folder(test_dir), channels, **options)
 
 
 def format_report(ev: Evaluation) -> str:
