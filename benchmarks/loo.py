@@ -257,14 +257,7 @@ def table_main(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from benchmarks.__main__ import DEFAULT_DATA
-
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.loo", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of BROAD trials (*.csv.gz)")
-    ap.add_argument(
-        "--tyrex", type=Path, default=DEFAULT_DATA.parent / "tyrex", help="folder of Tyrex trials (*.csv.gz)"
-    )
-    ap.add_argument("--out", type=Path, default=Path(__file__).with_name("LOO.md"))
+    ap = realdata.arguments("benchmarks.loo", __doc__, Path(__file__).with_name("LOO.md"))
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)
     files = realdata.trials(args.data, args.tyrex)

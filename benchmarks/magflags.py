@@ -15,7 +15,6 @@ of the truly disturbed samples the share flagged.  Robust ``tqt`` with its defau
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from collections.abc import Sequence
@@ -126,14 +125,7 @@ def report(files: list[Path]) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from benchmarks.__main__ import DEFAULT_DATA
-
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.magflags", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of BROAD trials (*.csv.gz)")
-    ap.add_argument(
-        "--tyrex", type=Path, default=DEFAULT_DATA.parent / "tyrex", help="folder of Tyrex trials"
-    )
-    ap.add_argument("--out", type=Path, default=Path(__file__).with_name("MAGFLAGS.md"))
+    ap = realdata.arguments("benchmarks.magflags", __doc__, Path(__file__).with_name("MAGFLAGS.md"))
     args = ap.parse_args(argv)
     files = realdata.trials(args.data, args.tyrex)
     if not files:

@@ -10,6 +10,7 @@ figures are those of :class:`~pointat.maths.tqt.TQTFilter` to the bit, a few hun
 
 from __future__ import annotations
 
+import argparse
 import types
 from collections.abc import Callable
 from pathlib import Path
@@ -24,6 +25,19 @@ from pointat.maths.tqt import TQTFilter, step
 __all__ = ["dt_of", "run_tqt", "run_vqf", "score", "trial_set", "trials"]
 
 _loaded: dict[str, dict[str, np.ndarray]] = {}
+
+
+def arguments(prog: str, doc: str, out: Path) -> argparse.ArgumentParser:
+    """The command line of a benchmark over both sets: ``--data`` (BROAD), ``--tyrex`` and ``--out``."""
+    from benchmarks.__main__ import DEFAULT_DATA
+
+    ap = argparse.ArgumentParser(prog=f"python -m {prog}", description=doc.split("\n\n")[0])
+    ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of BROAD trials (*.csv.gz)")
+    ap.add_argument(
+        "--tyrex", type=Path, default=DEFAULT_DATA.parent / "tyrex", help="folder of Tyrex trials (*.csv.gz)"
+    )
+    ap.add_argument("--out", type=Path, default=out)
+    return ap
 
 
 def trials(*folders: Path) -> list[Path]:
