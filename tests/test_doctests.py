@@ -25,7 +25,7 @@ MODULES = [
 
 
 def test_every_node_module_is_found():
-    assert {"pointat.nodes.orientation", "pointat.nodes.midi", "pointat.osc_bridge.profiles"} <= set(MODULES)
+    assert {"pointat.nodes.tqt", "pointat.nodes.midi", "pointat.osc_bridge.profiles"} <= set(MODULES)
 
 
 @pytest.mark.parametrize("name", MODULES)

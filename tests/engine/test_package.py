@@ -80,4 +80,4 @@ def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path)
     entry_points = (
         zipfile.ZipFile(wheel).read(next(n for n in names if n.endswith("entry_points.txt"))).decode()
     )
-    assert "[pointat.nodes]" in entry_points and "orientation = pointat.nodes.orientation" in entry_points
+    assert "[pointat.nodes]" in entry_points and "tqt = pointat.nodes.tqt" in entry_points
