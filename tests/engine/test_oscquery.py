@@ -23,8 +23,8 @@ from pointat.oscquery import address_space, find, value_of
 from pointat.patchfile import parse_patch
 from pointat.presets import Presets
 from pointat.registry import Registry
-from pointat.testing import ws_connect, ws_receive, ws_send
 from pointat.webserver import MonitorServer
+from tests.monitor_client import ws_connect, ws_receive, ws_send
 
 REG = Registry().load_builtins()
 
