@@ -47,6 +47,8 @@ from .maths.calibration import STANDARD_GRAVITY
 from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from .errors import Where
     from .scheduling import Scheduler, Timer
 
@@ -323,6 +325,10 @@ class Node:
     #: Where the node is declared (patch file and line), when it was built from a patch: the runtime's
     #: errors name the place.
     where: Where | None = None
+    #: Where a file the node names itself goes, as its patch's own relative files do: beside the patch
+    #: file, or ``pointat run --out`` (the working directory by default) for a shipped patch; None (the
+    #: working directory) for a patch read from no file (:func:`pointat.checking.files_folder`).
+    folder: Path | None = None
 
     # ----------------------------------------------------------------- declaration
     @classmethod
