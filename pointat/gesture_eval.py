@@ -28,7 +28,7 @@ import numpy as np
 
 from pointat.gesture_files import COLUMNS, Recording
 from pointat.maths.dtw import dtw_many
-from pointat.maths.gestures import NULL, GestureModel, Recognizer
+from pointat.maths.gestures import NULL, Decided, GestureModel, Recognizer
 
 __all__ = [
     "Evaluation",
@@ -137,7 +137,7 @@ def evaluate(
     out = Evaluation(channels, model.classes)
     for r in test:
         example = r.example(channels)
-        found: tuple[Any, ...] | None = None
+        found: Decided | None = None
         found_at, compute = 0.0, 0.0
         rec.reset()  # a recording is a take of its own: its clock may start again at 0
         rec.gate(True, float(example.t[0]))
@@ -146,16 +146,16 @@ def evaluate(
             events = rec.push(float(t), frame)
             spent = time.perf_counter() - start
             for e in events:
-                if e[0] == "decision" and found is None:
+                if isinstance(e, Decided) and found is None:
                     found, found_at, compute = e, float(t), spent
         start = time.perf_counter()
         events = rec.gate(False, float(example.t[-1]))
         spent = time.perf_counter() - start
         for e in events:
-            if e[0] == "decision" and found is None:
+            if isinstance(e, Decided) and found is None:
                 found, found_at, compute = e, float(example.t[-1]), spent
-        label = found[1].label if found is not None else None
-        early = bool(found is not None and found[1].early)
+        label = found.decision.label if found is not None else None
+        early = bool(found is not None and found.decision.early)
         when = (found_at - float(example.t[-1])) * 1000.0 if found is not None else float("nan")
         out.decisions.append((r.path, r.label, label, early, when, compute * 1000.0))
     return out

@@ -27,6 +27,7 @@ import numpy as np
 
 from pointat.devices.glove_sim import GloveSimulator, MotionScript, Segment, SensorModel, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
+from pointat.maths.gestures import Decided, Recorded
 
 __all__ = [
     "GESTURES",
@@ -136,8 +137,8 @@ def perform(recognizer, t: np.ndarray, frames: np.ndarray) -> list:
     out = []
     for k in range(len(t)):
         for e in recognizer.push(float(t[k]), frames[k]):
-            if e[0] == "decision":
-                out.append((float(t[k]), e[1]))
+            if isinstance(e, Decided):
+                out.append((float(t[k]), e.decision))
     return out
 
 
@@ -155,8 +156,8 @@ def rehearse(recognizer, seed: int = 1, per_gesture: int = 3, rate: float = 100.
         if upcoming:
             recognizer.record = upcoming[0][0]
         for e in recognizer.push(float(t[k]), np.concatenate([gyr[k], acc[k]])):
-            if e[0] == "example":
-                examples.append(e[1])
+            if isinstance(e, Recorded):
+                examples.append(e.example)
     recognizer.record = None
     recognizer.model.train(examples)
     recognizer.retune()

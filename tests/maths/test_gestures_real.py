@@ -13,7 +13,7 @@ import pytest
 from benchmarks.gesture_sets import G, Take, cut_repetitions
 from pointat.devices.gesture_sim import perform
 from pointat.gesture_eval import baseline, evaluate
-from pointat.maths.gestures import GestureModel, Recognizer
+from pointat.maths.gestures import Adapted, GestureModel, Recognizer
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "gestures"
 CH = ("acc", "gyr")
@@ -157,10 +157,10 @@ def test_adapt_follows_the_performer_and_keeps_the_taught_examples(reps):
         for t, f in zip(e.t, e.frames, strict=True):
             events += rec.push(float(t), f)
         events += rec.gate(False, float(e.t[-1]))
-    told = [e for e in events if e[0] == "adapted"]
+    told = [e for e in events if isinstance(e, Adapted)]
     assert told, "nothing was recognised with a clear margin"
     for label in model.classes:
         own = [x for x in model.examples if x.label == label]
         assert len(own) <= 5
-        if any(e[1] == label for e in told):
+        if any(e.label == label for e in told):
             assert all(any(x is y for y in own) for x in taught if x.label == label)
