@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks import gesture_sets as sets
-from pointat.devices.gesture_sim import perform
+from benchmarks.performer import perform
 from pointat.gesture_eval import baseline, evaluate
 from pointat.maths.gestures import REJECT, Decision, GestureModel, Recognizer
 

@@ -54,7 +54,8 @@ from benchmarks.latency import (
     pointat_command,
     receiver_socket,
 )
-from pointat.devices.gesture_sim import perform, performance, performed, rehearse, score, sensor_stream
+from benchmarks.performer import perform, performed, rehearse, score, sensor_stream
+from pointat.devices.gesture_sim import performance
 from pointat.devices.glove_sim import Burst, GloveSimulator, MotionScript, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
 from pointat.gesture_eval import baseline, evaluate

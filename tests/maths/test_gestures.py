@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from pointat.devices.gesture_sim import perform, performed, rehearse, score, sensor_stream
+from benchmarks.performer import perform, performed, rehearse, score, sensor_stream
 from pointat.devices.glove_sim import Burst, GloveSimulator, MotionScript, Segment, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
 from pointat.maths.dtw import Spring, dtw_distance, dtw_many, dtw_prefix, dtw_prefix_many

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from benchmarks.gesture_sets import G, Take, cut_repetitions
-from pointat.devices.gesture_sim import perform
+from benchmarks.performer import perform
 from pointat.gesture_eval import baseline, evaluate
 from pointat.maths.gestures import Adapted, GestureModel, Recognizer
 
