@@ -106,7 +106,7 @@ def basic_motions_table(goals: list[list[str]]) -> str:
         else:
             ev = evaluate(train, test, ("gyr", "acc"), model, rec)
         lat = ev.latency()
-        rejected = sum(d[2] is None for d in ev.decisions)
+        rejected = sum(d.decided is None for d in ev.decisions)
         lines.append(
             f"| {name} | {_pct(ev.accuracy)} | {rejected} | {lat['early']} | {lat['compute_p95_ms']:.2f} ms |"
         )
