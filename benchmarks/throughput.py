@@ -673,12 +673,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     A = np.repeat(a[:nb, None, :], k15, 1)
     M = np.repeat(m[:nb, None, :], k15, 1)
 
-    from pointat.maths.tqt import compiled as tqt_compiled
-
-    backends = ["numba", "python"] if tqt_compiled.available() else ["python"]
-    if not tqt_compiled.available():
-        errors.append('TQTBank numba backend: numba is not installed (pip install ".[fast]")')
-    for backend in backends:
+    for backend in ("numba", "python"):
         TQTBank(k15, backend=backend).update(G[0], A[0], M[0], dt)  # compiles (numba) outside the timing
 
         def bank(backend: str = backend) -> None:
