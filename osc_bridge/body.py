@@ -40,6 +40,7 @@ class OscBody(UdpSender):
     """
 
     needs_input = True
+    role = "output"
 
     inlets = (
         Inlet("segments", ("vector", "list"), "each segment's orientation, 4M numbers (skeleton.segments)"),
@@ -77,6 +78,9 @@ body.segments -> out.segments
     @classmethod
     def check_files(cls, values: Mapping[str, Any]) -> None:
         _load(values["file"])
+
+    def describe(self) -> str:
+        return f"OSC skeleton to {self.p.host}:{self.p.port}"
 
     def setup(self) -> None:
         body = _load(self.p.file)

@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from .errors import PointatError, closest
-from .node import PARAM_TYPES, Node
+from .node import PARAM_TYPES, ROLES, Node
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -56,6 +56,15 @@ def _check_declaration(cls: type[Node]) -> None:
             raise RegistryError(f"{where}: 'name' is reserved for the node's name in a patch")
         if hasattr(cls, "do_" + p.name):
             raise RegistryError(f"{where}: parameter '{p.name}' clashes with method do_{p.name}")
+    if cls.role not in ROLES:
+        raise RegistryError(f"{where}: role '{cls.role}' is none of {', '.join(ROLES)}")
+    readings = [r.name for r in cls.readings]
+    for name in readings:
+        if readings.count(name) > 1 or cls.param(name) is not None or hasattr(cls, "do_" + name):
+            raise RegistryError(
+                f"{where}: reading '{name}' is named twice, or as a parameter or a method (its OSCQuery "
+                f"address /pointat/NODE/{name} would be two things)"
+            )
     inlet_names = {i.name for i in cls.inlets}
     for attr in dir(cls):
         if (
