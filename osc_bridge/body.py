@@ -40,7 +40,6 @@ class OscBody(UdpSender):
     """
 
     needs_input = True
-    role = "output"
 
     inlets = (
         Inlet("segments", ("vector", "list"), "each segment's orientation, 4M numbers (skeleton.segments)"),

@@ -43,7 +43,6 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from .errors import FeedbackError, did_you_mean, worth_reporting
-from .maths.calibration import STANDARD_GRAVITY
 from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
@@ -825,33 +824,3 @@ def names_path(fn: Callable[..., Any]) -> Callable[..., Any]:
     """
     fn.names_path = True  # type: ignore[attr-defined]
     return fn
-
-
-# ----------------------------------------------------------------------------- sensor full scale
-#: The sensor full scale, for a source that delivers readings of sensors it cannot see (``replay``,
-#: ``osc_in``): the user says it, the ``range`` outlet (:data:`RANGE_OUTLET`) tells ``tqt``'s ``range``.
-FULL_SCALE_PARAMS = (
-    Param(
-        "acc_range",
-        "float",
-        0.0,
-        "the accelerometer's full scale per axis, as its data sheet gives it (0: not known)",
-        unit="g",
-        minimum=0.0,
-    ),
-    Param(
-        "gyro_range", "float", 0.0, "the gyro's full scale per axis (0: not known)", unit="deg/s", minimum=0.0
-    ),
-)
-RANGE_OUTLET = Outlet(
-    "range",
-    "list",
-    "full scale: accelerometer m/s², gyro rad/s, once at start when acc_range or gyro_range is set",
-)
-
-
-def full_scale(node: Node) -> None:
-    """Send ``node``'s full scale (:data:`FULL_SCALE_PARAMS`) from its ``range`` outlet, when one is set."""
-    if node.p.acc_range or node.p.gyro_range:
-        outlet = [o.name for o in type(node).outlets].index("range")
-        node.out(outlet, (node.p.acc_range * STANDARD_GRAVITY, math.radians(node.p.gyro_range)))
