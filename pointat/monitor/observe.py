@@ -403,16 +403,19 @@ class Observer:
         return accel
 
     def _read_others(self) -> list[dict[str, str]]:
-        """What the other nodes' health says (a calibration's step, a recording's rows), in words."""
+        """What the other nodes' health and readings say (a calibration's step, a recording's rows), in
+        words."""
         seen = {s.node.name for s in self.streams} | set(self.flags) | {p.node.name for p in self.pointers}
         others = []
         for name, node in self.rt.nodes.items():
-            if name not in seen and type(node).health is not Node.health:
-                h = _health(node)
-                if h:
-                    others.append(
-                        {"name": name, "text": ", ".join(f"{k.replace('_', ' ')}: {v}" for k, v in h.items())}
-                    )
+            if name in seen:
+                continue
+            words = []
+            if type(node).health is not Node.health:
+                words += [f"{k.replace('_', ' ')}: {v}" for k, v in _health(node).items()]
+            words += _reading_words(node)
+            if words:
+                others.append({"name": name, "text": ", ".join(words)})
         return others
 
     def snapshot(self) -> dict[str, Any]:
@@ -523,6 +526,26 @@ def _downstream(node: Node, outlet: int) -> set[str]:
         seen.add(n.name)
         todo += [target for targets in n._targets for target, _inlet in targets]
     return seen
+
+
+def _reading_words(node: Node) -> list[str]:
+    """A node's readings in words, each number with its unit (``level: -6 dB``)."""
+    readings = type(node).readings
+    if not readings:
+        return []
+    try:
+        values = node.read()
+    except Exception:  # read from another thread while the node changes: next time
+        return []
+    words = []
+    for r in readings:
+        try:
+            numbers = np.atleast_1d(np.asarray(values[r.name], dtype=float))
+        except (KeyError, TypeError, ValueError):  # not given now, or not numbers: not said
+            continue
+        said = (f"{v:.4g}{' ' + u if u else ''}" for v, u in zip(numbers, r.units, strict=False))
+        words.append(f"{r.name.replace('_', ' ')}: {' '.join(said)}")
+    return words
 
 
 def _direction(node: Node, reading: str) -> tuple[float, float, float]:

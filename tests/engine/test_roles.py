@@ -58,9 +58,16 @@ def test_the_engine_names_no_node_type(path):
 
 
 def test_every_input_and_output_says_what_it_reads_or_where_it_sends():
+    roles: dict[str, set[str]] = {"input": set(), "output": set()}
     for cls in Registry().load_builtins():
         if cls.role != "process":
+            roles[cls.role].add(cls.type_name)
             assert cls.describe is not Node.describe, cls.type_name
+    # the banner lists what it listed by name before the roles were declared
+    assert roles == {
+        "input": {"simulate", "simulate_body", "mote", "replay", "osc_in", "midi_in"},
+        "output": {"osc_out", "osc_send", "osc_body", "record", "bvh_record", "midi_out", "calibrate"},
+    }
 
 
 def _declared(**attrs):
@@ -151,7 +158,7 @@ def test_what_a_node_declares_is_what_the_console_the_observer_and_oscquery_show
             "ok",
             "a lamp on the ceiling",
         )
-        assert obs.status_lines()[0] == "l: az  -6.0°  el  0.0°  dist 0"
+        assert obs.status_lines() == ["l: az  -6.0°  el  0.0°  dist 0", "m: level: -6 dB, span: -6 dB -6 dB"]
         tree = address_space(rt)
         level = find(tree, "/pointat/m/level")
         assert level == {
