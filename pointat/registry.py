@@ -18,6 +18,7 @@ import importlib.metadata
 import importlib.util
 import inspect
 import logging
+import re
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -59,11 +60,20 @@ def _check_declaration(cls: type[Node]) -> None:
     if cls.role not in ROLES:
         raise RegistryError(f"{where}: role '{cls.role}' is none of {', '.join(ROLES)}")
     readings = [r.name for r in cls.readings]
-    for name in readings:
-        if readings.count(name) > 1 or cls.param(name) is not None or hasattr(cls, "do_" + name):
+    for r in cls.readings:
+        if not re.fullmatch(r"[A-Za-z_]\w*", r.name):
             raise RegistryError(
-                f"{where}: reading '{name}' is named twice, or as a parameter or a method (its OSCQuery "
-                f"address /pointat/NODE/{name} would be two things)"
+                f"{where}: reading {r.name!r} is no name (letters, digits, _): an OSC address"
+            )
+        if readings.count(r.name) > 1 or cls.param(r.name) is not None or hasattr(cls, "do_" + r.name):
+            raise RegistryError(
+                f"{where}: reading '{r.name}' is named twice, or as a parameter or a method (its OSCQuery "
+                f"address /pointat/NODE/{r.name} would be two things)"
+            )
+        if not r.units or (r.direction and r.size != 3):
+            raise RegistryError(
+                f"{where}: reading '{r.name}' has {r.size} unit(s); expected one per number"
+                + (", three for a direction (azimuth, elevation, distance)" if r.direction else "")
             )
     inlet_names = {i.name for i in cls.inlets}
     for attr in dir(cls):

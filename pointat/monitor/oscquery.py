@@ -126,12 +126,9 @@ def _read(node: Any) -> Mapping[str, Any]:
 
 def _numbers(value: Any, size: int) -> list[Any]:
     """A reading's value as OSCQuery's VALUE: ``size`` numbers, None for one not finite or missing."""
-    if value is None:
-        return [None] * size
-    values = _value(value, "f" * size)
-    return [float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None for v in values] + [
-        None
-    ] * (size - len(values))
+    given = [] if value is None else _value(value, "f" * size)
+    numbers = [float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None for v in given]
+    return numbers + [None] * (size - len(numbers))
 
 
 def _method_leaf(path: str, fn: Any) -> dict[str, Any]:

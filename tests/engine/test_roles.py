@@ -86,6 +86,12 @@ def test_a_role_or_a_reading_declared_wrongly_is_refused_naming_the_type():
         Registry().add(_declared(readings=(level, level)))
     with pytest.raises(RegistryError, match="reading 'gain' is named twice, or as a parameter"):
         Registry().add(_declared(readings=(Reading("gain"),), params=(Param("gain", "float", 1.0),)))
+    with pytest.raises(RegistryError, match=r"reading 'a/b' is no name"):
+        Registry().add(_declared(readings=(Reading("a/b"),)))
+    with pytest.raises(RegistryError, match=r"reading 'aim' has 2 unit\(s\); .*three for a direction"):
+        Registry().add(_declared(readings=(Reading("aim", units=("deg", "deg"), direction=True),)))
+    with pytest.raises(RegistryError, match=r"reading 'none' has 0 unit\(s\)"):
+        Registry().add(_declared(readings=(Reading("none", units=()),)))
 
 
 class Meter(Node):
