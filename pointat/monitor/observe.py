@@ -14,10 +14,12 @@ An :class:`Observer` watches a built :class:`~pointat.runtime.Runtime` from a th
 * **Flags**: every ``flags`` outlet is tapped: the filter's state as it changes (``mag_disturbed``,
   ``acc_saturated``...), with when it changed; a filter whose every stream upstream is down is
   ``no input``, whatever its last flag said (a silent filter sends no flag).
-* **Health**: what each node's :meth:`~pointat.node.Node.health` says (a filter's rest and bias
-  learning, a mote's lost packets, a calibration's step, an ``osc_out``'s refused datagrams).
-* **Loudspeakers**: the layout of the patch's first node that has one (a ``vbap``), else the one given (``pointat run
-  --layout``), else a ring of eight; the VBAP gains of each pointer's direction are worked out here.
+* **Health and readings**: what each node's :meth:`~pointat.node.Node.health` says (a filter's rest
+  and bias learning, a mote's lost packets, a calibration's step, an ``osc_out``'s refused datagrams),
+  and the values of its other readings, with their units.
+* **Loudspeakers**: the :class:`~pointat.maths.vbap.Layout` of the patch's first node that holds one as
+  its ``layout`` (a ``vbap``), else the one given (``pointat run --layout``), else a ring of eight; the
+  VBAP gains of each pointer's direction are worked out here.
 
 The scheduler pays one call per sample and per flag for the taps (a counter and a clock read).  Every
 other reading, the history of the last :attr:`Observer.HISTORY` seconds and the gains are the observer
