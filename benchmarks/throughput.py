@@ -55,8 +55,8 @@ from pointat.maths.tqt import TQTBank, TQTFilter
 from pointat.message import Message, floats, vector
 from pointat.node import Inlet, Node
 from pointat.nodes.body import SkeletonNode
-from pointat.nodes.orientation import TQT as TQTNode
-from pointat.nodes.orientation import TQTBankNode
+from pointat.nodes.tqt import TQT as TQTNode
+from pointat.nodes.tqt import TQTBankNode
 from pointat.runtime import Runtime
 
 from .latency import (

@@ -136,7 +136,7 @@ def test_sensors_delivered_in_no_fixed_order_are_each_updated_once_a_sample():
 
 def test_a_silent_sensor_is_not_waited_for_and_is_waited_for_again_when_back(caplog):
     rt, bank = bank2()
-    caplog.set_level(logging.WARNING, "pointat.nodes.orientation")  # a glove lost in a show: said plainly
+    caplog.set_level(logging.WARNING, "pointat.nodes.tqt")  # a glove lost in a show: said plainly
     for k in range(10):
         tick(bank, k)
     for k in range(10, 30):  # sensor 2 switched off
@@ -155,7 +155,7 @@ def test_a_silent_sensor_is_not_waited_for_and_is_waited_for_again_when_back(cap
 
 def test_a_sensor_that_keeps_dropping_out_is_told_of_a_few_times_not_every_time(caplog):
     rt, bank = bank2()
-    caplog.set_level(logging.WARNING, "pointat.nodes.orientation")
+    caplog.set_level(logging.WARNING, "pointat.nodes.tqt")
     k = 0
     for _ in range(12):  # out of range, back, out again... 12 times
         for _ in range(8):
@@ -295,7 +295,7 @@ def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path):
 
 
 def test_the_help_gives_the_tick_counts_the_node_uses():
-    from pointat.nodes.orientation import TQTBankNode
+    from pointat.nodes.tqt import TQTBankNode
 
     doc = " ".join(TQTBankNode.__doc__.split())
     assert f"misses {TQTBankNode.MISSES} ticks in a row (``MISSES``)" in doc
