@@ -16,6 +16,16 @@ in connection order, before it returns.  A data message goes straight to the inl
 method message goes through :meth:`Node.receive`, and so does every message to a node type that
 overrides ``receive`` (``trigger``, ``pack``: the class's own, bound when the node is made).
 
+A node type whose per-sample work a compiled chain (:mod:`pointat.compiled`, ``pointat run --compiled``)
+can do for it says so (``fusable = True``) and owns its state there as everywhere: :meth:`Node.fused_state`
+gives the state the chain runs on, as plain values (None while the node is in no steady state to hand
+over: an average under way, a capture pending), and :meth:`Node.restore_fused` takes it back, moved on,
+when the chain hands the node its work again.  What the chain needs of every node the base gives:
+:meth:`Node.targets` to read the wiring, :meth:`Node.detach` and :meth:`Node.reattach` to leave out a link
+whose work it does, and :meth:`Node.hold` and :meth:`Node.unhold` to be told before the node handles
+anything from outside the chain (a message, a method, a parameter) or shows its health.  The chain reads
+no private field of any node: a node's author may change those freely.
+
 A minimal node::
 
     @register("double")
@@ -36,7 +46,7 @@ import logging
 import math
 import re
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -393,6 +403,9 @@ class Node:
         seconds a *dropout*), ``flag`` (the filter's state, as it was told) and ``updates`` (sent).
         Default: nothing."""
         return {}
+    #: True for node types whose per-sample work a compiled chain (:mod:`pointat.compiled`) can do: they
+    #: implement :meth:`fused_state` and :meth:`restore_fused`.
+    fusable: ClassVar[bool] = False
 
     # ----------------------------------------------------------------- declaration
     @classmethod
@@ -506,6 +519,8 @@ class Node:
             if cls.receive is Node.receive
             else [functools.partial(self.receive, i) for i in range(len(self.in_specs))]
         )
+        self._detached: dict[int, list[tuple[Node, int]]] = {}  # outlet -> its targets before detach
+        self._held: tuple[list[Callable[[Message], None]], list[Callable[[Message], None]]] | None = None
         self.setup()
 
     def __repr__(self) -> str:
@@ -553,6 +568,91 @@ class Node:
 
     def close(self) -> None:
         """Release ports, files and threads. Must be idempotent."""
+
+    # the compiled chain's door (pointat.compiled) ---------------------------------
+    def fused_state(self) -> dict[str, Any] | None:
+        """The state a compiled chain runs this node's work on, as plain values (numbers, tuples), or None
+        while the node is in no steady state to hand over.  Implemented by :attr:`fusable` types; the
+        chain reads parameters from ``self.p`` as anyone may."""
+        raise NotImplementedError(f"{self.type_name} nodes cannot be fused")
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        """Take back the state a compiled chain ran on: what :meth:`fused_state` gave, its values moved on
+        by the samples the chain handled meanwhile."""
+        raise NotImplementedError(f"{self.type_name} nodes cannot be fused")
+
+    def targets(self, outlet: int) -> list[tuple[Node, int]]:
+        """Where ``outlet`` sends, in connection order: ``(node, inlet index)`` pairs (a copy)."""
+        return list(self._targets[outlet])
+
+    def connected(self, outlet: int) -> bool:
+        """Whether ``outlet`` sends anywhere (what :meth:`targets` says, with no copy made)."""
+        return bool(self._targets[outlet])
+
+    def detach(self, outlet: int, target: Node, inlet: int) -> None:
+        """Stop sending from ``outlet`` to ``target``'s inlet ``inlet`` until :meth:`reattach` (a compiled
+        chain does that link's work meanwhile).  Connections made meanwhile stay, after the old ones."""
+        self._detached.setdefault(outlet, self._targets[outlet])
+        self._targets[outlet] = [(n, i) for n, i in self._targets[outlet] if not (n is target and i == inlet)]
+
+    def reattach(self, outlet: int | None = None) -> None:
+        """Send again over the links :meth:`detach` left out, at ``outlet`` or at every outlet, in their
+        old order (idempotent)."""
+        for o in list(self._detached) if outlet is None else [outlet]:
+            old = self._detached.pop(o, None)
+            if old is not None:
+                old += [t for t in self._targets[o] if t not in old]
+                self._targets[o] = old
+
+    def hold(
+        self, release: Callable[[], None], sync: Callable[[], None], *, open_inlets: Collection[str] = ()
+    ) -> None:
+        """Until :meth:`unhold`, call ``release()`` before this node handles anything that reaches it (a
+        message at any inlet but those named in ``open_inlets``, a method, a parameter set), and
+        ``sync()`` before its :meth:`health` is read: a compiled chain doing this node's work hands it
+        back first, or writes its state into the node (:mod:`pointat.compiled`).  ``release`` may be
+        called more than once for one message (by :meth:`receive`, then by the inlet's handler)."""
+        if self._held is not None:
+            raise RuntimeError(f"node '{self.name}' is held already")
+
+        def first(before: Callable[[], None], fn: Callable[..., Any]) -> Callable[..., Any]:
+            @functools.wraps(fn)  # (its marks too: names_path)
+            def wrapper(*args: Any, **kwargs: Any) -> Any:
+                before()
+                return fn(*args, **kwargs)
+
+            return wrapper
+
+        handlers = list(self._handlers)
+        deliver = handlers if self._deliver is self._handlers else list(self._deliver)
+        held = [i for i, spec in enumerate(self.in_specs) if spec.name not in open_inlets]
+        for i in held:
+            handlers[i] = first(release, self._handlers[i])
+            if deliver is not handlers:
+                deliver[i] = first(release, self._deliver[i])
+        self._held = (self._handlers, self._deliver)
+        self._handlers, self._deliver = handlers, deliver
+        receive = self.receive
+
+        @functools.wraps(receive)
+        def receive_held(index: int, msg: Message) -> None:
+            if index in held:  # (a method or a parameter comes to the left inlet: held unless open)
+                release()
+            receive(index, msg)
+
+        # the instance's own, in front of the class's methods until unhold
+        self.receive = receive_held  # type: ignore[method-assign]
+        self.set_params = first(release, self.set_params)  # type: ignore[method-assign]
+        self.health = first(sync, self.health)  # type: ignore[method-assign]
+
+    def unhold(self) -> None:
+        """End :meth:`hold` (idempotent)."""
+        if self._held is None:
+            return
+        self._handlers, self._deliver = self._held
+        self._held = None
+        for name in ("receive", "set_params", "health"):
+            self.__dict__.pop(name, None)
 
     # receiving --------------------------------------------------------------
     def receive(self, index: int, msg: Message) -> None:

@@ -8,6 +8,8 @@ step of its mode on plain floats: :func:`~pointat.maths.tqt.step.robust_step` or
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -203,6 +205,19 @@ class TQTFilter(_TQTParams):
         q0 = None if q is None else tuple(float(c) for c in quat_normalize(q))
         self._s = step.new_state(q0, self.dip)  # type: ignore[arg-type]
         self._flags = 0 if q0 is not None else step.F_UNINITIALISED
+
+    def export_state(self) -> tuple[list[float], list[float], int]:
+        """Copies of what the step runs on: the state vector (:data:`~pointat.maths.tqt.step.STATE_SIZE`),
+        the parameter vector (the step keeps per-step coefficients at its end) and the flag bits, for a
+        compiled copy of the step to go on from (:mod:`pointat.compiled`)."""
+        return list(self._s), list(self._p), self._flags
+
+    def import_state(self, s: Sequence[float], p: Sequence[float], flags: int) -> None:
+        """Go on from :meth:`export_state`'s values, moved on elsewhere (in place: the vectors keep their
+        identity)."""
+        self._s[:] = [float(x) for x in s]
+        self._p[:] = [float(x) for x in p]
+        self._flags = int(flags)
 
     @property
     def q(self) -> tuple[float, float, float, float]:
