@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import functools
 import logging
@@ -11,6 +12,7 @@ import os
 import signal
 import sys
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -21,13 +23,12 @@ from .errors import PatchError, PointatError, did_you_mean
 from .expansion import read_spec
 from .loader import parse_overrides, ready
 from .maths.vbap import parse_layout, read_layout
-from .observe import Observer
+from .monitor import MonitorServer, Observer
 from .presets import Presets, presets_path
 from .registry import Registry, default_registry
 from .scheduling import CPU_DMA_LATENCY, keep_cpus_awake, quiet_thread, realtime_priority
 from .spec import is_pd_file
 from .terminal import LineHandler, LineWriter
-from .webserver import MonitorServer
 
 log = logging.getLogger("pointat")
 LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
@@ -108,6 +109,7 @@ def _add_patch_args(p: argparse.ArgumentParser) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
+    """The command line: the program's options, then one sub-parser per command (``COMMANDS``)."""
     ap = argparse.ArgumentParser(
         prog="pointat",
         description="Dataflow toolkit: a hand-worn IMU -> orientation -> azimuth/elevation/distance -> OSC and MIDI.",
@@ -115,16 +117,44 @@ def _parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     ap.add_argument("--version", action="version", version=f"pointat {__version__}")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
+    sub.add_parser = functools.partial(sub.add_parser, parents=[_common_options()])  # type: ignore[method-assign]
+    for add in (
+        _add_run,
+        _add_check,
+        _add_plot,
+        _add_graph,
+        _add_listings,
+        _add_conversions,
+        _add_gestures,
+        _add_send,
+    ):
+        add(sub)
+    return ap
+
+
+def _common_options() -> argparse.ArgumentParser:
+    """The options every command takes (a parent parser: ``--plugins``, ``-v``)."""
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument(
         "--plugins", metavar="DIR", action="append", default=[], help="load node types from *.py in DIR"
     )
     common.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
-    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
-    sub.add_parser = functools.partial(sub.add_parser, parents=[common])  # type: ignore[method-assign]
+    return common
 
+
+def _add_run(sub: Any) -> None:
+    """``pointat run``: the patch, how it is timed and compiled, the monitor, the status lines."""
     p = sub.add_parser("run", help="run a patch until Ctrl-C, --for SECONDS, or its sources end")
     _add_patch_args(p)
+    _add_timing_args(p)
+    _add_monitor_args(p)
+    _add_status_args(p)
+
+
+def _add_timing_args(p: argparse.ArgumentParser) -> None:
+    """``run``'s clock: how long (``--for``), at what priority (``--rt``), polling or sleeping (``--spin``),
+    node by node or compiled (``--compiled``)."""
     p.add_argument(
         "--for", dest="duration", type=_seconds, metavar="SECONDS", help="stop after this many seconds"
     )
@@ -145,7 +175,6 @@ def _parser() -> argparse.ArgumentParser:
         "(Pd's -sleepgrain makes the same trade, sleeping in short grains between polls).  Make it longer "
         "than the time between samples: two periods, 2 at 1 kHz, 20 at 100 Hz",
     )
-
     p.add_argument(
         "--compiled",
         choices=("auto", "on", "off"),
@@ -157,6 +186,10 @@ def _parser() -> argparse.ArgumentParser:
         "now if need be (seconds); off: node by node.  -v says which chains run compiled and why the "
         "others do not",
     )
+
+
+def _add_monitor_args(p: argparse.ArgumentParser) -> None:
+    """``run``'s monitor page: its port, who may reach it, the loudspeakers it shows."""
     p.add_argument(
         "--monitor",
         nargs="?",
@@ -187,6 +220,10 @@ def _parser() -> argparse.ArgumentParser:
         help="the loudspeakers the monitor shows when the patch has no vbap node: azimuths (0,45,90,...), "
         "az:el pairs (0:0,90:0,0:90) or a layout file as vbap reads it (default: a ring of eight)",
     )
+
+
+def _add_status_args(p: argparse.ArgumentParser) -> None:
+    """``run``'s status lines on the console."""
     p.add_argument(
         "--status",
         type=_seconds,
@@ -195,6 +232,9 @@ def _parser() -> argparse.ArgumentParser:
         "pipe or file; 0: none)",
     )
 
+
+def _add_check(sub: Any) -> None:
+    """``pointat check``: a patch validated as run does before it starts."""
     p = sub.add_parser(
         "check",
         help="validate a patch as run does before it starts, without opening a device, a port or a socket: "
@@ -203,6 +243,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     _add_patch_args(p)
 
+
+def _add_plot(sub: Any) -> None:
+    """``pointat plot``: a recorded take drawn."""
     p = sub.add_parser(
         "plot",
         help="draw a recorded take as PNG and HTML: where the hand points, the sensor norms, the filter's "
@@ -228,10 +271,16 @@ def _parser() -> argparse.ArgumentParser:
         "quaternions; default: --truth)",
     )
 
+
+def _add_graph(sub: Any) -> None:
+    """``pointat graph``: a patch as Graphviz dot."""
     p = sub.add_parser("graph", help="write the patch as Graphviz dot (and SVG when dot is installed)")
     _add_patch_args(p)
     p.add_argument("-o", "--output", help="dot file to write (default: standard output)")
 
+
+def _add_listings(sub: Any) -> None:
+    """``pointat nodes``, ``patches`` and ``help``: what there is to run and build with."""
     sub.add_parser("nodes", help="list the node types")
     p = sub.add_parser(
         "patches", help="list the patches pointat ships (run one by name: pointat run glove_tqt)"
@@ -246,6 +295,9 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser("help", help="show a node type's inlets, outlets, parameters and an example")
     p.add_argument("node", help="node type name")
 
+
+def _add_conversions(sub: Any) -> None:
+    """``pointat convert`` and ``stubs``: native patches to Pure Data and back."""
     p = sub.add_parser("convert", help="convert between native .pat and Pure Data .pd")
     p.add_argument("source")
     p.add_argument("target")
@@ -257,12 +309,21 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("folder")
 
+
+def _add_gestures(sub: Any) -> None:
+    """``pointat gestures evaluate`` and ``export``."""
     p = sub.add_parser(
         "gestures",
         help="evaluate gesture recognition on folders of labelled recordings (evaluate), or turn a gesture "
         "node's saved examples into such a folder (export)",
     )
     gsub = p.add_subparsers(dest="gestures_command", metavar="ACTION")
+    _add_gestures_evaluate(gsub)
+    _add_gestures_export(gsub)
+
+
+def _add_gestures_evaluate(gsub: Any) -> None:
+    """``pointat gestures evaluate``: train on one folder, test on another."""
     g = gsub.add_parser(
         "evaluate",
         help="train on one folder, test on another: accuracy, recall, confusion, decision latency",
@@ -293,6 +354,10 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="score plain 1-NN DTW on the same split beside it (raw channels warped together, no rejection)",
     )
+
+
+def _add_gestures_export(gsub: Any) -> None:
+    """``pointat gestures export``: a model file's examples as a folder of recordings."""
     g = gsub.add_parser(
         "export",
         help="a model file's examples (what a gesture node saved) as DIR/<label>/<n>.csv, for evaluate",
@@ -300,6 +365,9 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("model", help="a model file: what gesture, posture or follow saved (gestures.json)")
     g.add_argument("folder", help="where the recordings go (DIR/<label>/<n>.csv); files there stay")
 
+
+def _add_send(sub: Any) -> None:
+    """``pointat send``: one OSC message to a running patch."""
     p = sub.add_parser(
         "send", help="send one OSC message over UDP: live control of a running patch from a shell"
     )
@@ -311,7 +379,6 @@ def _parser() -> argparse.ArgumentParser:
         help="arguments: whole numbers go as int32, other numbers as float32, the rest as strings "
         "(put -- before the address for values such as -1e3)",
     )
-    return ap
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -407,23 +474,50 @@ def _ready(args: argparse.Namespace, registry: Registry):
 
 
 def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
+    _refuse_spin_with_rt(args)
+    copied = _seed(args)  # (before the patch reads them, as it is made ready)
+    rt, observer, server = _made_ready(args, registry)
+    with _console(rt) as out, _realtime(args.rt):
+        _say_spin(rt, args.spin)
+        log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
+        lines = banner(rt, args.patch, monitor=server, presets=rt.presets, copied=copied)
+        for line in lines:
+            out.write(line)  # (before the loadbangs print anything)
+        _run_until_done(rt, observer, server, out, args)
+    return 0
+
+
+def _refuse_spin_with_rt(args: argparse.Namespace) -> None:
+    """``--spin`` and ``--rt`` together: refused, with why."""
     if args.rt and args.spin:
         raise PointatError(
             "--spin with --rt would keep a real-time thread polling on a CPU that other programs (the "
             "serial port's own interrupt thread among them) then hardly get; use one of them: --rt "
             "already keeps the CPUs out of deep idle states, which takes much of the wake-up's cost away"
         )
-    copied = _seed(args)  # (before the patch reads them, as it is made ready)
+
+
+def _made_ready(args: argparse.Namespace, registry: Registry) -> tuple[Any, Observer, Any]:
+    """The runtime made ready (what check does, no more and no less), with its observer, its presets
+    and the monitor's server when ``--monitor`` asks for one (made, not started)."""
     layout = _layout(args.layout) if args.layout else None
-    _, rt = _ready(args, registry)  # what check does, no more and no less; then it starts
+    _, rt = _ready(args, registry)
     rt.spin = args.spin / 1000.0
     rt.compiled = args.compiled
     observer = Observer(rt, layout=layout, patch=Path(args.patch).stem, about=about(args.patch)).attach()
     if os.path.isfile(args.patch):
         rt.presets = Presets(rt, presets_path(args.patch, _out(args)))
-    server = None
-    if args.monitor is not None:
-        server = _monitor(rt, observer, args)
+    server = _monitor(rt, observer, args) if args.monitor is not None else None
+    return rt, observer, server
+
+
+@contextlib.contextmanager
+def _console(rt: Any) -> Iterator[LineWriter]:
+    """The console's and the log's lines written by threads of their own, and Ctrl-C or a kill stopping
+    the patch, while the block runs; yields the console's writer.
+
+    A terminal paused with Ctrl-S, or a pipe nobody reads, must not stop the patch (lines that do not
+    fit are counted).  Python's warnings go to the log too."""
 
     def reader_gone() -> None:  # pointat run ... | head: stop, quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -433,9 +527,6 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
         log.info("signal %d: stopping", signum)
         rt.stop()
 
-    # the console's and the log's lines (Python's warnings too) are written by threads of their own: a
-    # terminal paused with Ctrl-S, or a pipe nobody reads, must not stop the patch (lines that do not fit
-    # are counted)
     root = logging.getLogger()
     saved_handlers = root.handlers[:]
     # (signals are the main thread's to set: main() embedded in another thread leaves them alone)
@@ -443,7 +534,6 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     saved_signals = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)} if ours else {}
     out = LineWriter(sys.stdout, on_broken=reader_gone, name="console")
     err = LineWriter(sys.stderr, name="log")
-    awake = None
     try:
         # on one terminal, log lines go above the status lines too (one writer owns the screen)
         handler = LineHandler(out if out.tty and _same_terminal() else err)
@@ -453,7 +543,27 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
         rt.console = out.write
         for sig in saved_signals:
             signal.signal(sig, on_signal)
-        if args.rt:
+        yield out
+    finally:
+        logging.captureWarnings(False)
+        root.handlers = saved_handlers
+        # what waits is written before the end, as any program's output: a terminal still paused holds
+        # the exit until Ctrl-Q (or Ctrl-C or a kill, which now end it at once)
+        for sig in saved_signals:
+            signal.signal(sig, signal.SIG_DFL)
+        out.close(None)
+        err.close(None)
+        for sig, previous in saved_signals.items():
+            signal.signal(sig, signal.SIG_DFL if previous is None else previous)
+
+
+@contextlib.contextmanager
+def _realtime(wanted: bool) -> Iterator[None]:
+    """``--rt``: real-time priority and the CPUs kept out of deep idle states while the block runs (each
+    refusal logged, the patch run anyway)."""
+    awake = None
+    try:
+        if wanted:
             refused = realtime_priority()
             if refused:
                 log.warning("--rt: real-time priority %s; running at normal priority", refused)
@@ -466,47 +576,40 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
                 log.info(
                     "the CPUs are kept out of deep idle states while the patch runs (%s)", CPU_DMA_LATENCY
                 )
-        if rt.spin:
-            log.info(
-                "polling for input for %g ms after each input (--spin): one CPU busy while it flows",
-                args.spin,
-            )
-        log.info("running %s (%d nodes)", args.patch, len(rt.nodes))
-        lines = banner(rt, args.patch, monitor=server, presets=rt.presets, copied=copied)
-        for line in lines:
-            out.write(line)  # (before the loadbangs print anything)
-        if server is not None:
-            server.start()  # (before the clock starts: its threads and zeroconf take a moment)
-        rt.start()
-        if server is not None:  # the page's readings; the console takes its own when it writes
-            observer.start()
-        every = args.status if args.status is not None else 1.0 if out.tty else 5.0
-        ticker = _Ticker(every, lambda: out.status(observer.status_lines())) if every > 0 else None
-        try:
-            rt.run(args.duration)
-        finally:
-            if ticker is not None:
-                ticker.stop()
-            out.status([])
-            for line in observer.summary():
-                out.write(line)
-            observer.stop()
-            if server is not None:
-                server.close()
+        yield
     finally:
         if awake is not None:
             os.close(awake)
-        logging.captureWarnings(False)
-        root.handlers = saved_handlers
-        # what waits is written before the end, as any program's output: a terminal still paused holds
-        # the exit until Ctrl-Q (or Ctrl-C or a kill, which now end it at once)
-        for sig in saved_signals:
-            signal.signal(sig, signal.SIG_DFL)
-        out.close(None)
-        err.close(None)
-        for sig, previous in saved_signals.items():
-            signal.signal(sig, signal.SIG_DFL if previous is None else previous)
-    return 0
+
+
+def _say_spin(rt: Any, spin: float) -> None:
+    if rt.spin:
+        log.info("polling for input for %g ms after each input (--spin): one CPU busy while it flows", spin)
+
+
+def _run_until_done(
+    rt: Any, observer: Observer, server: Any, out: LineWriter, args: argparse.Namespace
+) -> None:
+    """Start the monitor, the patch and the status lines; run until the end; then stop them and write the
+    observer's summary."""
+    if server is not None:
+        server.start()  # (before the clock starts: its threads and zeroconf take a moment)
+    rt.start()
+    if server is not None:  # the page's readings; the console takes its own when it writes
+        observer.start()
+    every = args.status if args.status is not None else 1.0 if out.tty else 5.0
+    ticker = _Ticker(every, lambda: out.status(observer.status_lines())) if every > 0 else None
+    try:
+        rt.run(args.duration)
+    finally:
+        if ticker is not None:
+            ticker.stop()
+        out.status([])
+        for line in observer.summary():
+            out.write(line)
+        observer.stop()
+        if server is not None:
+            server.close()
 
 
 class _Ticker:

@@ -7,14 +7,13 @@ sensor fed lists of floats (the step in plain Python):
 * ``TQTFilter-python`` -- the same class again, fed numpy rows (its other input path), sharing nothing
   with the reference's run;
 * ``TQTFilter-numba`` -- the robust step compiled by numba, one call a sample
-  (:func:`pointat.maths.tqt.step.robust_update`; what a filter runs by default where numba is
-  installed; robust mode only);
+  (:func:`pointat.maths.tqt.step.robust_update`; what a filter runs by default; robust mode only);
 * ``TQTBank-python`` -- the same step on the rows of a state array, a Python loop over the sensors;
 * ``TQTBank-numba`` -- the robust step compiled by numba into one loop (:mod:`pointat.maths.tqt.compiled`;
-  robust mode only; skipped without numba unless ``POINTAT_REQUIRE_TOOLS`` is set);
+  robust mode only);
 * ``tqt-node`` / ``tqt_bank-node`` -- the nodes that wrap a filter and a bank in a patch (readings as
   messages, the time step from their stamps, settings in the nodes' units: dip in degrees, full scales
-  in g and deg/s); both run the compiled step where numba is installed (robust mode), as ``auto`` does.
+  in g and deg/s); both run the compiled step in robust mode, as a patch's ``backend=auto`` does.
 
 Each case runs every implementation that exists for its mode, several sensors at once (a bank's sensors,
 or one filter or node each), and asserts that the quaternion and the flag bits of every sensor at every
@@ -50,7 +49,6 @@ from pointat.maths.calibration import STANDARD_GRAVITY
 from pointat.maths.evaluation import BROAD_RATE, BROAD_SAMPLE, load_broad
 from pointat.maths.quaternion import quat_from_axis_angle
 from pointat.maths.tqt import TQTBank, TQTFilter
-from pointat.maths.tqt import compiled as tqt_compiled
 from pointat.message import floats
 from pointat.testing import patch
 from tests.maths.test_tqt import DIP, FIELD, G, synthetic
@@ -273,7 +271,7 @@ def run_tqt_nodes(case: Case, mode: str, started) -> Run:
 
 
 def run_tqt_bank_node(case: Case, mode: str, started) -> Run:
-    """One ``tqt_bank`` node for all the sensors (``backend=auto``: numba where installed, robust)."""
+    """One ``tqt_bank`` node for all the sensors (``backend=auto``: numba in robust mode)."""
     text = f"node bank tqt_bank sensors={case.n} {node_settings(case, mode)}\n"
     text += "".join(f"node o{j} collect\nbank.quat{j + 1} -> o{j}\n" for j in range(case.n))
     rt = started(patch(text))
@@ -333,9 +331,7 @@ def reference(name: str, mode: str) -> Run:
 
 
 @pytest.mark.parametrize(("name", "mode", "impl"), implementations())
-def test_every_implementation_gives_the_filters_bits(name, mode, impl, require_tool, started):
-    if impl.endswith("numba"):
-        require_tool(tqt_compiled.available(), "numba is not installed (the 'fast' extra)")
+def test_every_implementation_gives_the_filters_bits(name, mode, impl, started):
     case, want = CASES[name](), reference(name, mode)
     got = IMPLEMENTATIONS[impl](case, mode, started)
     out = ~np.isnan(got.q[..., 0])  # where a quaternion was put out

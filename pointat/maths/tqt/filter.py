@@ -2,7 +2,7 @@
 :mod:`pointat.maths.tqt`).
 
 Its state is the flat vector of :mod:`pointat.maths.tqt.step`, and each update runs the step of its mode:
-in robust mode with numba (``backend="numba"``, what ``"auto"`` takes where numba is installed) one call
+in robust mode (``backend="numba"``, what ``"auto"`` takes) one call
 of :func:`~pointat.maths.tqt.step.robust_update` compiled (:mod:`pointat.maths.tqt.compiled`), the state
 a float64 array it changes in place; otherwise (``backend="python"``, paper mode)
 :func:`~pointat.maths.tqt.step.robust_step` or :func:`~pointat.maths.tqt.paper.paper_step` on plain
@@ -157,9 +157,8 @@ class TQTFilter(_TQTParams):
         from the data if it clips).  A reading at or beyond it is saturated (extension 5).
     backend : {"auto", "numba", "python"}, keyword-only
         How the update runs (the results agree to the bit): ``numba`` the robust step compiled, one call
-        a sample (robust mode; ``pip install "pointat[fast]"``); ``python`` the same step in Python,
-        several times slower.  ``auto`` (default) takes numba when it is installed and the mode is
-        robust.  The first compiled filter of a process compiles the step, or loads it from numba's
+        a sample (robust mode); ``python`` the same step in Python, several times slower.  ``auto``
+        (default) takes numba in robust mode.  The first compiled filter of a process compiles the step, or loads it from numba's
         cache: here, where a patch loads, not at the first update.
 
     Notes
@@ -202,17 +201,13 @@ class TQTFilter(_TQTParams):
             raise ValueError(f"backend must be 'auto', 'numba' or 'python', got {backend!r}")
         self._kernel = None  # (reset, which the settings' constructor calls, asks)
         super().__init__(k, **params)  # type: ignore[arg-type]
-        numba = False
-        if backend != "python" and self.mode == "robust":
-            from pointat.maths.tqt import compiled  # here: numba loads only where it runs
-
-            numba = compiled.available()
-            if backend == "numba" and not numba:
-                raise ValueError("backend='numba' needs numba (pip install \"pointat[fast]\")")
-        elif backend == "numba":
-            raise ValueError(f"backend='numba' needs mode='robust', got mode={self.mode!r}")
+        if backend == "numba" and self.mode != "robust":
+            raise ValueError(f"backend='numba' runs mode='robust' only, got mode {self.mode!r}")
+        numba = backend == "numba" or (backend == "auto" and self.mode == "robust")
         self.backend = "numba" if numba else "python"
         if numba:
+            from pointat.maths.tqt import compiled  # here: numba loads only where it runs
+
             self._kernel = compiled.update_kernel()
             self._p = np.array(self._p)
             self._s = np.array(self._s)
