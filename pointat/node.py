@@ -403,6 +403,7 @@ class Node:
         seconds a *dropout*), ``flag`` (the filter's state, as it was told) and ``updates`` (sent).
         Default: nothing."""
         return {}
+
     #: True for node types whose per-sample work a compiled chain (:mod:`pointat.compiled`) can do: they
     #: implement :meth:`fused_state` and :meth:`restore_fused`.
     fusable: ClassVar[bool] = False
