@@ -610,7 +610,7 @@ class Node:
     ) -> None:
         """Until :meth:`unhold`, call ``release()`` before this node handles anything that reaches it (a
         message at any inlet but those named in ``open_inlets``, a method, a parameter set), and
-        ``sync()`` before its :meth:`health` is read: a compiled chain doing this node's work hands it
+        ``sync()`` before its :meth:`health` or :meth:`read` is read: a compiled chain doing this node's work hands it
         back first, or writes its state into the node (:mod:`pointat.compiled`).  ``release`` may be
         called more than once for one message (by :meth:`receive`, then by the inlet's handler)."""
         if self._held is not None:
@@ -645,6 +645,7 @@ class Node:
         self.receive = receive_held  # type: ignore[method-assign]
         self.set_params = first(release, self.set_params)  # type: ignore[method-assign]
         self.health = first(sync, self.health)  # type: ignore[method-assign]
+        self.read = first(sync, self.read)  # type: ignore[method-assign]
 
     def unhold(self) -> None:
         """End :meth:`hold` (idempotent)."""
@@ -652,7 +653,7 @@ class Node:
             return
         self._handlers, self._deliver = self._held
         self._held = None
-        for name in ("receive", "set_params", "health"):
+        for name in ("receive", "set_params", "health", "read"):
             self.__dict__.pop(name, None)
 
     # receiving --------------------------------------------------------------

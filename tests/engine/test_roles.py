@@ -23,7 +23,8 @@ ENGINE = [
     ROOT / "pointat" / "node.py",
     *sorted((ROOT / "pointat" / "monitor").glob("*.py")),
 ]
-TYPE_NAMES = {cls.type_name for cls in Registry().load_builtins()}
+#: The built-in types' names, but those that name a part of every node too (``receive``: a method).
+TYPE_NAMES = {cls.type_name for cls in Registry().load_builtins()} - set(dir(Node))
 
 
 def _named_types(source: str) -> list[tuple[int, str]]:
@@ -181,5 +182,19 @@ def test_what_a_node_declares_is_what_the_console_the_observer_and_oscquery_show
         assert value_of(rt, "/pointat/m/span") == [-6.0, -6.0]
         assert value_of(rt, "/pointat/l/aim") == [-6.0, 0.0, 0.0]
         assert value_of(rt, "/pointat/m/nothing") is None
+    finally:
+        rt.shutdown()
+
+
+def test_a_node_a_compiled_chain_holds_is_synced_before_its_readings_are_read():
+    rt = patch("node o osc_out port=9\n")
+    o = rt.nodes["o"]
+    calls: list[str] = []
+    o.hold(lambda: calls.append("release"), lambda: calls.append("sync"))
+    try:
+        assert o.read() == {"aed": [0.0, 0.0, 0.0]} and calls == ["sync"]  # (OSCQuery reads no health)
+        o.unhold()
+        o.read()
+        assert calls == ["sync"]
     finally:
         rt.shutdown()
