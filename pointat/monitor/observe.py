@@ -37,7 +37,7 @@ import re
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -533,12 +533,7 @@ def _downstream(node: Node, outlet: int) -> set[str]:
 def _reading_words(node: Node) -> list[str]:
     """A node's readings in words, each number with its unit (``level: -6 dB``)."""
     readings = type(node).readings
-    if not readings:
-        return []
-    try:
-        values = node.read()
-    except Exception:  # read from another thread while the node changes: next time
-        return []
+    values = _read(node) if readings else {}
     words = []
     for r in readings:
         try:
@@ -553,10 +548,20 @@ def _reading_words(node: Node) -> list[str]:
 def _direction(node: Node, reading: str) -> tuple[float, float, float]:
     """A node's direction reading now: azimuth, elevation, distance (zeros while it cannot be read)."""
     try:
-        az, el, dist = (float(v) for v in node.read()[reading][:3])
-    except Exception:  # read from another thread while the node changes, or not given: next time
+        az, el, dist = (float(v) for v in _read(node)[reading][:3])
+    except (KeyError, TypeError, ValueError):  # not given now, or not three numbers
         return 0.0, 0.0, 0.0
     return az, el, dist
+
+
+def _read(node: Node) -> Mapping[str, Any]:
+    """What a node's :meth:`~pointat.node.Node.read` says now; nothing when it fails (read from another
+    thread while the node changes: the next reading tries again; the debug log says why)."""
+    try:
+        return node.read()
+    except Exception:
+        log.debug("node '%s' (%s): read() failed", node.name, node.type_name, exc_info=True)
+        return {}
 
 
 def _worst_flag(flags: dict[str, dict[str, Any]]) -> str:
