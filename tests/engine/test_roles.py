@@ -198,3 +198,30 @@ def test_a_node_a_compiled_chain_holds_is_synced_before_its_readings_are_read():
         assert calls == ["sync"]
     finally:
         rt.shutdown()
+
+
+class Broken(Node):
+    """A node whose read() raises: the observer and OSCQuery go on without its values."""
+
+    role = "output"
+    inlets = (Inlet("in", ("float",), "anything"),)
+    readings = (Reading("aim", "where it points", units=("deg", "deg", ""), direction=True),)
+
+    def read(self):
+        raise RuntimeError("not now")
+
+
+def test_a_reading_that_fails_leaves_the_observer_and_oscquery_going(caplog):
+    reg = test_registry()
+    Broken.type_name = "broken"
+    reg.add(Broken)
+    rt = patch("node b broken\n", registry=reg)
+    try:
+        with caplog.at_level("DEBUG", logger="pointat"):
+            (pointer,) = Observer(rt).attach().read()["pointers"]
+            assert (pointer["azimuth"], pointer["state"]) == (0.0, "waiting")
+            assert find(address_space(rt), "/pointat/b/aim")["VALUE"] == [None, None, None]
+            assert value_of(rt, "/pointat/b/aim") == [None, None, None]
+        assert sum("node 'b' (broken): read() failed" in r.getMessage() for r in caplog.records) == 3
+    finally:
+        rt.shutdown()
