@@ -12,6 +12,8 @@ floats, the state a Python list.  The two give the same bits
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -242,6 +244,19 @@ class TQTFilter(_TQTParams):
         s = step.new_state(q0, self.dip)  # type: ignore[arg-type]
         self._s = s if self._kernel is None else np.array(s)
         self._flags = 0 if q0 is not None else step.F_UNINITIALISED
+
+    def export_state(self) -> tuple[list[float], list[float], int]:
+        """Copies of what the step runs on: the state vector (:data:`~pointat.maths.tqt.step.STATE_SIZE`),
+        the parameter vector (the step keeps per-step coefficients at its end) and the flag bits, for a
+        compiled copy of the step to go on from (:mod:`pointat.compiled`)."""
+        return list(self._s), list(self._p), self._flags
+
+    def import_state(self, s: Sequence[float], p: Sequence[float], flags: int) -> None:
+        """Go on from :meth:`export_state`'s values, moved on elsewhere (in place: the vectors keep their
+        identity)."""
+        self._s[:] = [float(x) for x in s]
+        self._p[:] = [float(x) for x in p]
+        self._flags = int(flags)
 
     @property
     def q(self) -> tuple[float, float, float, float]:
