@@ -442,6 +442,21 @@ def test_a_glove_that_rested_a_few_seconds_knows_its_bias_and_points_right():
     assert error[int(25 / dt) :].max() < 2.0  # the drift of the rest before the bias was known, gone
 
 
+def test_the_compiled_filter_takes_any_numbers_and_refuses_what_it_cannot_run():
+    """The compiled update has one signature, floats: integers and float32 readings are converted (never
+    compiled for, which would stall a live patch) and give the Python step's very bits."""
+    fast, plain = TQTFilter(), TQTFilter(backend="python")
+    assert (fast.backend, plain.backend, TQTFilter(mode="paper").backend) == ("numba", "python", "python")
+    readings = [((0, 0, 0), (0, 0, 10), (20, 0, -40), 1), ((1, 0, 0), (0, 1, 10), (20, 1, -40), 0.01)]
+    readings.append(tuple(np.array(r, dtype=np.float32) for r in readings[1][:3]) + (np.float32(0.01),))
+    for r in readings * 3:
+        assert fast.update(*r) == plain.update(*r) and fast.flag_bits == plain.flag_bits
+    with pytest.raises(ValueError, match="robust"):
+        TQTFilter(mode="paper", backend="numba")
+    with pytest.raises(ValueError, match="backend"):
+        TQTFilter(backend="cuda")
+
+
 @pytest.mark.parametrize("k_heading_rest", [0.2, 0.0])
 def test_a_pause_takes_back_the_heading_fast_turning_left_behind(k_heading_rest):
     """A sensor at rest, then a quarter turn the gyro reads 5 % short (a scale error: the heading left
