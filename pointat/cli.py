@@ -26,6 +26,7 @@ from .maths.vbap import parse_layout, read_layout
 from .observe import Observer
 from .presets import Presets, presets_path
 from .registry import Registry, default_registry
+from .reload import Reloader
 from .scheduling import CPU_DMA_LATENCY, keep_cpus_awake, quiet_thread, realtime_priority
 from .spec import is_pd_file
 from .terminal import LineHandler, LineWriter
@@ -151,6 +152,7 @@ def _add_run(sub: Any) -> None:
     _add_timing_args(p)
     _add_monitor_args(p)
     _add_status_args(p)
+    _add_reload_args(p)
 
 
 def _add_timing_args(p: argparse.ArgumentParser) -> None:
@@ -231,6 +233,18 @@ def _add_status_args(p: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help="a status line per glove every SECONDS (default: 1, redrawn in place, on a terminal; 5 on a "
         "pipe or file; 0: none)",
+    )
+
+
+def _add_reload_args(p: argparse.ArgumentParser) -> None:
+    """``run --watch``: hot reload."""
+    p.add_argument(
+        "--watch",
+        action="store_true",
+        help="reload the patch when its file (or an abstraction it uses) is saved: the nodes whose name, "
+        "type and parameters did not change keep their state (orientation, calibration, trained models, "
+        "open ports), the swap falls between two samples; a file that does not check is refused with its "
+        "file:line and the patch running goes on.  /pointat/patch/reload (OSC) reloads with or without it",
     )
 
 
@@ -502,14 +516,30 @@ def _made_ready(args: argparse.Namespace, registry: Registry) -> tuple[Any, Obse
     """The runtime made ready (what check does, no more and no less), with its observer, its presets
     and the monitor's server when ``--monitor`` asks for one (made, not started)."""
     layout = _layout(args.layout) if args.layout else None
-    _, rt = _ready(args, registry)
+    checked, rt = _ready(args, registry)
     rt.spin = args.spin / 1000.0
     rt.compiled = args.compiled
     observer = Observer(rt, layout=layout, patch=Path(args.patch).stem, about=about(args.patch)).attach()
     if os.path.isfile(args.patch):
         rt.presets = Presets(rt, presets_path(args.patch, _out(args)))
+        rt.reloader = _reloader(args, registry, rt, checked)
+        rt.reloader.listen(observer.reattach)
     server = _monitor(rt, observer, args) if args.monitor is not None else None
     return rt, observer, server
+
+
+def _reloader(args: argparse.Namespace, registry: Registry, rt: Any, checked: Any) -> Reloader:
+    """What reloads the patch from its file (``--watch``, ``/pointat/patch/reload``): the file read and
+    checked as it was for the start (its files read too, the same ``--set``)."""
+    overrides = parse_overrides(args.set)
+
+    def read() -> Any:
+        new = check(_spec(args), registry, overrides, read_files=True)
+        for w in new.warnings:
+            log.warning("%s", w)
+        return new
+
+    return Reloader(rt, checked, read, path=args.patch, watch=args.watch)
 
 
 @contextlib.contextmanager
@@ -598,11 +628,15 @@ def _run_until_done(
     rt.start()
     if server is not None:  # the page's readings; the console takes its own when it writes
         observer.start()
+    if rt.reloader is not None:
+        rt.reloader.start()
     every = args.status if args.status is not None else 1.0 if out.tty else 5.0
     ticker = _Ticker(every, lambda: out.status(observer.status_lines())) if every > 0 else None
     try:
         rt.run(args.duration)
     finally:
+        if rt.reloader is not None:
+            rt.reloader.stop()
         if ticker is not None:
             ticker.stop()
         out.status([])
