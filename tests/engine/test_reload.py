@@ -1,23 +1,27 @@
 """Hot reload (pointat.reload): a patch edited while a simulated glove streams to a real UDP receiver.
 
-The runtime runs on its logical clock; the reload is made between two ``advance`` calls, as the
-scheduler's thread makes it between two samples.  What the receiver got is compared with a run of the
+The runtime runs on its logical clock; the reload is made between two ``advance`` calls (or two mote
+frames), as the scheduler's thread makes it between two samples.  What the receiver got is compared with a run of the
 same patch left unedited: every sample index once, and the same directions, bit for bit.
 """
 
 from __future__ import annotations
 
+import gzip
 import os
 import socket
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pointat.checking import check
 from pointat.control import control
+from pointat.devices.mote_frame import Frame
 from pointat.devices.osc_wire import decode_packet
 from pointat.errors import Where
 from pointat.expansion import read_spec
+from pointat.fusion import compiled
 from pointat.loader import ready
 from pointat.node import Inlet, Node, Outlet
 from pointat.oscquery import address_space, find
@@ -275,3 +279,76 @@ def test_watch_reloads_a_file_saved_by_rename_on_a_running_patch(tmp_path, recei
     assert any(line.startswith("reloaded p.pat: 8 nodes kept, 1 new (show)") for line in told)
     indices = rx.indices()
     assert indices == list(range(1, len(indices) + 1))
+
+
+COMPILED = """\
+node base   mote ids=[1] rate=100
+node nulls  offset samples=50
+node units  scaling
+node fuse   tqt rate=100 mode=robust
+node ref    reference mode=heading
+node dir    azi_ele
+node roll   roll_distance
+node out    osc_out host=127.0.0.1 port={port} source=1
+base.m1 -> nulls -> units
+units.mag -> fuse.mag
+units.accel -> fuse.accel
+units.range -> fuse.range
+units.gyro -> fuse.gyro
+fuse.quat -> ref
+ref -> dir
+ref -> roll
+dir.elevation -> out.elevation
+roll.distance -> out.distance
+roll.azimuth -> out.azimuth
+"""
+
+
+def _glove_take(n: int) -> list[tuple[int, ...]]:
+    data = Path(__file__).resolve().parents[2] / "pointat" / "data" / "glove_take.csv.gz"
+    with gzip.open(data, "rt") as fh:
+        counts = np.loadtxt(fh, delimiter=",", comments="#", skiprows=3)[:, 1:]
+    return [tuple(int(c) for c in counts[k % len(counts)]) for k in range(n)]
+
+
+def _compiled_run(path: Path, rx: Receiver, mode: str, edits: dict[int, str], counts: list) -> tuple:
+    rt, reloader = start(path)
+    rt.compiled = mode
+    rt.start()
+    fused_before = fused_after = 0
+    try:
+        for k, c in enumerate(counts):
+            if k in edits:
+                fused_before = sum(g.fused_frames for g in rt.fusion.groups) if rt.fusion else 0
+                path.write_text(edits[k])
+                assert reloader.reload(), reloader.problems
+            mote = rt.nodes["base"]
+            mote._frame(Frame(1, k & 0xFFFF, c), 0.0, 1000.0 + k / 100.0)
+            if mote._fused is not None:
+                mote._fused.flush()
+            rx.read()
+        fused_after = sum(g.fused_frames for g in rt.fusion.groups) if rt.fusion else 0
+    finally:
+        rt.shutdown()
+    rx.read()
+    return rx.directions(), fused_before, fused_after
+
+
+@pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
+def test_a_compiled_chain_is_handed_back_and_fused_again_across_a_reload(tmp_path, receivers):
+    compiled.chain_frames()  # (compiled once: seconds when the cache is cold)
+    counts = _glove_take(900)
+    plain_rx, fused_rx = receivers(), receivers()
+    plain = tmp_path / "plain.pat"
+    plain.write_text(COMPILED.format(port=plain_rx.port))
+    want, _, none = _compiled_run(plain, plain_rx, "off", {}, counts)
+    assert none == 0 and len(want) > 800
+
+    path = tmp_path / "fused.pat"
+    text = COMPILED.format(port=fused_rx.port)
+    path.write_text(text)
+    edited = text.replace("source=1\n", "source=1 status=0\n") + "node note msg hello\n"
+    have, before, after = _compiled_run(path, fused_rx, "on", {400: edited}, counts)
+    assert before > 300  # fused before the reload ...
+    assert after > 450  # ... and again after it (a new Fusion: counted from the reload on)
+    assert have == want  # every direction, bit for bit, as node by node without a reload
