@@ -53,6 +53,7 @@ examples:
   pointat convert my.pat my.pd                      to Pure Data (and back: my.pd my.pat)
   pointat gestures evaluate --train A --test B     gesture recognition on labelled recordings (DIR/LABEL/*.csv)
   pointat send 9001 /pointat/press/bang             live control of a running patch (OSC to port 9001)
+  pointat ls --tree                                 the patches running with --monitor, here and on the network
   pointat plot take.csv                             a recorded take as take.png and take.html
 """
 
@@ -130,6 +131,7 @@ def _parser() -> argparse.ArgumentParser:
         _add_conversions,
         _add_gestures,
         _add_send,
+        _add_ls,
     ):
         add(sub)
     return ap
@@ -394,6 +396,25 @@ def _add_send(sub: Any) -> None:
         help="arguments: whole numbers go as int32, other numbers as float32, the rest as strings "
         "(put -- before the address for values such as -1e3)",
     )
+
+
+def _add_ls(sub: Any) -> None:
+    """``pointat ls``: the patches running here and on the network."""
+    p = sub.add_parser(
+        "ls",
+        help="list the patches running with --monitor, here and on the network (zeroconf): patch, host, "
+        "OSCQuery and OSC ports, monitor page",
+    )
+    p.add_argument(
+        "--for",
+        dest="duration",
+        type=_seconds,
+        default=2.0,
+        metavar="SECONDS",
+        help="how long to listen for answers (default 2); zeroconf's port is open that long",
+    )
+    p.add_argument("--local", action="store_true", help="this machine's patches only (loopback)")
+    p.add_argument("--tree", action="store_true", help="also each one's OSCQuery address space, over HTTP")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -930,6 +951,32 @@ def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
     return 0
 
 
+def cmd_ls(args: argparse.Namespace, registry: Registry) -> int:
+    from .discovery import browse, fetch_tree, tree_lines
+
+    try:
+        found = browse(args.duration, local=args.local)
+    except (RuntimeError, OSError) as exc:
+        print(f"error: cannot browse the network: {exc}", file=sys.stderr)
+        return 1
+    if not found:
+        where = "on this machine" if args.local else "here or on the network"
+        print(f"no patch answered {where} in {args.duration:g} s (run one with --monitor)", file=sys.stderr)
+        return 1
+    width = max(len(s.patch) for s in found)
+    for s in found:
+        osc = f"OSC {s.osc_port}/udp" if s.osc_port else "OSC -"
+        print(f"{s.patch:<{width}}  {s.host:<15}  OSCQuery {s.port}/tcp  {osc}  {s.url('/monitor')}")
+        if args.tree:
+            try:
+                lines = tree_lines(fetch_tree(s))
+            except (OSError, ValueError) as exc:
+                lines = [f"(no tree: {exc})"]
+            for line in lines:
+                print(f"    {line}")
+    return 0
+
+
 COMMANDS = {
     "gestures": cmd_gestures,
     "run": cmd_run,
@@ -942,6 +989,7 @@ COMMANDS = {
     "convert": cmd_convert,
     "stubs": cmd_stubs,
     "send": cmd_send,
+    "ls": cmd_ls,
 }
 
 if __name__ == "__main__":
