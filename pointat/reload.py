@@ -159,8 +159,10 @@ class Reloader:
         self.refused = 0
         #: The problems of the last refused reload (file:line, what), or [].
         self.problems: list[Problem] = []
-        #: Seconds the last reload took, from reading the file to the new patch running.
+        #: Seconds the last reload took, from reading the file to the new patch running; and of them, the
+        #: swap on the scheduler's thread (what the samples wait for).
         self.seconds = 0.0
+        self.swap_seconds = 0.0
         self._listeners: list[Callable[[Plan], None]] = []
         self._wanted = threading.Event()
         self._stop = threading.Event()
@@ -346,6 +348,14 @@ class Reloader:
 
     # -- the swap, on the scheduler's thread -----------------------------------------------------------
     def _swap(self, new: Checked, steps: Plan, made: dict[str, Any]) -> None:
+        began = time.perf_counter()
+        try:
+            self._swap_nodes(new, steps, made)
+        finally:
+            self.swap_seconds = time.perf_counter() - began
+        self.rt.console(f"reloaded {self.path.name}: {steps.describe()}")
+
+    def _swap_nodes(self, new: Checked, steps: Plan, made: dict[str, Any]) -> None:
         rt = self.rt
         fused = rt.fusion is not None
         if fused:  # the compiled chains' state written back into their nodes
@@ -388,7 +398,6 @@ class Reloader:
             rt._fuse()
         for fn in list(self._listeners):
             rt._guard(None, lambda fn=fn: fn(steps))
-        rt.console(f"reloaded {self.path.name}: {steps.describe()}")
 
     def _close(self, nodes: Any) -> None:
         """Close nodes leaving the patch: nothing they still send reaches anyone, their timers dropped."""
