@@ -169,6 +169,7 @@ class Reloader:
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()  # one reload at a time (the thread's, or a test's)
         self._loaded = self._fingerprint()
+        self._seen = self._stat()  # (a save from here on is a change, even before the thread starts)
 
     # -- who is told -------------------------------------------------------------------------------
     def listen(self, fn: Callable[[Plan], None]) -> None:
@@ -225,7 +226,7 @@ class Reloader:
     def _run(self) -> None:
         while self.rt.realtime and self.rt._scheduler is None and not self._stop.is_set():
             self._stop.wait(self.POLL)  # (the swap is the scheduler's: wait for it to run)
-        seen = self._stat()
+        seen = self._seen
         settling = False
         while not self._stop.is_set():
             asked = self._wanted.wait(self.POLL if self.watch else None)
