@@ -174,6 +174,7 @@ class Observer:
         self.accel: dict[str, list[Any]] = {}  # outlet -> [the last acceleration vector]
         self.accel_history: dict[str, deque] = {}
         self._attached: dict[str, Node] = {}  # the nodes tapped, by name
+        self._tapped: set[tuple[str, int]] = set()  # (node, outlet) tapped
 
     # -- setting up --------------------------------------------------------------------------------
     def _layout(self, given: Layout | None) -> tuple[Layout, str]:
@@ -195,29 +196,33 @@ class Observer:
 
     def reattach(self, *_: Any) -> Observer:
         """After a hot reload (:mod:`pointat.reload`, on the scheduler's thread): forget the nodes that
-        left the patch and tap the new ones; the nodes kept keep their taps, counts and history."""
+        left the patch and tap the new ones, and the outlets of kept nodes wired only now; the nodes kept
+        keep their taps, counts and history."""
         nodes = self.rt.nodes
         gone = {name for name, node in self._attached.items() if nodes.get(name) is not node}
         self.streams = [s for s in self.streams if s.node.name not in gone]
         self.pointers = [p for p in self.pointers if p.node.name not in gone]
+        self._tapped = {(name, i) for name, i in self._tapped if name not in gone}
         for name in gone:
             self._attached.pop(name)
             self.flags.pop(name, None)
             for key in [k for k in self.accel if k.startswith(f"{name}.")]:
                 self.accel.pop(key)
                 self.accel_history.pop(key, None)
-        for name, node in nodes.items():
-            if name not in self._attached:
-                self._attach(node)
+        for node in nodes.values():
+            self._attach(node)
         self._upstream()
         return self
 
     def _attach(self, node: Node) -> None:
+        """Tap ``node``'s outlets that are wired and not tapped yet."""
+        known = self._attached.get(node.name) is node
         self._attached[node.name] = node
         pattern = type(node).sample_outlets
         for i, spec in enumerate(node.out_specs):
-            if not node._targets[i]:
-                continue  # not wired: not used by this patch
+            if not node._targets[i] or (node.name, i) in self._tapped:
+                continue  # not wired: not used by this patch (or tapped already)
+            self._tapped.add((node.name, i))
             if pattern and re.fullmatch(pattern, spec.name):
                 nominal = getattr(node.p, "rate", 0.0) if hasattr(node.p, "rate") else 0.0
                 stream = Stream(node, spec.name, i, nominal=float(nominal or 0.0))
@@ -232,7 +237,7 @@ class Observer:
                     self.accel[f"{node.name}.accel"] = box = [None]
                     self.accel_history[f"{node.name}.accel"] = deque()
                     tap(node, i, _keep(box))
-        if node.type_name == "osc_out":
+        if node.type_name == "osc_out" and not known:
             self.pointers.append(Pointer(node))
 
     def _upstream(self) -> None:

@@ -24,6 +24,7 @@ from pointat.expansion import read_spec
 from pointat.fusion import compiled
 from pointat.loader import ready
 from pointat.node import Inlet, Node, Outlet
+from pointat.observe import Observer
 from pointat.oscquery import address_space, find
 from pointat.reload import Reloader, plan
 from pointat.testing import test_registry, wait_until
@@ -352,3 +353,28 @@ def test_a_compiled_chain_is_handed_back_and_fused_again_across_a_reload(tmp_pat
     assert before > 300  # fused before the reload ...
     assert after > 450  # ... and again after it (a new Fusion: counted from the reload on)
     assert have == want  # every direction, bit for bit, as node by node without a reload
+
+
+def test_the_observer_keeps_its_streams_and_taps_what_is_new(tmp_path, receivers):
+    rx = receivers()
+    path = tmp_path / "p.pat"
+    text = PATCH.format(port=rx.port)
+    path.write_text(text)
+    rt, reloader = start(path)
+    observer = Observer(rt, patch="p").attach()
+    reloader.listen(observer.reattach)
+    try:
+        rt.advance(0.495)
+        (stream,) = observer.streams
+        assert stream.count == 50 and "fuse" not in observer.flags
+        edited = text.replace(f"port={rx.port}\nnode n", f"port={rx.port} bundle=true\nnode n", 1)
+        path.write_text(edited + "node fl print\nfuse.flags -> fl\n")  # osc_out anew, flags wired now
+        assert reloader.reload()
+        assert observer.streams == [stream]
+        assert [p.node for p in observer.pointers] == [rt.nodes["out"]]
+        assert "fuse" in observer.flags
+        rt.advance(0.5)
+        assert stream.count == 100  # the same tap, once: every sample counted, none twice
+        assert observer.pointers[0].node.state[0] != 0.0
+    finally:
+        rt.shutdown()
