@@ -1,7 +1,7 @@
 """Find the patches running on this machine and the network (``pointat ls``).
 
 A patch run with ``--monitor`` advertises its OSCQuery server by zeroconf as ``_oscjson._tcp`` and its OSC
-port as ``_osc._udp`` (:mod:`pointat.webserver`), under one name: ``pointat PATCH HHMMSS`` (the time it
+port as ``_osc._udp`` (:mod:`pointat.monitor.webserver`), under one name: ``pointat PATCH HHMMSS`` (the time it
 started, so that two runs of one patch differ).  :func:`browse` listens for both for a few seconds and
 pairs them by that name; :func:`fetch_tree` reads a server's address space over HTTP, as any OSCQuery
 client does (no ``Origin``, so no token is needed from a machine the server allows).

@@ -3,8 +3,9 @@
 Every node's live parameters (``/pointat/NODE/PARAM``, with TYPE, VALUE, RANGE, UNIT, DESCRIPTION and
 ACCESS read-write) and methods (``/pointat/NODE/METHOD``, write-only); each ``osc_out``'s direction as
 it was last sent (``/pointat/NODE/aed``, read-only); the presets (``/pointat/preset/save`` and
-``recall``); ``/pointat/patch/reload`` when the patch runs from a file.  The addresses are the ones ``osc_in`` takes for live control, so a value set through
-OSCQuery is set exactly as ``pointat send`` would set it (:func:`pointat.control.control`).
+``recall``); ``/pointat/patch/reload`` when the patch runs from a file.  The addresses are the ones
+``osc_in`` takes for live control, so a value set through OSCQuery is set exactly as ``pointat send``
+would set it (:func:`pointat.control.control`).
 
 Plain functions of a runtime and an observer; the server (:mod:`pointat.monitor.webserver`) serves them.
 """

@@ -12,11 +12,11 @@ from pointat.checking import check
 from pointat.cli import main
 from pointat.discovery import Service, browse, fetch_tree, tree_lines
 from pointat.loader import build
-from pointat.observe import Observer
+from pointat.monitor.observe import Observer
+from pointat.monitor.webserver import MonitorServer
 from pointat.patchfile import parse_patch
 from pointat.registry import Registry
 from pointat.testing import wait_until
-from pointat.webserver import MonitorServer
 
 REG = Registry().load_builtins()
 

@@ -23,9 +23,9 @@ from pointat.errors import Where
 from pointat.expansion import read_spec
 from pointat.fusion import compiled
 from pointat.loader import ready
+from pointat.monitor.observe import Observer
+from pointat.monitor.oscquery import address_space, find
 from pointat.node import Inlet, Node, Outlet
-from pointat.observe import Observer
-from pointat.oscquery import address_space, find
 from pointat.reload import Reloader, plan
 from pointat.testing import test_registry, wait_until
 
