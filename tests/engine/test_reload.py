@@ -18,7 +18,7 @@ import pytest
 from pointat.checking import check
 from pointat.control import control
 from pointat.devices.mote_frame import Frame
-from pointat.devices.osc_wire import decode_packet
+from pointat.devices.osc_wire import decode_packet, encode_message
 from pointat.errors import Where
 from pointat.expansion import read_spec
 from pointat.fusion import compiled
@@ -251,10 +251,11 @@ def test_reload_over_osc_asks_the_reloader_and_oscquery_lists_it(tmp_path, recei
 
 def test_watch_reloads_a_file_saved_by_rename_on_a_running_patch(tmp_path, receivers):
     """Real time: the reloader's thread sees the save (an editor's write-then-rename) and the scheduler's
-    thread swaps; the receiver still gets every index once."""
+    thread swaps; then /pointat/patch/reload over UDP to the patch's osc_in reloads again; the receiver
+    still gets every index once."""
     rx = receivers()
     path = tmp_path / "p.pat"
-    text = PATCH.format(port=rx.port)
+    text = PATCH.format(port=rx.port) + "node ctl osc_in port=0\n"
     path.write_text(text)
     reg = registry()
     checked, rt = ready(read_spec(path), reg)
@@ -272,12 +273,18 @@ def test_watch_reloads_a_file_saved_by_rename_on_a_running_patch(tmp_path, recei
         assert wait_until(lambda: reloader.reloads == 1, timeout=20), reloader.problems
         got = len(rx.indices())
         assert wait_until(lambda: (rx.read(), len(rx.indices()) > got + 20)[1], timeout=20)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.sendto(encode_message("/pointat/patch/reload", []), rt.nodes["ctl"].address)
+        assert wait_until(lambda: reloader.reloads == 2, timeout=20), reloader.problems
+        got = len(rx.indices())
+        assert wait_until(lambda: (rx.read(), len(rx.indices()) > got + 20)[1], timeout=20)
     finally:
         reloader.stop()
         rt.stop()
         scheduler.join(10)
     rx.read()
-    assert any(line.startswith("reloaded p.pat: 8 nodes kept, 1 new (show)") for line in told)
+    assert any(line.startswith("reloaded p.pat: 9 nodes kept, 1 new (show)") for line in told)
+    assert any(line.startswith("reloaded p.pat: 10 nodes kept") for line in told)  # (nothing changed)
     indices = rx.indices()
     assert indices == list(range(1, len(indices) + 1))
 
