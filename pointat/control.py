@@ -1,6 +1,6 @@
 """Live control by address: ``/pointat/NODE/PARAM value``, ``/pointat/NODE/METHOD args``, ``/pointat/NODE
-values``, ``/pointat/preset/save NAME`` / ``recall NAME`` and ``/pointat/patch/reload``.  One function for every way in (``osc_in``,
-the OSCQuery server's OSC port and WebSocket), run on the scheduler thread.  What it did is told on the
+values``, ``/pointat/preset/save NAME`` / ``recall NAME`` and ``/pointat/patch/reload``.  One function for
+every way in (``osc_in``, the OSCQuery server's OSC port and WebSocket), run on the scheduler thread.  What it did is told on the
 console (:class:`Told`): a press acknowledged at once, a fader's stream a line a second.
 """
 
