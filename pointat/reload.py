@@ -20,7 +20,9 @@ glove's timer.  A node whose only changes are to *live* parameters (those live c
 object too and is given the new values, as ``/pointat/NODE/PARAM value`` would give them: a filter whose
 gain was edited goes on from where it points.  Any other change makes the node anew.  The glove chains
 that run compiled (``--compiled``) are handed back to their nodes before the swap, their state written
-into them, and compiled again after it from the compiled code already loaded: nothing is recompiled.
+into them, and compiled again after it from the compiled code already loaded: nothing is recompiled
+(a patch that ran node by node, its compiled code not cached yet, goes on node by node until the next
+run, so that no reload ever compiles on the scheduler's thread).
 
 What watches the runtime (the console's status lines, the monitor, OSCQuery) is told after each swap
 (:meth:`Reloader.listen`).
