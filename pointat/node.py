@@ -590,6 +590,11 @@ class Node:
         """Whether ``outlet`` sends anywhere (what :meth:`targets` says, with no copy made)."""
         return bool(self._targets[outlet])
 
+    def unwire(self, keep: Callable[[Node], bool] | None = None) -> None:
+        """Send nowhere any more but to the targets ``keep`` says yes to (by their node): a reload rewires
+        a patch and keeps, on a node that stays, the listeners that are not the patch's (the observer's)."""
+        self._targets = [[t for t in targets if keep is not None and keep(t[0])] for targets in self._targets]
+
     def detach(self, outlet: int, target: Node, inlet: int) -> None:
         """Stop sending from ``outlet`` to ``target``'s inlet ``inlet`` until :meth:`reattach` (a compiled
         chain does that link's work meanwhile).  Connections made meanwhile stay, after the old ones."""
