@@ -381,6 +381,10 @@ class Node:
     folder: Path | None = None
 
     # ----------------------------------------------------------------- what people see of it
+    #: Whether the node is an end of a named bus (its ``bus`` parameter), as Pd's ``[send]`` and
+    #: ``[receive]`` are: ``"sends"`` (what reaches it goes to every node of the bus that ``"hears"``),
+    #: ``"hears"``, or None.  The runtime orders and the checker follows the links a bus makes from this.
+    bus_end: ClassVar[str | None] = None
     #: What the node is to a performer: ``input`` (where the patch's data comes from: a glove, a file, a
     #: port), ``output`` (where it goes: a receiver, a file, a port) or ``process`` (the work between).
     #: The console's banner lists the inputs and outputs, each with what :meth:`describe` says.

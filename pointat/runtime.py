@@ -526,13 +526,13 @@ class Runtime:
         says anything.  Iterative: a chain of thousands of nodes is no recursion."""
         receivers: dict[str, list[Node]] = {}
         for node in self.nodes.values():
-            if node.type_name == "receive":
+            if type(node).bus_end == "hears":
                 receivers.setdefault(node.p.bus, []).append(node)
 
         def after(node: Node) -> Iterator[Node]:
             for targets in node._targets:
                 yield from (t for t, _ in targets)
-            if node.type_name == "send":
+            if type(node).bus_end == "sends":
                 yield from receivers.get(node.p.bus, ())
 
         order: list[Node] = []
