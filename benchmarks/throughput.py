@@ -625,19 +625,25 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     out: list[FilterCost] = []
     errors: list[str] = []
 
-    def tqt(mode: str) -> Callable[[], None]:
+    def tqt(mode: str, backend: str) -> Callable[[], None]:
         def run() -> None:
-            f = TQTFilter(mode=mode)  # type: ignore[arg-type]
+            f = TQTFilter(mode=mode, backend=backend)  # type: ignore[arg-type]
             upd = f.update
             for i in range(n):
                 upd(gl[i], al[i], ml[i], dt)
 
         return run
 
-    for mode in ("robust", "paper"):
-        out.append(
-            FilterCost(f"TQTFilter {mode}", "pointat", _rounds(tqt(mode), n, rounds), "Python floats in")
+    TQTFilter()  # compiles the robust step (or loads it from numba's cache) outside the timing
+    for mode, backend, note in (
+        ("robust", "auto", "Python floats in; the step compiled (numba), one call a sample"),
+        ("robust", "python", "Python floats in; the step in Python"),
+        ("paper", "python", "Python floats in"),
+    ):
+        name = f"TQTFilter {mode}" + (
+            ", the step in Python" if backend == "python" and mode == "robust" else ""
         )
+        out.append(FilterCost(name, "pointat", _rounds(tqt(mode, backend), n, rounds), note))
 
     def compl() -> None:
         f = ComplementaryFilter(0.05)

@@ -118,6 +118,7 @@ class MidiOut(PortWatch, Node):
     """
 
     needs_input = True
+    role = "output"
 
     inlets = (
         Inlet(
@@ -188,7 +189,7 @@ dir.azimuth -> pan
     def _port_name(self) -> str:
         return getattr(self._sink.port, "name", "") if isinstance(self._sink, _PortSink) else ""
 
-    def describe_port(self) -> str:
+    def describe(self) -> str:
         """Where the messages go, named for the console's banner: a file, a port by name (with no
         ``port``, the system's first output as it lists now), or the file written when there is none."""
         if self._sink is not None:
@@ -337,6 +338,8 @@ class MidiIn(PortWatch, Node):
     reported once, and when it is plugged back in it is opened again (the patch keeps running).
     """
 
+    role = "input"
+
     outlets = (
         Outlet("cc", "list", "controller number, value 0..127"),
         Outlet("note", "list", "note number, velocity 0..127 (0: note off)"),
@@ -368,7 +371,7 @@ press.0 -> ref.capture
         self._port: mido.ports.BaseInput | None = None
         self.received = 0
 
-    def describe_port(self) -> str:
+    def describe(self) -> str:
         """The port it listens on, named for the console's banner (with no ``port``, the system's first
         input as it lists now)."""
         if self._port is not None:
