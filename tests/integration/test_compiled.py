@@ -1,4 +1,4 @@
-"""The compiled glove chain (pointat.fusion) against the nodes: the same datagrams, to the bit.
+"""The compiled glove chain (pointat.compiled) against the nodes: the same datagrams, to the bit.
 
 Recorded takes go through one patch twice, node by node and compiled, as frames of a base station with
 three motes: the simulated glove's take (rolls into distance mode and back) and the vendored BROAD trial
@@ -24,16 +24,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pointat.compiled import build
 from pointat.control import control
 from pointat.devices.mote_frame import Frame, MoteSpec, encode_frame
-from pointat.fusion import compiled
 from pointat.maths.evaluation import load_broad
 from pointat.testing import beside, patch, wait_until
 
 DATA = Path(__file__).resolve().parents[2] / "pointat" / "data"
 GLOVE_PATCH = Path(__file__).resolve().parents[2] / "patches" / "glove_tqt.pat"
-
-pytestmark = pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
 
 GLOVE = """
 node nulls{i} offset samples=50
@@ -137,8 +135,8 @@ def _run(mode: str, counts: np.ndarray, batch: int = 3) -> tuple[list[bytes], di
         if mote._fused is not None:
             mote._fused.flush()
         drain()
-    fusion = rt.fusion
-    fused_frames = sum(g.fused_frames for g in fusion.groups) if fusion else 0
+    chains = rt.compiled_chains
+    fused_frames = sum(g.fused_frames for g in chains.groups) if chains else 0
     rt.shutdown()
     drain()
     rx.close()
@@ -152,7 +150,7 @@ def _run(mode: str, counts: np.ndarray, batch: int = 3) -> tuple[list[bytes], di
 
 @pytest.fixture(scope="module")
 def both_ways():
-    compiled.chain_frames()  # (compiled once for the module: seconds when the cache is cold)
+    build.chain_frames()  # (compiled once for the module: seconds when the cache is cold)
     counts = _takes(3950)
     return _run("off", counts), _run("on", counts), counts
 
@@ -293,7 +291,7 @@ def _pty_run(mode: str, counts: np.ndarray) -> tuple[list[bytes], int]:
                 got.append(rx.recv(512))
             except TimeoutError:
                 break
-        group = rt.fusion.groups[0] if rt.fusion else None
+        group = rt.compiled_chains.groups[0] if rt.compiled_chains else None
         plain = int(group.plain_taken) if group else 0
     finally:
         rt.stop()
@@ -356,7 +354,7 @@ def test_a_run_from_a_checkouts_folder_compiles_for_the_pointat_it_runs(tmp_path
     skip = shutil.ignore_patterns("__pycache__", "data", "monitor")
     for folder in ("pointat", "nodes", "osc_bridge"):
         shutil.copytree(root / folder, checkout / folder, ignore=skip)
-    with open(checkout / "pointat" / "fusion" / "kernel.py", "a") as fh:
+    with open(checkout / "pointat" / "compiled" / "kernel.py", "a") as fh:
         fh.write("# another version of the kernel: another cache key\n")
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
     cmd = [str(program), "run", "glove_tqt", *beside(GLOVE_PATCH), "--for", "1"]
@@ -378,7 +376,7 @@ def test_the_compile_refuses_to_fill_a_cache_of_another_pointat(tmp_path):
     other = tmp_path / "numba-0123456789abcdef"
     other.mkdir()
     (other / "compiling").touch()
-    cmd = [sys.executable, "-m", "pointat.fusion.compiled", str(other)]
+    cmd = [sys.executable, "-m", "pointat.compiled.build", str(other)]
     out = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=60)
     assert out.returncode == 2
     assert f"caches into {tmp_path / 'cache' / 'pointat'}" in out.stderr and str(other) in out.stderr
