@@ -432,6 +432,7 @@ class Calibrate(Node):
     """
 
     needs_input = True
+    role = "output"
 
     #: How far (a factor) a gyro scale from a turn may be from the nominal ``gyro`` resolution's.
     TURN_FACTOR = 2.0
@@ -481,6 +482,9 @@ class Calibrate(Node):
             minimum=0.0,
         ),
     )
+
+    def describe(self) -> str:
+        return f"calibration, writes {self.p.file} (steps by OSC: /pointat/{self.name}/rest ...)"
 
     def setup(self) -> None:
         self.calibration = Calibration()

@@ -53,14 +53,15 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from .errors import FeedbackError, did_you_mean, worth_reporting
-from .maths.calibration import STANDARD_GRAVITY
 from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from .errors import Where
     from .scheduling import Scheduler, Timer
 
-__all__ = ["REQUIRED", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError"]
+__all__ = ["REQUIRED", "ROLES", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError", "Reading"]
 
 log = logging.getLogger("pointat.node")
 
@@ -275,6 +276,34 @@ class Outlet:
     doc: str = ""
 
 
+@dataclass(frozen=True)
+class Reading:
+    """A value a node lets people read while it runs, given by :meth:`Node.read`: the monitor shows it,
+    OSCQuery serves it read-only at ``/pointat/NODE/NAME``.
+
+    ``units``: one per number (their count is the reading's size; ``deg``, ``Hz``... or ``""``);
+    ``minimum`` and ``maximum``: the range of every number, when it has one.  ``direction=True`` says
+    the three numbers are where the node points, azimuth (degrees, + left), elevation (degrees, + up) and
+    distance (0 far .. 90 near): the console writes them and the monitor draws them as a pointer.
+    """
+
+    name: str
+    doc: str = ""
+    units: tuple[str, ...] = ("",)
+    minimum: float | None = None
+    maximum: float | None = None
+    direction: bool = False
+
+    @property
+    def size(self) -> int:
+        """How many numbers it is."""
+        return len(self.units)
+
+
+#: A node's roles (:attr:`Node.role`).
+ROLES = ("input", "output", "process")
+
+
 class Params:
     """A node's parameter values as attributes (``node.p.rate``), what :func:`vars` gives as a dict.
 
@@ -300,6 +329,19 @@ class Node:
     Subclasses declare ``inlets``, ``outlets``, ``params`` and optionally ``example`` (a patch snippet
     shown by ``pointat help``), and override the hooks they need: :meth:`setup`, :meth:`start`,
     :meth:`loadbang`, :meth:`param_changed`, :meth:`close`.
+
+    What people see of a node is declared too, and the engine knows no node type by name: ``role``
+    (``input``, ``output`` or ``process``: the console's banner lists inputs and outputs, with what
+    :meth:`describe` says of each), ``readings`` (values of its state, each a :class:`Reading` with its
+    units and range, given by :meth:`read`: the monitor shows them and OSCQuery serves them read-only;
+    one marked ``direction`` is a pointer on the monitor and a direction on the console's status line),
+    and :meth:`health` (plain words and numbers: a mote's lost packets, a calibration's step)::
+
+        role = "output"
+        readings = (Reading("aed", "the direction last sent", units=("deg", "deg", ""), direction=True),)
+
+        def read(self):
+            return {"aed": self.last}
     """
 
     type_name: ClassVar[str] = ""
@@ -328,11 +370,40 @@ class Node:
     origin: ClassVar[str] = ""
     #: A source's outlets that carry one sensor sample per message (a regular expression over outlet
     #: names, ``m[0-9]+`` for a mote's): the console, the monitor and OSCQuery count them for the rate,
-    #: and tell a dropout when they fall silent (:mod:`pointat.observe`).
+    #: and tell a dropout when they fall silent (:mod:`pointat.monitor.observe`).
     sample_outlets: ClassVar[str] = ""
     #: Where the node is declared (patch file and line), when it was built from a patch: the runtime's
     #: errors name the place.
     where: Where | None = None
+    #: Where a file the node names itself goes, as its patch's own relative files do: beside the patch
+    #: file, or ``pointat run --out`` (the working directory by default) for a shipped patch; None (the
+    #: working directory) for a patch read from no file (:func:`pointat.checking.files_folder`).
+    folder: Path | None = None
+
+    # ----------------------------------------------------------------- what people see of it
+    #: What the node is to a performer: ``input`` (where the patch's data comes from: a glove, a file, a
+    #: port), ``output`` (where it goes: a receiver, a file, a port) or ``process`` (the work between).
+    #: The console's banner lists the inputs and outputs, each with what :meth:`describe` says.
+    role: ClassVar[str] = "process"
+    #: The values the node lets people read while it runs (:class:`Reading`), given by :meth:`read`: the
+    #: monitor shows them, OSCQuery serves them; a ``direction`` one is drawn as a pointer.
+    readings: ClassVar[tuple[Reading, ...]] = ()
+
+    def describe(self) -> str:
+        """What the node reads or where it sends, as a performer names it (``OSC to 127.0.0.1:9000``):
+        the console's banner line after the node's type and name.  Default: nothing."""
+        return ""
+
+    def read(self) -> Mapping[str, Any]:
+        """The value of each of :attr:`readings` now, by name (a number, or a sequence of ``size``).
+        Called from the observer's thread (:mod:`pointat.monitor.observe`), so it only reads attributes.
+
+        A node with a ``direction`` reading says through :meth:`health` whether it is fresh: ``heard``
+        (the directions that came in so far: none yet is *waiting*, no new one for the node's ``dropout``
+        seconds a *dropout*), ``flag`` (the filter's state, as it was told) and ``updates`` (sent).
+        Default: nothing."""
+        return {}
+
     #: True for node types whose per-sample work a compiled chain (:mod:`pointat.compiled`) can do: they
     #: implement :meth:`fused_state` and :meth:`restore_fused`.
     fusable: ClassVar[bool] = False
@@ -493,7 +564,7 @@ class Node:
     def health(self) -> Mapping[str, Any]:
         """What a person would want to know of this node while it runs (a filter's rest, a mote's lost
         packets, a calibration's step), as names and plain values; read from the observer's thread
-        (:mod:`pointat.observe`), so it must only read attributes, never change them.  Default: nothing."""
+        (:mod:`pointat.monitor.observe`), so it must only read attributes, never change them.  Default: nothing."""
         return {}
 
     def close(self) -> None:
@@ -784,6 +855,10 @@ class Node:
             lines.append(f"  {i} {outlet.name:<10} {outlet.kind:<19} {outlet.doc}")
         if not outs:
             lines.append("  (none)")
+        if cls.readings:
+            lines.append("readings (what the monitor and OSCQuery show of it while it runs):")
+            for r in cls.readings:
+                lines.append(f"  {r.name:<12} [{', '.join(u or '-' for u in r.units)}] {r.doc}")
         lines.append("parameters (by name, or by position in this order):")
         for p in cls.params:
             default = "required" if p.default is REQUIRED else f"default {p.default!r}"
@@ -856,33 +931,3 @@ def names_path(fn: Callable[..., Any]) -> Callable[..., Any]:
     """
     fn.names_path = True  # type: ignore[attr-defined]
     return fn
-
-
-# ----------------------------------------------------------------------------- sensor full scale
-#: The sensor full scale, for a source that delivers readings of sensors it cannot see (``replay``,
-#: ``osc_in``): the user says it, the ``range`` outlet (:data:`RANGE_OUTLET`) tells ``tqt``'s ``range``.
-FULL_SCALE_PARAMS = (
-    Param(
-        "acc_range",
-        "float",
-        0.0,
-        "the accelerometer's full scale per axis, as its data sheet gives it (0: not known)",
-        unit="g",
-        minimum=0.0,
-    ),
-    Param(
-        "gyro_range", "float", 0.0, "the gyro's full scale per axis (0: not known)", unit="deg/s", minimum=0.0
-    ),
-)
-RANGE_OUTLET = Outlet(
-    "range",
-    "list",
-    "full scale: accelerometer m/s², gyro rad/s, once at start when acc_range or gyro_range is set",
-)
-
-
-def full_scale(node: Node) -> None:
-    """Send ``node``'s full scale (:data:`FULL_SCALE_PARAMS`) from its ``range`` outlet, when one is set."""
-    if node.p.acc_range or node.p.gyro_range:
-        outlet = [o.name for o in type(node).outlets].index("range")
-        node.out(outlet, (node.p.acc_range * STANDARD_GRAVITY, math.radians(node.p.gyro_range)))
