@@ -652,8 +652,7 @@ class Node:
             return
         self._handlers, self._deliver = self._held
         self._held = None
-        for name in ("receive", "set_params", "health"):
-            self.__dict__.pop(name, None)
+        del self.receive, self.set_params, self.health  # (the instance's, set by hold: the class's again)
 
     # receiving --------------------------------------------------------------
     def receive(self, index: int, msg: Message) -> None:
