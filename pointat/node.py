@@ -652,7 +652,8 @@ class Node:
             return
         self._handlers, self._deliver = self._held
         self._held = None
-        del self.receive, self.set_params, self.health  # (the instance's, set by hold: the class's again)
+        for method in (Node.receive, Node.set_params, Node.health):
+            self.__dict__.pop(method.__name__, None)
 
     # receiving --------------------------------------------------------------
     def receive(self, index: int, msg: Message) -> None:
