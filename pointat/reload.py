@@ -360,10 +360,10 @@ class Reloader:
 
     def _swap_nodes(self, new: Checked, steps: Plan, made: dict[str, Any]) -> None:
         rt = self.rt
-        fused = rt.fusion is not None
+        fused = rt.compiled_chains is not None
         if fused:  # the compiled chains' state written back into their nodes
-            rt._guard(None, rt.fusion.close)
-            rt.fusion = None
+            rt._guard(None, rt.compiled_chains.close)
+            rt.compiled_chains = None
         old = rt.nodes
         patch_nodes = {id(n) for n in old.values()}
         staying = [*steps.keep, *steps.retune]
