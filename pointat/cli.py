@@ -185,7 +185,7 @@ def _add_timing_args(p: argparse.ArgumentParser) -> None:
         default="auto",
         help="run each glove chain (mote -> offset -> scaling -> tqt -> reference -> azi_ele, "
         "roll_distance -> osc_out) as one compiled function, every glove of a base station in one call, "
-        "the same datagrams to the bit (needs numba).  auto (the default): when the compiled code is "
+        "the same datagrams to the bit.  auto (the default): when the compiled code is "
         "cached, else node by node while it is compiled in the background for the next run; on: compile "
         "now if need be (seconds); off: node by node.  -v says which chains run compiled and why the "
         "others do not",

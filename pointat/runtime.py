@@ -126,11 +126,11 @@ class Runtime:
         self._at_end: list[tuple[Node | None, Callable[[], Any]]] = []
         self._late_warned = -math.inf  # when the log last said that timers run late (time.monotonic)
         self.spin = spin
-        #: ``pointat run --compiled``: whether the glove chains run compiled (:mod:`pointat.fusion`);
+        #: ``pointat run --compiled``: whether the glove chains run compiled (:mod:`pointat.compiled`);
         #: off unless asked, so that a runtime built by hand never starts a compile.
         self.compiled = "off"
-        #: The compiled chains, once started (:class:`pointat.fusion.Fusion`), or None.
-        self.fusion: Any = None
+        #: The compiled chains, once started (:class:`pointat.compiled.Chains`), or None.
+        self.compiled_chains: Any = None
         self._input_at = -math.inf  # when a pass last served input (time.monotonic)
         #: The patch's presets (:class:`pointat.presets.Presets`), when it runs from a file.
         self.presets: Any = None
@@ -408,10 +408,10 @@ class Runtime:
         glove chains are handed back to their nodes first and compiled again after.  Returns the new nodes
         that started.
         """
-        fused = self.fusion is not None
+        fused = self.compiled_chains is not None
         if fused:  # the compiled chains' state written back into their nodes
-            self._guard(None, self.fusion.close)
-            self.fusion = None
+            self._guard(None, self.compiled_chains.close)
+            self.compiled_chains = None
         old = self.nodes
         in_patch = {id(n) for n in old.values()}
         staying = [n for name, n in old.items() if nodes.get(name) is n]
@@ -508,17 +508,17 @@ class Runtime:
         return True
 
     def _fuse(self) -> None:
-        """Run the glove chains compiled where the patch has them (:mod:`pointat.fusion`); the patch runs
+        """Run the glove chains compiled where the patch has them (:mod:`pointat.compiled`); the patch runs
         node by node whatever goes wrong there."""
-        from pointat import fusion
+        from pointat import compiled
 
         try:
-            self.fusion = fusion.install(self, self.compiled)
-            if self.fusion is not None:
-                self.console(self.fusion.describe())
+            self.compiled_chains = compiled.install(self, self.compiled)
+            if self.compiled_chains is not None:
+                self.console(self.compiled_chains.describe())
         except Exception:  # never a reason not to play
             log.exception("the compiled glove chain failed to start; running node by node")
-            self.fusion = None
+            self.compiled_chains = None
 
     def _downstream_first(self) -> list[Node]:
         """Every node, each after the nodes it sends to (a loop's in declaration order): a sink is ready
@@ -601,8 +601,8 @@ class Runtime:
         self._closed = True
         self.stopping.set()
         self.running = False
-        if self.fusion is not None:  # the nodes' state, counters and health as if never fused
-            self._guard(None, self.fusion.close)
+        if self.compiled_chains is not None:  # the nodes' state, counters and health as if never fused
+            self._guard(None, self.compiled_chains.close)
         for node in reversed(list(self.nodes.values())):
             self._guard(node, node.close)
         if self.presets is not None:  # a save still waiting is written
