@@ -111,6 +111,7 @@ node bus  mapper interface=lo device=anna
         self.sent = 0  # values set on outgoing signals
         self.taken = 0  # values that came in and were set
         self.refused = 0  # values that came in and did not fit their parameter
+        self.joined = ""  # the device's name once the bus agreed it (pointat_glove_tqt.1)
         self._flushing = False
         self._events: dict[str, Any] = {}  # posture node name -> the label it holds
 
@@ -282,11 +283,14 @@ node bus  mapper interface=lo device=anna
 
         return put
 
+    def poll_tick(self) -> None:
+        if not self.joined and self.device is not None and self.device.ready:
+            self.joined = self.device.name
+            log.info("node '%s' (mapper): on the bus as %s", self.name, self.joined)
+
     def health(self) -> dict[str, Any]:
-        device = self.device
         return {
-            "device": device.name if device is not None else "",
-            "ready": device is not None and device.ready,
+            "device": self.joined or "(joining)",
             "sent": self.sent,
             "taken": self.taken,
             "refused": self.refused,
