@@ -236,7 +236,7 @@ node bus  mapper interface=lo device=anna
             if self.device is None:
                 return
             held = self._events.pop(node_name, None)
-            if held is not None:
+            if held is not None and (leaves or msg.value != held):  # (the same again: still 1)
                 self._publish(self._label_signal(node_name, held, ""), 0.0)
             if not leaves and msg.kind == "symbol":
                 self._events[node_name] = msg.value

@@ -15,7 +15,8 @@ import pytest
 
 from pointat import mapper as bus
 from pointat.errors import PointatError
-from pointat.testing import make, patch
+from pointat.node import Node, Outlet
+from pointat.testing import make, patch, test_registry
 
 mpr = pytest.importorskip(
     "libmapper", reason="the mapper extra is not installed (pip install 'pointat[mapper]')"
@@ -209,3 +210,68 @@ def test_an_interface_that_is_not_there_is_said_not_taken_for_another(started):
     rt = patch("node bus mapper interface=nosuch0")
     with pytest.raises(PointatError, match="no network interface 'nosuch0'"):
         started(rt)
+
+
+class _Segment:
+    def __init__(self, name: str):
+        self.name = name
+
+
+class Events(Node):
+    """A third party's node: events and segments declared by their outlets' names, as the built-ins'."""
+
+    type_name = "events"
+    outlets = (
+        Outlet("gesture", "list", "LABEL SCORE"),
+        Outlet("posture", "symbol", "LABEL"),
+        Outlet("none", "bang", "no posture"),
+        Outlet("stroke", "list", "AZIMUTH ELEVATION STRENGTH"),
+        Outlet("segments", "vector", "4M numbers"),
+    )
+
+    def setup(self) -> None:
+        self.body = type("Body", (), {"segments": [_Segment("upper arm"), _Segment("hand")]})()
+
+
+def test_events_and_segments_are_signals_found_by_their_outlets_names_labels_made_as_they_come(client):
+    registry = test_registry()
+    registry.add(Events, "tests")
+    name = unique("events")
+    rt = patch(f"node ev events\nnode bus mapper interface=lo device={name}\n", registry=registry)
+    try:
+        c = client()
+        rt.start()
+        ev = rt.nodes["ev"]
+        ev.out(0, ("big circle", 0.8))  # a label's signal is made as the label first comes
+        ev.out(1, "open")
+        ev.out(4, (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
+        wanted = {
+            "ev/big_circle": 1,
+            "ev/open": 1,
+            "ev/stroke": 3,
+            "ev/upper_arm": 4,
+            "ev/hand": 4,
+        }
+        sigs: dict = {}
+        until(rt, lambda: all([_found(sigs, c, name, s) for s in wanted]), c, "the event signals")
+        assert {s: sigs[s][mpr.Property.LENGTH] for s in wanted} == wanted
+        assert sigs["ev/big_circle"][mpr.Property.UNIT] == "score"
+        maps = [mpr.Map(sigs[s], c.incoming(s.replace("/", "_"), n)) for s, n in wanted.items()]
+        for m in maps:
+            m.push()
+        until(rt, lambda: all(m.ready for m in maps), c, "the maps made")
+        ev.out(0, ("big circle", 0.5))
+        ev.out(1, "open")
+        ev.out(3, (30.0, -10.0, 2.5))
+        ev.out(4, (0.0, 1.0, 0.0, 0.0, 0.5, 0.5, 0.5, 0.5))
+        until(rt, lambda: len({n for n, _ in c.got}) == 5, c, "a value from each")
+        values = dict(c.got)
+        ev.out(2, None)  # the hand leaves every posture: the one it held goes to 0
+        until(rt, lambda: ("ev_open", 0.0) in c.got, c, "the posture left")
+        assert values["ev_big_circle"] == pytest.approx(0.5)
+        assert values["ev_stroke"] == pytest.approx([30.0, -10.0, 2.5])
+        assert values["ev_upper_arm"] == pytest.approx([0.0, 1.0, 0.0, 0.0])
+        assert values["ev_hand"] == pytest.approx([0.5, 0.5, 0.5, 0.5])
+        assert [v for n, v in c.got if n == "ev_open"] == [1.0, 0.0]
+    finally:
+        rt.shutdown()
