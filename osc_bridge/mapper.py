@@ -116,7 +116,7 @@ node bus  mapper interface=lo device=anna
         self._events: dict[str, Any] = {}  # posture node name -> the label it holds
 
     def device_name(self) -> str:
-        """The name asked of the bus (it adds the ordinal): ``name``, else ``pointat_`` and the patch's."""
+        """The name asked of the bus (it adds the ordinal): ``device``, else ``pointat_`` and the patch's."""
         if self.p.device:
             return bus.device_name(self.p.device, prefix="")
         stem = Path(self.where.file).stem if self.where is not None and self.where.file else "patch"

@@ -9,6 +9,8 @@ The bus across machines is :mod:`tests.integration.test_mapper_hosts`.
 from __future__ import annotations
 
 import itertools
+import subprocess
+import sys
 import time
 
 import pytest
@@ -275,3 +277,24 @@ def test_events_and_segments_are_signals_found_by_their_outlets_names_labels_mad
         assert [v for n, v in c.got if n == "ev_open"] == [1.0, 0.0]
     finally:
         rt.shutdown()
+
+
+def test_without_the_extra_the_bus_says_which_to_install_and_a_patch_without_it_never_imports_it(monkeypatch):
+    monkeypatch.setitem(sys.modules, "libmapper", None)  # (import libmapper raises ImportError)
+    with pytest.raises(PointatError, match=r"pip install 'pointat\[mapper\]'"):
+        bus.load()
+    rt = patch("node bus mapper interface=lo")
+    with pytest.raises(PointatError, match=r"node 'bus' \(mapper\): cannot start: .*pointat\[mapper\]"):
+        rt.start()
+    found = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys, pointat.cli, pointat.registry as r; r.default_registry.load_builtins(); "
+            "print('libmapper' in sys.modules)",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert found.stdout.strip() == "False", found.stderr
