@@ -54,7 +54,8 @@ from benchmarks.latency import (
     pointat_command,
     receiver_socket,
 )
-from pointat.devices.gesture_sim import perform, performance, performed, rehearse, score, sensor_stream
+from benchmarks.performer import perform, performed, rehearse, score, sensor_stream
+from pointat.devices.gesture_sim import performance
 from pointat.devices.glove_sim import Burst, GloveSimulator, MotionScript, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
 from pointat.gesture_eval import baseline, evaluate
@@ -105,7 +106,7 @@ def basic_motions_table(goals: list[list[str]]) -> str:
         else:
             ev = evaluate(train, test, ("gyr", "acc"), model, rec)
         lat = ev.latency()
-        rejected = sum(d[2] is None for d in ev.decisions)
+        rejected = sum(d.decided is None for d in ev.decisions)
         lines.append(
             f"| {name} | {_pct(ev.accuracy)} | {rejected} | {lat['early']} | {lat['compute_p95_ms']:.2f} ms |"
         )

@@ -68,9 +68,9 @@ def batch_cost(monitored: bool) -> float:
     from pointat.expansion import read_spec
     from pointat.loader import build, parse_overrides
     from pointat.maths.evaluation import BROAD_SAMPLE
-    from pointat.observe import Observer
+    from pointat.monitor.observe import Observer
+    from pointat.monitor.webserver import MonitorServer
     from pointat.registry import Registry
-    from pointat.webserver import MonitorServer
 
     # a socket nobody reads (no thread in this process to wake for each datagram: a reader here would
     # take the interpreter from the scheduler thousands of times a second, and more so beside the

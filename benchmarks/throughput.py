@@ -55,8 +55,8 @@ from pointat.maths.tqt import TQTBank, TQTFilter
 from pointat.message import Message, floats, vector
 from pointat.node import Inlet, Node
 from pointat.nodes.body import SkeletonNode
-from pointat.nodes.orientation import TQT as TQTNode
-from pointat.nodes.orientation import TQTBankNode
+from pointat.nodes.tqt import TQT as TQTNode
+from pointat.nodes.tqt import TQTBankNode
 from pointat.runtime import Runtime
 
 from .latency import (
@@ -643,12 +643,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     A = np.repeat(a[:nb, None, :], k15, 1)
     M = np.repeat(m[:nb, None, :], k15, 1)
 
-    from pointat.maths.tqt import compiled as tqt_compiled
-
-    backends = ["numba", "python"] if tqt_compiled.available() else ["python"]
-    if not tqt_compiled.available():
-        errors.append('TQTBank numba backend: numba is not installed (pip install ".[fast]")')
-    for backend in backends:
+    for backend in ("numba", "python"):
         TQTBank(k15, backend=backend).update(G[0], A[0], M[0], dt)  # compiles (numba) outside the timing
 
         def bank(backend: str = backend) -> None:

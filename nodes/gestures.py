@@ -36,12 +36,19 @@ from pointat.maths.gestures import (
     REJECT,
     RELATIVE,
     WARPS,
+    Adapted,
+    Decided,
+    Dropped,
+    Ended,
+    Event,
     Example,
     Follower,
     GestureModel,
     PostureModel,
     Recognizer,
+    Recorded,
     Segmenter,
+    Started,
     StrokeDetector,
     channel_slices,
     relative_channels,
@@ -536,29 +543,28 @@ which.0 -> cue
         self.rec.record = self.recording
         self._events(self.rec.push(t, x))
 
-    def _events(self, events: list[tuple[Any, ...]]) -> None:
+    def _events(self, events: list[Event]) -> None:
         for e in events:
-            what = e[0]
-            if what == "start":
-                self._moving = True
-                self.out(2, 1)
-            elif what in ("end", "drop"):
-                if self._moving:
-                    self._moving = False
-                    self.out(2, 0)
-            elif what == "example":
-                self.took(e[1])
-                if self.recording is None:
-                    self.rec.record = None
-            elif what == "adapted":
-                self.examples = list(self.model.examples)
-                self.tell("adapted", e[1], e[2])
-            elif what == "decision":
-                d = e[1]
-                if d.label is not None:
-                    self.out(0, (d.label, round(d.score, 4)))
-                else:
-                    self.out(1, (d.nearest, round(d.distance, 4)))
+            match e:
+                case Started():
+                    self._moving = True
+                    self.out(2, 1)
+                case Ended() | Dropped():
+                    if self._moving:
+                        self._moving = False
+                        self.out(2, 0)
+                case Recorded(example):
+                    self.took(example)
+                    if self.recording is None:
+                        self.rec.record = None
+                case Adapted(label, count):
+                    self.examples = list(self.model.examples)
+                    self.tell("adapted", label, count)
+                case Decided(d):
+                    if d.label is not None:
+                        self.out(0, (d.label, round(d.score, 4)))
+                    else:
+                        self.out(1, (d.nearest, round(d.distance, 4)))
 
 
 @register("posture")
@@ -833,8 +839,8 @@ bow.progress -> show
         if self.recording:
             self._rec.record = self.recording
             for e in self._rec.push(t, x):
-                if e[0] == "example":
-                    self.took(e[1])
+                if isinstance(e, Recorded):
+                    self.took(e.example)
             if self.recording is None:
                 self._rec.record = None
             return

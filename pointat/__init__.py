@@ -70,14 +70,14 @@ __all__ = ["__version__", *sorted(_EXPORTS)]
 
 #: Subpackages kept at the top of the repository (as the project is laid out) that install inside this
 #: package (pyproject's package-dir): in a checkout they are found there.
-_CHECKOUT_FOLDERS = ("nodes", "osc_bridge")
+_CHECKOUT_FOLDERS = ("nodes", "osc_bridge", "midi_bridge")
 
 
 class _CheckoutFolders(importlib.abc.MetaPathFinder):
-    """``pointat.nodes`` and ``pointat.osc_bridge`` from a source checkout's ``nodes/`` and
-    ``osc_bridge/``, where no installed copy is inside the package (a wheel has them inside; an
-    editable install maps them itself).  Only those two names: nothing else of the checkout becomes
-    part of the package."""
+    """``pointat.nodes``, ``pointat.osc_bridge`` and ``pointat.midi_bridge`` from a source checkout's
+    ``nodes/``, ``osc_bridge/`` and ``midi_bridge/``, where no installed copy is inside the package (a
+    wheel has them inside; an editable install maps them itself).  Only those names: nothing else of
+    the checkout becomes part of the package."""
 
     def __init__(self, root: Path) -> None:
         self.root = root

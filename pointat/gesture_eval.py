@@ -22,13 +22,13 @@ import json
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from pointat.gesture_files import COLUMNS, Recording
 from pointat.maths.dtw import dtw_many
-from pointat.maths.gestures import NULL, GestureModel, Recognizer
+from pointat.maths.gestures import NULL, Decided, GestureModel, Recognizer
 
 __all__ = [
     "Evaluation",
@@ -43,40 +43,51 @@ __all__ = [
 ORDER = ("gyr", "acc", "q", "mag")
 
 
+class Outcome(NamedTuple):
+    """What became of one test recording: its file, its true label, the label decided (``None``: no
+    gesture), whether early, when (ms after the recording's last frame) and the compute spent (ms)."""
+
+    file: str
+    truth: str
+    decided: str | None
+    early: bool
+    when_ms: float
+    compute_ms: float
+
+
 @dataclass
 class Evaluation:
-    """The outcome of an evaluation (see the module's docstring); ``decisions`` per test recording:
-    (path, truth, decided label or None, early, when ms, compute ms)."""
+    """The outcome of an evaluation (see the module's docstring): an :class:`Outcome` per test recording."""
 
     channels: tuple[str, ...]
     labels: list[str]
-    decisions: list[tuple[str, str, str | None, bool, float, float]] = field(default_factory=list)
+    decisions: list[Outcome] = field(default_factory=list)
 
     @property
     def accuracy(self) -> float:
-        scored = [d for d in self.decisions if d[1] != NULL]
-        return sum(d[1] == d[2] for d in scored) / len(scored) if scored else float("nan")
+        scored = [d for d in self.decisions if d.truth != NULL]
+        return sum(d.truth == d.decided for d in scored) / len(scored) if scored else float("nan")
 
     def recall(self) -> dict[str, float]:
         out = {}
         for label in self.labels:
-            mine = [d for d in self.decisions if d[1] == label]
-            out[label] = sum(d[2] == label for d in mine) / len(mine) if mine else float("nan")
+            mine = [d for d in self.decisions if d.truth == label]
+            out[label] = sum(d.decided == label for d in mine) / len(mine) if mine else float("nan")
         return out
 
     def confusion(self) -> tuple[list[str], list[str], list[list[int]]]:
         """Rows (true labels), columns (decisions, ``none`` last) and counts."""
-        rows = sorted({d[1] for d in self.decisions} | set(self.labels))
+        rows = sorted({d.truth for d in self.decisions} | set(self.labels))
         cols = [*sorted(set(rows) - {NULL}), "none"]
         counts = [[0] * len(cols) for _ in rows]
         for d in self.decisions:
-            counts[rows.index(d[1])][cols.index(d[2] if d[2] is not None else "none")] += 1
+            counts[rows.index(d.truth)][cols.index(d.decided if d.decided is not None else "none")] += 1
         return rows, cols, counts
 
     def latency(self) -> dict[str, float]:
-        when = np.array([d[4] for d in self.decisions if d[2] is not None])
-        compute = np.array([d[5] for d in self.decisions])
-        early = sum(d[3] for d in self.decisions)
+        when = np.array([d.when_ms for d in self.decisions if d.decided is not None])
+        compute = np.array([d.compute_ms for d in self.decisions])
+        early = sum(d.early for d in self.decisions)
 
         def q(a: np.ndarray, p: float) -> float:
             return float(np.percentile(a, p)) if a.size else float("nan")
@@ -98,17 +109,7 @@ class Evaluation:
             "recall": self.recall(),
             "confusion": {"rows": rows, "columns": cols, "counts": counts},
             "latency": self.latency(),
-            "decisions": [
-                {
-                    "file": d[0],
-                    "truth": d[1],
-                    "decided": d[2],
-                    "early": d[3],
-                    "when_ms": d[4],
-                    "compute_ms": d[5],
-                }
-                for d in self.decisions
-            ],
+            "decisions": [d._asdict() for d in self.decisions],
         }
 
 
@@ -137,7 +138,7 @@ def evaluate(
     out = Evaluation(channels, model.classes)
     for r in test:
         example = r.example(channels)
-        found: tuple[Any, ...] | None = None
+        found: Decided | None = None
         found_at, compute = 0.0, 0.0
         rec.reset()  # a recording is a take of its own: its clock may start again at 0
         rec.gate(True, float(example.t[0]))
@@ -146,18 +147,18 @@ def evaluate(
             events = rec.push(float(t), frame)
             spent = time.perf_counter() - start
             for e in events:
-                if e[0] == "decision" and found is None:
+                if isinstance(e, Decided) and found is None:
                     found, found_at, compute = e, float(t), spent
         start = time.perf_counter()
         events = rec.gate(False, float(example.t[-1]))
         spent = time.perf_counter() - start
         for e in events:
-            if e[0] == "decision" and found is None:
+            if isinstance(e, Decided) and found is None:
                 found, found_at, compute = e, float(example.t[-1]), spent
-        label = found[1].label if found is not None else None
-        early = bool(found is not None and found[1].early)
+        label = found.decision.label if found is not None else None
+        early = bool(found is not None and found.decision.early)
         when = (found_at - float(example.t[-1])) * 1000.0 if found is not None else float("nan")
-        out.decisions.append((r.path, r.label, label, early, when, compute * 1000.0))
+        out.decisions.append(Outcome(r.path, r.label, label, early, when, compute * 1000.0))
     return out
 
 
@@ -202,7 +203,7 @@ def baseline(
         start = time.perf_counter()
         d = dtw_many(r.example(channels).frames, templates, 1.0)
         spent = time.perf_counter() - start
-        out.decisions.append((r.path, r.label, labels[int(np.argmin(d))], False, 0.0, spent * 1000.0))
+        out.decisions.append(Outcome(r.path, r.label, labels[int(np.argmin(d))], False, 0.0, spent * 1000.0))
     return out
 
 

@@ -9,12 +9,15 @@ import math
 import numpy as np
 import pytest
 
-from pointat.devices.gesture_sim import perform, performed, rehearse, score, sensor_stream
+from benchmarks.performer import perform, performed, rehearse, score, sensor_stream
 from pointat.devices.glove_sim import Burst, GloveSimulator, MotionScript, Segment, hold
 from pointat.devices.mote_frame import DEFAULT_SPEC
 from pointat.maths.dtw import Spring, dtw_distance, dtw_many, dtw_prefix, dtw_prefix_many
 from pointat.maths.gestures import (
     NULL,
+    Decided,
+    Dropped,
+    Ended,
     Example,
     Follower,
     GestureModel,
@@ -149,8 +152,8 @@ def test_early_decisions_come_before_the_end_and_are_right(taught):
     early = []
     for k in range(len(t)):
         for e in taught.push(float(t[k]), frames[k]):
-            if e[0] == "decision" and e[1].early:
-                early.append((float(t[k]), e[1].label))
+            if isinstance(e, Decided) and e.decision.early:
+                early.append((float(t[k]), e.decision.label))
     assert len(early) >= 10
     r, w, _, f = score(early, truth, slack=0.0)  # within the gesture itself: before it ended
     assert r == len(early) and w == f == 0
@@ -166,13 +169,14 @@ def test_a_gate_brackets_a_movement_and_a_refractory_period_follows():
     rec = Recognizer(model, early=False, refractory=1.0)
     rec.gate(True, 0.0)
     for k in range(50):
-        assert not [e for e in rec.push(float(t[k]), shape[k]) if e[0] == "decision"]
+        assert not [e for e in rec.push(float(t[k]), shape[k]) if isinstance(e, Decided)]
     events = rec.gate(False, float(t[-1]))
-    assert [e[0] for e in events] == ["end", "decision"] and events[1][1].label == "loop"
+    assert [type(e) for e in events] == [Ended, Decided] and events[1].decision.label == "loop"
     rec.gate(True, 1.1)  # within a second of the decision: no decision
     for k in range(50):
         rec.push(1.1 + float(t[k]), shape[k])
-    assert [e[0] for e in rec.gate(False, 2.1)] == ["end", "drop"]
+    events = rec.gate(False, 2.1)
+    assert [type(e) for e in events] == [Ended, Dropped] and events[1] == Dropped("refractory")
 
 
 def test_segmenter_cuts_from_rest_to_rest():

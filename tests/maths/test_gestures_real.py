@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from benchmarks.gesture_sets import G, Take, cut_repetitions
-from pointat.devices.gesture_sim import perform
+from benchmarks.performer import perform
 from pointat.gesture_eval import baseline, evaluate
-from pointat.maths.gestures import GestureModel, Recognizer
+from pointat.maths.gestures import Adapted, GestureModel, Recognizer
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "gestures"
 CH = ("acc", "gyr")
@@ -36,11 +36,12 @@ def reps() -> dict[tuple[int, str], list]:
 
 @pytest.fixture(scope="module")
 def no_gesture() -> list[tuple[np.ndarray, np.ndarray]]:
-    """Four minutes of BROAD's real hand motion (fast rotation and translation; tapping): times, frames."""
+    """Four minutes of BROAD's real hand motion (fast rotation; fast translation, jolts up to 5 g): times,
+    frames.  Cut from trials the defaults were chosen on (01-15), never from the reported ones."""
     z = np.load(DATA / "broad_sample.npz")
     return [
         (z[f"{k}_t"].astype(float), np.column_stack([z[f"{k}_acc"] / 200.0, z[f"{k}_gyr"] / 1000.0]))
-        for k in ("21", "24")
+        for k in ("06", "15")
     ]
 
 
@@ -87,16 +88,16 @@ def test_the_null_class_costs_few_real_gestures(reps):
 
 @pytest.mark.parametrize("channels", [("acc", "gyr"), ("acc",)])
 def test_real_motion_that_is_no_gesture_is_rarely_taken_for_one(reps, no_gesture, channels):
-    """A model of 21 exercises' examples (three people's) over BROAD's fast rotation and translation,
-    then its finger tapping (sharp jolts: the hardest real motion here, see the benchmark's report)."""
+    """A model of 21 exercises' examples (three people's) over BROAD's fast rotation, then its fast
+    translation (jolts up to 5 g: the hardest of these for a model with a gyro)."""
     train = [x for r in reps.values() for x in r[:3]]
     model = GestureModel(channels).train([r.example(channels) for r in train])
     told = []
     for t, frames in no_gesture:
         x = frames if channels == CH else frames[:, :3]
         told.append(sum(d.label is not None for _, d in perform(Recognizer(model), t, x)))
-    # two minutes each: the goal, 0.5 a minute, holds on ordinary motion; on tapping these defaults
-    # give 1.5 (said in benchmarks/GESTURES_REAL.md, and held here so that it gets no worse)
+    # two minutes each: the goal, 0.5 a minute, holds on the rotation; on the fast translation these
+    # defaults give up to 1.5 a minute (acc gyr), held here so that it gets no worse
     assert told[0] <= 1 and told[1] <= 3, f"false triggers in two minutes: {told}"
 
 
@@ -157,10 +158,10 @@ def test_adapt_follows_the_performer_and_keeps_the_taught_examples(reps):
         for t, f in zip(e.t, e.frames, strict=True):
             events += rec.push(float(t), f)
         events += rec.gate(False, float(e.t[-1]))
-    told = [e for e in events if e[0] == "adapted"]
+    told = [e for e in events if isinstance(e, Adapted)]
     assert told, "nothing was recognised with a clear margin"
     for label in model.classes:
         own = [x for x in model.examples if x.label == label]
         assert len(own) <= 5
-        if any(e[1] == label for e in told):
+        if any(e.label == label for e in told):
             assert all(any(x is y for y in own) for x in taught if x.label == label)

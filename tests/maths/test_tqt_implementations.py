@@ -8,10 +8,10 @@ lists of floats:
   reference's run;
 * ``TQTBank-python`` -- the same step on the rows of a state array, a Python loop over the sensors;
 * ``TQTBank-numba`` -- the robust step compiled by numba into one loop (:mod:`pointat.maths.tqt.compiled`;
-  robust mode only; skipped without numba unless ``POINTAT_REQUIRE_TOOLS`` is set);
+  robust mode only);
 * ``tqt-node`` / ``tqt_bank-node`` -- the nodes that wrap a filter and a bank in a patch (readings as
   messages, the time step from their stamps, settings in the nodes' units: dip in degrees, full scales
-  in g and deg/s); the bank node runs numba where it is installed, as a patch's ``backend=auto`` does.
+  in g and deg/s); the bank node runs numba in robust mode, as a patch's ``backend=auto`` does.
 
 Each case runs every implementation that exists for its mode, several sensors at once (a bank's sensors,
 or one filter or node each), and asserts that the quaternion and the flag bits of every sensor at every
@@ -47,7 +47,6 @@ from pointat.maths.calibration import STANDARD_GRAVITY
 from pointat.maths.evaluation import BROAD_RATE, BROAD_SAMPLE, load_broad
 from pointat.maths.quaternion import quat_from_axis_angle
 from pointat.maths.tqt import TQTBank, TQTFilter
-from pointat.maths.tqt import compiled as tqt_compiled
 from pointat.message import floats
 from pointat.testing import patch
 from tests.maths.test_tqt import DIP, FIELD, G, synthetic
@@ -269,7 +268,7 @@ def run_tqt_nodes(case: Case, mode: str, started) -> Run:
 
 
 def run_tqt_bank_node(case: Case, mode: str, started) -> Run:
-    """One ``tqt_bank`` node for all the sensors (``backend=auto``: numba where installed, robust)."""
+    """One ``tqt_bank`` node for all the sensors (``backend=auto``: numba in robust mode)."""
     text = f"node bank tqt_bank sensors={case.n} {node_settings(case, mode)}\n"
     text += "".join(f"node o{j} collect\nbank.quat{j + 1} -> o{j}\n" for j in range(case.n))
     rt = started(patch(text))
@@ -328,9 +327,7 @@ def reference(name: str, mode: str) -> Run:
 
 
 @pytest.mark.parametrize(("name", "mode", "impl"), implementations())
-def test_every_implementation_gives_the_filters_bits(name, mode, impl, require_tool, started):
-    if impl == "TQTBank-numba":
-        require_tool(tqt_compiled.available(), "numba is not installed (the 'fast' extra)")
+def test_every_implementation_gives_the_filters_bits(name, mode, impl, started):
     case, want = CASES[name](), reference(name, mode)
     got = IMPLEMENTATIONS[impl](case, mode, started)
     out = ~np.isnan(got.q[..., 0])  # where a quaternion was put out

@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks.performer import score
 from pointat.control import control
-from pointat.devices.gesture_sim import performance, score
+from pointat.devices.gesture_sim import performance
 from pointat.devices.osc_wire import decode_packet
 from pointat.message import make, method, vector
 from pointat.testing import patch, sink_port
@@ -231,7 +232,7 @@ glove.truth -> q
 
 
 def test_following_a_taught_movement(tmp_path):
-    from pointat.devices.gesture_sim import sensor_stream
+    from benchmarks.performer import sensor_stream
     from pointat.devices.glove_sim import MotionScript, Segment, hold
 
     rt = patch(

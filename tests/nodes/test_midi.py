@@ -19,8 +19,10 @@ from pointat.errors import PatchError
 from pointat.maths.quaternion import azimuth_elevation, pointing_direction
 from pointat.maths.scalar import fold_front
 from pointat.message import bang, make, method
-from pointat.nodes import midi
-from pointat.nodes.midi import MidiFileWriter, MidiSender, MidiUnavailable, scale_to_int
+from pointat.midi_bridge import ports as midi_ports
+from pointat.midi_bridge.file_writer import MidiFileWriter
+from pointat.midi_bridge.mapping import MidiSender, scale_to_int
+from pointat.midi_bridge.ports import MidiUnavailable
 from pointat.testing import patch, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -170,8 +172,8 @@ def capture(monkeypatch):
         opened.append(port)
         return port
 
-    monkeypatch.setattr(midi, "open_output", fake_open_output)
-    monkeypatch.setattr(midi, "output_names", lambda: ["Capture Port 1", "Other Synth"])
+    monkeypatch.setattr(midi_ports, "open_output", fake_open_output)
+    monkeypatch.setattr(midi_ports, "output_names", lambda: ["Capture Port 1", "Other Synth"])
     return opened
 
 
@@ -403,7 +405,7 @@ def test_no_port_and_no_file_falls_back_to_a_file_when_there_is_no_midi_system(t
     def no_system():
         raise ImportError("No module named 'rtmidi'")
 
-    monkeypatch.setattr(midi, "output_names", no_system)
+    monkeypatch.setattr(midi_ports, "output_names", no_system)
     monkeypatch.chdir(tmp_path)
     rt = patch("node pan midi_out number=10 range=[90, -90]")
     with caplog.at_level(logging.WARNING, logger="pointat.midi"):
@@ -440,8 +442,8 @@ def test_rtmidi_system_error_names_the_node_and_the_fix(monkeypatch):
     def alsa_down(*args, **kwargs):
         raise RtMidiSystemError("MidiOutAlsa::initialize: error creating ALSA sequencer client object.")
 
-    monkeypatch.setattr(midi, "open_output", alsa_down)
-    monkeypatch.setattr(midi, "output_names", alsa_down)
+    monkeypatch.setattr(midi_ports, "open_output", alsa_down)
+    monkeypatch.setattr(midi_ports, "output_names", alsa_down)
     msg = _start_error('node synth midi_out port="IAC Bus 1"')
     assert msg.startswith("midi_out 'synth': cannot open MIDI output port 'IAC Bus 1': no MIDI system")
     assert "ALSA sequencer" in msg  # the backend's own words
@@ -459,7 +461,7 @@ def test_missing_python_rtmidi_and_unknown_port_messages(monkeypatch, capture):
     def no_rtmidi(*args, **kwargs):
         raise ModuleNotFoundError("No module named 'rtmidi'")
 
-    monkeypatch.setattr(midi, "open_output", no_rtmidi)
+    monkeypatch.setattr(midi_ports, "open_output", no_rtmidi)
     msg = _start_error("node synth midi_out virtual=true")
     assert "python-rtmidi, the backend mido uses, is not installed" in msg
     assert "pip install 'pointat[midi]'" in msg and "file=synth.mid" in msg
@@ -494,8 +496,8 @@ def test_midi_in_outputs_cc_lists_and_note_events(monkeypatch):
         ports.append(FootPort(name, callback=callback))
         return ports[-1]
 
-    monkeypatch.setattr(midi, "open_input", fake_open_input)
-    monkeypatch.setattr(midi, "input_names", lambda: ["FCB1010 MIDI 1"])
+    monkeypatch.setattr(midi_ports, "open_input", fake_open_input)
+    monkeypatch.setattr(midi_ports, "input_names", lambda: ["FCB1010 MIDI 1"])
     rt = patch(
         """
 node foot midi_in port=FCB1010 channel=1
@@ -556,9 +558,9 @@ def test_midi_in_unplugged_mid_show_is_reported_and_reopened_when_it_is_back(mon
         ports.append(FootPort(name, callback=callback))
         return ports[-1]
 
-    monkeypatch.setattr(midi, "open_input", fake_open_input)
-    monkeypatch.setattr(midi, "input_names", lambda: list(names))
-    monkeypatch.setattr(midi, "WATCH_PERIOD", 0.01)
+    monkeypatch.setattr(midi_ports, "open_input", fake_open_input)
+    monkeypatch.setattr(midi_ports, "input_names", lambda: list(names))
+    monkeypatch.setattr(midi_ports, "WATCH_PERIOD", 0.01)
     rt = patch("node foot midi_in port=FCB1010\nnode cc collect\nfoot.cc -> cc")
     foot = rt.nodes["foot"]
     caplog.set_level(logging.INFO, logger="pointat.midi")
@@ -608,9 +610,9 @@ def test_midi_out_drops_while_unplugged_and_catches_the_receiver_up_when_it_is_b
         ports.append(SynthPort(name))
         return ports[-1]
 
-    monkeypatch.setattr(midi, "open_output", fake_open_output)
-    monkeypatch.setattr(midi, "output_names", lambda: list(names))
-    monkeypatch.setattr(midi, "WATCH_PERIOD", 0.01)
+    monkeypatch.setattr(midi_ports, "open_output", fake_open_output)
+    monkeypatch.setattr(midi_ports, "output_names", lambda: list(names))
+    monkeypatch.setattr(midi_ports, "WATCH_PERIOD", 0.01)
     rt = patch("node vol midi_out kind=cc number=7 range=[0, 1] port=Synth")
     vol = rt.nodes["vol"]
     caplog.set_level(logging.WARNING)
@@ -691,7 +693,7 @@ def test_the_banner_says_which_file_is_written_when_there_is_no_midi_system(tmp_
     def no_rtmidi():
         raise ImportError("No module named 'rtmidi'")
 
-    monkeypatch.setattr(midi, "output_names", no_rtmidi)
+    monkeypatch.setattr(midi_ports, "output_names", no_rtmidi)
     monkeypatch.chdir(tmp_path)
     rt = patch("node pan midi_out number=10")
     assert describe(rt.nodes["pan"]) == (

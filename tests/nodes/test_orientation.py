@@ -69,24 +69,24 @@ def test_leave_above_enter_is_refused_at_load_and_live():
 
 
 def test_an_orientation_in_is_a_unit_quaternion_and_nan_or_infinity_is_refused():
-    from pointat.nodes.orientation import _as_quat
+    from pointat.nodes.orientation import as_quat
 
     unit = (0.5, 0.5, -0.5, 0.5)
-    assert _as_quat(floats(unit)) is unit  # a unit quaternion (what the nodes send) passes as it is
-    assert _as_quat(floats((2.0, 0.0, 0.0, 0.0))) == (1.0, 0.0, 0.0, 0.0)
-    assert _as_quat(floats((0.0, 0.0, 0.0, 1.0 + 1e-9))) == (0.0, 0.0, 0.0, 1.0)  # off by more: normalised
+    assert as_quat(floats(unit)) is unit  # a unit quaternion (what the nodes send) passes as it is
+    assert as_quat(floats((2.0, 0.0, 0.0, 0.0))) == (1.0, 0.0, 0.0, 0.0)
+    assert as_quat(floats((0.0, 0.0, 0.0, 1.0 + 1e-9))) == (0.0, 0.0, 0.0, 1.0)  # off by more: normalised
     for bad in ((math.nan, 0.0, 0.0, 1.0), (math.inf, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, math.nan)):
         with pytest.raises(ValueError, match="NaN or infinite"):
-            _as_quat(floats(bad))
+            as_quat(floats(bad))
     # a list is read as numbers, a matrix becomes its quaternion, any other size or kind is an error
-    assert _as_quat(make([0, 0, 0, 2])) == (0.0, 0.0, 0.0, 1.0)
-    assert _as_quat(floats(sq.quat_matrix(unit))) == pytest.approx(unit, abs=1e-15)
+    assert as_quat(make([0, 0, 0, 2])) == (0.0, 0.0, 0.0, 1.0)
+    assert as_quat(floats(sq.quat_matrix(unit))) == pytest.approx(unit, abs=1e-15)
     for wrong, error in (
         (floats((1.0, 0.0, 0.0)), "4 or 9 numbers, got 3"),
         (make(1.0), "expected a vector"),
     ):
         with pytest.raises(TypeError, match=error):
-            _as_quat(wrong)
+            as_quat(wrong)
 
 
 def test_azi_ele_and_roll_distance_on_one_outlet_each_get_their_own_direction():

@@ -6,7 +6,7 @@ it was last sent (``/pointat/NODE/aed``, read-only); the presets (``/pointat/pre
 ``recall``).  The addresses are the ones ``osc_in`` takes for live control, so a value set through
 OSCQuery is set exactly as ``pointat send`` would set it (:func:`pointat.control.control`).
 
-Plain functions of a runtime and an observer; the server (:mod:`pointat.webserver`) serves them.
+Plain functions of a runtime and an observer; the server (:mod:`pointat.monitor.webserver`) serves them.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .control import PREFIX
+from ..control import PREFIX
 
 __all__ = ["EXTENSIONS", "address_space", "find", "value_of"]
 

@@ -39,14 +39,14 @@ from typing import Any
 
 import numpy as np
 
-from .maths.vbap import Layout, make_layout, vbap_gains
-from .message import Message
-from .node import Inlet, Node
-from .scheduling import quiet_thread
+from ..maths.vbap import Layout, make_layout, vbap_gains
+from ..message import Message
+from ..node import Inlet, Node
+from ..scheduling import quiet_thread
 
 __all__ = ["Observer", "fmt_direction"]
 
-log = logging.getLogger("pointat.observe")
+log = logging.getLogger("pointat.monitor.observe")
 
 
 class _Tap(Node):

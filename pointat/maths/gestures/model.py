@@ -1,0 +1,345 @@
+"""Trained movements: 1-NN DTW over the examples' templates, with the null class (rejection: reach,
+keeping still, pace and strength) and adaptation."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pointat.maths.dtw import dtw_many, dtw_prefix_many
+from pointat.maths.gestures.features import (
+    NULL,
+    RELATIVE,
+    WARPS,
+    Example,
+    channel_slices,
+    feature_groups,
+    relative_channels,
+    segment_features,
+)
+from pointat.maths.gestures.segmentation import DEFAULT_ON, Energy
+
+#: The default ``reject`` (:class:`GestureModel`): the operating point chosen on real recordings, on the
+#: curve of real gestures found against false triggers on real motion that is no gesture.
+REJECT = 3.0
+
+#: The channel groups whose peak strength a gesture's performances keep to (:meth:`GestureModel.strength`).
+_STRONG = ("acc", "gyr")
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What a movement was: ``label`` (``None``: no gesture), the DTW ``distance`` to the nearest
+    template, ``nearest`` (its label, null or not), ``score`` (1 at a template, 0 at the class's
+    rejection threshold) and, per class, the nearest distance."""
+
+    label: str | None
+    distance: float
+    nearest: str
+    score: float
+    per_class: dict[str, float] = field(default_factory=dict)
+    early: bool = False
+    still: float = math.inf  # the movement's distance from keeping still
+    duration: float = math.nan  # s
+
+
+class GestureModel:
+    """Templates of movements and their classes' spreads: 1-NN DTW with rejection.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        The channel groups of a frame, in order (:data:`CHANNELS`).
+    size : int
+        How many numbers channel ``x`` holds (0 without it).
+    rate : float
+        Feature frames per second (:func:`segment_features`), or the examples' own rate when lower.
+    band : float
+        DTW's band, a fraction of the longer series.
+    reject : float
+        A movement is no gesture when its nearest template is more than ``reject`` times its class's
+        reach away (:meth:`threshold`: the class's distance from keeping still), or when it is not nearer
+        to its class than :attr:`STILL` times its own distance from keeping still; 0: never rejected,
+        but by ``null`` examples.
+    warp : str
+        ``together``: all features warped as one (DTW_D), or ``each`` on its own (DTW_I).
+    relative : sequence of str
+        The channel groups taken relative to how the movement began (:func:`transform`).
+    """
+
+    #: A movement is no performance of a class when it is this many times faster than its fastest
+    #: example or slower than its slowest.
+    PACE = 3.0
+    #: ... or when its accelerometer's or gyro's peak is this many times stronger than its strongest
+    #: example's, or weaker than its weakest's (a tap, a jolt: far stronger than any gesture taught).
+    STRENGTH = 3.0
+    #: The least reach of a class, as a share of the median class's: a class that is itself nearly
+    #: still (standing, a hand held) is then not refused for every tremble of its performance.
+    FLOOR = 0.25
+    #: A movement is no gesture when it is not nearer to its class than this many times its own distance
+    #: from keeping still (a tremble, a small turn of the wrist: near keeping still, so near every
+    #: gesture's reach from it).
+    STILL = 3.0
+    #: How near a movement under way must be to a class to be told early, as a share of its reach.
+    EARLY = 0.35
+
+    def __init__(
+        self,
+        channels: Sequence[str],
+        *,
+        size: int = 0,
+        rate: float = 50.0,
+        band: float = 0.5,
+        reject: float = REJECT,
+        warp: str = "together",
+        relative: Sequence[str] = RELATIVE,
+    ) -> None:
+        self.channels = tuple(channels)
+        self.relative = relative_channels(relative)
+        self.size = int(size)
+        self.width = channel_slices(self.channels, self.size)[self.channels[-1]].stop
+        self.rate, self.band, self.reject = float(rate), float(band), float(reject)
+        self.frame_rate = self.rate  # the examples' own rate when it is lower (train)
+        if warp not in WARPS:
+            raise ValueError(f"warp must be one of {', '.join(WARPS)}; got {warp!r}")
+        self.warp = warp
+        self.examples: list[Example] = []
+        self.templates: list[np.ndarray] = []
+        self.labels: list[str] = []
+        self.scales = np.ones(0)
+        self.reach: dict[str, float] = {}
+        self._taken: set[int] = set()  # examples taken from performances (adapt), not taught
+        self.peaks: list[float] = []
+        self.durations: dict[str, tuple[float, float]] = {}
+        self.strengths: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+    @property
+    def trained(self) -> bool:
+        return bool(self.templates)
+
+    @property
+    def classes(self) -> list[str]:
+        return sorted({e.label for e in self.examples if e.label != NULL})
+
+    def features(self, t: np.ndarray, frames: np.ndarray) -> np.ndarray:
+        """Scaled feature frames of a movement (:func:`segment_features`)."""
+        x = segment_features(t, frames, self.channels, self.frame_rate, self.size, self.relative)
+        return x / self.scales if self.scales.size else x
+
+    def train(self, examples: Sequence[Example] | None = None) -> GestureModel:
+        """Learn the templates, the scales and each class's reach from the examples.
+
+        A class's reach is the median distance of its examples from keeping still (:meth:`still`):
+        how far the gesture is from doing nothing (at least :attr:`FLOOR` of the median class's).  It is known from one example, and unlike the spread
+        among a few examples of one rehearsal it does not shrink when they happen to be alike: a
+        performance on another day or by another person strays from the examples by a share of the
+        gesture itself, which ``reject`` sets (chosen on real recordings: ``benchmarks/GESTURES_REAL.md``).
+        Raises ``ValueError`` with no gesture example.
+        """
+        if examples is not None:
+            self.examples = list(examples)
+        for e in self.examples:
+            if e.frames.shape[1] != self.width:
+                raise ValueError(
+                    f"example {e.label!r} has {e.frames.shape[1]} values a frame; channels"
+                    f" {' '.join(self.channels)} make {self.width}"
+                )
+        if not self.classes:
+            raise ValueError("no examples to train on (record some first: record LABEL, then move)")
+        steps = np.concatenate([np.diff(e.t) for e in self.examples if len(e.t) > 1] or [np.zeros(0)])
+        native = 1.0 / float(np.median(steps)) if steps.size else self.rate
+        self.frame_rate = min(self.rate, native)  # resampling finer than the sensor adds cost, no detail
+        raw = [
+            segment_features(e.t, e.frames, self.channels, self.frame_rate, self.size, self.relative)
+            for e in self.examples
+        ]
+        pooled = np.vstack(raw)
+        scales = np.empty(pooled.shape[1])
+        for g in feature_groups(self.channels, self.size):
+            spread = float(np.sqrt(np.mean(np.var(pooled[:, g], axis=0))))
+            scales[g] = spread if spread > 1e-9 else 1.0
+        self.scales = scales
+        self.templates = [x / scales for x in raw]
+        self.labels = [e.label for e in self.examples]
+        energy = Energy(self.channels, self.size)
+        self.peaks = []
+        for e in self.examples:
+            if e.label != NULL:
+                energy.reset()
+                self.peaks.append(max(energy(float(ti), f) for ti, f in zip(e.t, e.frames, strict=True)))
+        self.durations, self.strengths = {}, {}
+        for c in self.classes:
+            own = [e for e in self.examples if e.label == c]
+            self.durations[c] = (min(e.duration for e in own), max(e.duration for e in own))
+            peaks = np.array([self.strength(e.frames) for e in own])
+            self.strengths[c] = (peaks.min(axis=0), peaks.max(axis=0))
+        self._reaches()
+        return self
+
+    def _reaches(self) -> None:
+        labels = np.array(self.labels)
+        still = np.array([self.still(x) for x in self.templates])
+        reach = {c: float(np.median(still[labels == c])) for c in self.classes}
+        least = self.FLOOR * float(np.median(list(reach.values())))
+        self.reach = {c: max(r, least) for c, r in reach.items()}
+
+    def still(self, x: np.ndarray) -> float:
+        """The distance of feature frames ``x`` from keeping still: from their first frame held as long,
+        the gyro at 0."""
+        rest = np.repeat(x[:1], len(x), axis=0)
+        for name, g in zip(self.channels, feature_groups(self.channels, self.size), strict=True):
+            if name == "gyr":
+                rest[:, g] = 0.0
+        return float(self._dtw(x, [rest])[0])
+
+    def _dtw(self, x: np.ndarray, templates: Sequence[np.ndarray]) -> np.ndarray:
+        return dtw_many(x, templates, self.band, each=self.warp == "each")
+
+    def threshold(self, label: str) -> float:
+        """The distance beyond which a movement nearest to ``label`` is no gesture: ``reject`` times the
+        class's reach (its examples' distance from keeping still)."""
+        if self.reject <= 0:
+            return math.inf
+        return self.reject * self.reach[label]
+
+    def early_limit(self, label: str) -> float:
+        """The farthest a movement under way may be from ``label`` to be told early: :attr:`EARLY` of the
+        class's reach, whatever ``reject``, 0 included (a prefix of ordinary motion matches some
+        template's prefix far more often than a whole movement matches a whole template)."""
+        return self.EARLY * self.reach[label]
+
+    def strength(self, frames: np.ndarray) -> np.ndarray:
+        """The peak of each of the accelerometer's and the gyro's norms over a movement's frames (m/s²,
+        rad/s; none without them)."""
+        sl = channel_slices(self.channels, self.size)
+        return np.array([float(np.max(np.linalg.norm(frames[:, sl[g]], axis=1))) for g in _STRONG if g in sl])
+
+    def fits(self, label: str, duration: float, strength: np.ndarray | None = None) -> bool:
+        """Whether a movement of ``duration`` s and peak ``strength`` (:meth:`strength`) could be a
+        performance of ``label``: within :attr:`PACE` times the examples' shortest and longest, and
+        within :attr:`STRENGTH` times their weakest and strongest (always, when rejection is off)."""
+        if self.reject <= 0 or label not in self.durations:
+            return True
+        if math.isfinite(duration):
+            lo, hi = self.durations[label]
+            if not lo / self.PACE <= duration <= hi * self.PACE:
+                return False
+        if strength is not None and strength.size:
+            lo, hi = self.strengths[label]
+            if np.any(strength > hi * self.STRENGTH) or np.any(strength < lo / self.STRENGTH):
+                return False
+        return True
+
+    def decide(
+        self,
+        distances: np.ndarray,
+        early: bool = False,
+        duration: float = math.nan,
+        still: float = math.inf,
+        strength: np.ndarray | None = None,
+    ) -> Decision:
+        """The decision from the distances to each template (and the movement's duration, s, and its
+        distance from keeping still, told with the decision)."""
+        per_class: dict[str, float] = {}
+        for label, d in zip(self.labels, distances, strict=True):
+            if d < per_class.get(label, math.inf):
+                per_class[label] = float(d)
+        nearest = min(per_class, key=per_class.__getitem__)
+        d = per_class[nearest]
+        if nearest == NULL:
+            return Decision(None, d, nearest, 0.0, per_class, early, still, duration)
+        limit = self.threshold(nearest)
+        score = 1.0 - d / limit if math.isfinite(limit) and limit > 0 else 1.0
+        ok = (
+            d <= limit
+            and (self.reject <= 0 or d < self.STILL * still)
+            and self.fits(nearest, duration, strength)
+        )
+        return Decision(
+            nearest if ok else None, d, nearest, max(0.0, score), per_class, early, still, duration
+        )
+
+    def classify(self, t: Any, frames: Any) -> Decision:
+        """The decision on one whole movement, its times (s) and frames (T, F)."""
+        if not self.trained:
+            raise ValueError("the model is not trained")
+        x = self.features(np.asarray(t, dtype=float), np.asarray(frames, dtype=float))
+        t = np.asarray(t, dtype=float)
+        frames = np.asarray(frames, dtype=float)
+        return self.decide(
+            self._dtw(x, self.templates),
+            duration=float(t[-1] - t[0]),
+            still=self.still(x),
+            strength=self.strength(frames),
+        )
+
+    def early(self, t: np.ndarray, frames: np.ndarray, *, share: float, margin: float) -> Decision | None:
+        """A decision on a movement still under way, when the evidence allows, else ``None``.
+
+        Every template is matched with an open end (:func:`~pointat.maths.dtw.dtw_prefix`).  The
+        movement is taken for class *c* when its best match has come through at least ``share`` of a
+        template of *c*, at a distance within half of *c*'s threshold, and every other class (null included) is at least ``margin`` times farther: a gesture that
+        begins as another one does is never decided before they part.  Never without the gyro or the
+        orientation: on the accelerometer alone, the beginning of a gesture is too like any movement's
+        (on BROAD's real motion, early decisions doubled a model's false triggers, 0.35 to 0.71 a minute).
+        """
+        if not {"gyr", "q"} & set(self.channels):
+            return None  # (the accelerometer alone: early decisions doubled false triggers on real motion)
+        x = self.features(t, frames)
+        per_class: dict[str, tuple[float, float]] = {}
+        rows = dtw_prefix_many(x, self.templates, self.band, each=self.warp == "each")
+        for label, (cost, through) in zip(self.labels, rows, strict=True):
+            if cost < per_class.get(label, (math.inf, 0.0))[0]:
+                per_class[label] = (float(cost), float(through))
+        if not per_class:  # longer than every template by more than the band: no prefix of any
+            return None
+        best = min(per_class, key=lambda c: per_class[c][0])
+        cost, through = per_class[best]
+        if best == NULL or through < share or cost > min(self.early_limit(best), self.threshold(best)):
+            return None
+        if any(v[0] < margin * cost for c, v in per_class.items() if c != best):
+            return None
+        if self.reject > 0 and cost >= self.STILL * self.still(x):
+            return None
+        if self.reject > 0 and np.any(self.strength(frames) > self.strengths[best][1] * self.STRENGTH):
+            return None
+        limit = self.threshold(best)
+        score = 1.0 - cost / limit if math.isfinite(limit) and limit > 0 else 1.0
+        return Decision(best, cost, best, max(0.0, score), {c: v[0] for c, v in per_class.items()}, True)
+
+    def adapt(self, example: Example, keep: int) -> int:
+        """Take a performance recognised with a clear margin as an example of its class, and train again
+        (uWave's adaptation, Liu et al. 2009: a performer's drift over days is followed).  The class
+        keeps its taught examples and at most ``keep`` in all, the oldest taken ones leaving first.
+        Returns how many examples the class now has."""
+        self.examples.append(example)
+        self._taken.add(id(example))
+        taken = [e for e in self.examples if e.label == example.label and id(e) in self._taken]
+        own = sum(e.label == example.label for e in self.examples)
+        while own > max(1, keep) and taken:
+            gone = taken.pop(0)
+            self.examples = [e for e in self.examples if e is not gone]
+            self._taken.discard(id(gone))
+            own -= 1
+        self.train()
+        return own
+
+    def clear_margin(self, decision: Decision) -> bool:
+        """Whether a decision is sure enough to learn from: within half its threshold, and every other
+        class at least twice as far."""
+        if decision.label is None or self.reject <= 0:
+            return False
+        others = [v for c, v in decision.per_class.items() if c != decision.label]
+        return decision.distance <= 0.5 * self.threshold(decision.label) and all(
+            v >= 2.0 * decision.distance for v in others
+        )
+
+    def motion_level(self, start: float) -> float:
+        """The segmenter's ``on`` level: ``start`` times the median peak energy of the examples (the
+        built-in level of :data:`DEFAULT_ON` before any)."""
+        kind = Energy(self.channels, self.size).kind
+        return start * float(np.median(self.peaks)) if self.peaks else DEFAULT_ON[kind]

@@ -1,0 +1,141 @@
+"""Trained movements found in a stream that never rests: subsequence DTW on every template."""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import NamedTuple
+
+import numpy as np
+
+from pointat.maths.dtw import Spring, dtw_many
+from pointat.maths.gestures.events import Decided
+from pointat.maths.gestures.features import NULL, segment_features, transform
+from pointat.maths.gestures.model import Decision, GestureModel
+
+
+class _Match(NamedTuple):
+    """A template matched in the stream, waiting to be told: its cost as a share of its class's
+    threshold, the template's index, and the steps of the match's first and last feature frames."""
+
+    share: float
+    template: int
+    start: int
+    end: int
+
+
+class Spotter:
+    """Trained movements found in a stream that never rests (repetitions one after another): every
+    template matched anywhere, frame by frame (:class:`~pointat.maths.dtw.Spring`, subsequence DTW on
+    the features at the model's frame rate, taken as they are: nothing is relative to a start), the
+    best match of those that overlap told once no better one can follow (``hold`` s after its end),
+    under the model's rules of rejection (:meth:`GestureModel.decide`: reach, keeping still, pace and
+    strength).  :meth:`push` returns decisions (:class:`~pointat.maths.gestures.events.Decided`: the
+    decision and the time of the match's last frame).
+    """
+
+    #: A match is no longer nor shorter than this many times its template.
+    STRETCH = 2.5
+
+    def __init__(self, model: GestureModel, hold: float | None = None) -> None:
+        self.model = model
+        self.made_from = model.templates  # (training anew makes another list: a spotter anew)
+        self.templates = [
+            segment_features(e.t, e.frames, model.channels, model.frame_rate, model.size, ()) / model.scales
+            for e in model.examples
+        ]
+        # a match is told once no better one can follow: half a typical template after its end
+        self.hold = (
+            hold
+            if hold is not None
+            else 0.5 * float(np.median([len(x) for x in self.templates])) / model.frame_rate
+        )
+        self.spring = Spring(self.templates)
+        self.span = max(len(x) for x in self.templates) * model.PACE + 2
+        self.reset()
+
+    def reset(self) -> None:
+        self.spring.reset()
+        self.raw: deque[tuple[float, np.ndarray]] = deque()
+        self.feats: deque[np.ndarray] = deque()
+        self.times: deque[float] = deque()
+        self._next = math.nan
+        self._last: tuple[float, np.ndarray] | None = None
+        self._pending: list[_Match] = []
+        self._free = 0  # steps before this one belong to a match already told
+
+    def push(self, t: float, frame: np.ndarray) -> list[Decided]:
+        out: list[Decided] = []
+        m = self.model
+        self.raw.append((t, frame))
+        while self.raw and self.raw[0][0] < t - self.span / m.frame_rate - 1.0:
+            self.raw.popleft()
+        if self._last is None or not math.isfinite(self._next):
+            self._last, self._next = (t, frame), t
+        t0, f0 = self._last
+        while self._next <= t:  # feature frames on the model's grid, between the last two frames
+            w = 0.0 if t <= t0 else (self._next - t0) / (t - t0)
+            x = transform((f0 + w * (frame - f0))[None, :], m.channels, m.size, ())[0] / m.scales
+            out += self._step(self._next, x)
+            self._next += 1.0 / m.frame_rate
+        self._last = (t, frame)
+        return out
+
+    def _step(self, t: float, x: np.ndarray) -> list[Decided]:
+        step = self.spring.step
+        rows = self.spring.push(x)
+        self.feats.append(x)
+        self.times.append(t)
+        if len(self.feats) > self.span:
+            self.feats.popleft()
+            self.times.popleft()
+        first = step - len(self.feats) + 1  # the step of feats[0]
+        pending = self._pending
+        for j, (cost, start) in enumerate(rows):
+            start = int(start)
+            label = self.model.labels[j]
+            if start < self._free or start < first or label == NULL:
+                continue
+            m = len(self.templates[j])
+            if not m / self.STRETCH <= step - start + 1 <= m * self.STRETCH:
+                continue
+            share = cost / self.model.threshold(label)  # (the classes compared at their own scale)
+            if share > 1.0:
+                continue
+            for k, p in enumerate(pending):  # the best of the matches that overlap by half or more
+                if (
+                    min(step, p.end) - max(start, p.start) + 1
+                    > 0.5 * min(step - start, p.end - p.start) + 0.5
+                ):
+                    if share < p.share:
+                        pending[k] = _Match(float(share), j, start, step)
+                    break
+            else:
+                pending.append(_Match(float(share), j, start, step))
+        out = []
+        pending.sort(key=lambda p: p.end)
+        while pending and (step - pending[0].end) / self.model.frame_rate >= self.hold:
+            p = pending.pop(0)
+            if p.start < self._free or p.start < first:
+                continue
+            decision = self._decide(p, first)
+            if decision is not None:
+                self._free = (
+                    p.end + 1 - len(self.templates[p.template]) // 4
+                )  # (a next one may begin as it ends)
+                out.append(Decided(decision, self.times[p.end - first]))
+        return out
+
+    def _decide(self, p: _Match, first: int) -> Decision | None:
+        start, end = p.start, p.end
+        m = self.model
+        x = np.array([self.feats[k - first] for k in range(start, end + 1)])
+        ts = [self.times[k - first] for k in range(start, end + 1)]
+        raw = np.array([f for ti, f in self.raw if ts[0] <= ti <= ts[-1]] or [self.raw[-1][1]])
+        decision = m.decide(
+            dtw_many(x, self.templates, 1.0),
+            duration=ts[-1] - ts[0],
+            still=m.still(x),
+            strength=m.strength(raw),
+        )
+        return decision if decision.label is not None else None
