@@ -20,8 +20,8 @@ from pointat import mapper as bus
 from pointat.control import PREFIX, control
 from pointat.errors import worth_reporting
 from pointat.message import Message, make
+from pointat.monitor.observe import _Tap, tap
 from pointat.node import Node, Outlet, Param
-from pointat.observe import _Tap, tap
 from pointat.registry import register
 
 __all__ = ["Mapper", "MapperIn"]
