@@ -214,7 +214,7 @@ class Device:
         self.dev = mpr.Device(name, self.graph)
         self.signals: dict[str, Any] = {}
         self._callbacks: list[Callable[..., None]] = []  # kept alive while libmapper holds them
-        self._dirty = False
+        self._pending: set[int] = set()  # the signals given a value since the last flush (their ids)
 
     @property
     def ready(self) -> bool:
@@ -271,14 +271,19 @@ class Device:
         return sig
 
     def set(self, sig: Any, value: float | Sequence[float]) -> None:
-        """Give outgoing ``sig`` a value; it leaves at the next :meth:`flush` (or poll)."""
+        """Give outgoing ``sig`` a value; it leaves at the next :meth:`flush` (or poll).  A signal given a
+        second value before then sends the first at once: libmapper keeps only a signal's latest value
+        until it sends, and two datagrams read in one pass are two values, both wanted."""
+        key = sig._obj
+        if key in self._pending:
+            self.flush()
         sig.set_value(float(value) if isinstance(value, (int, float)) else [float(v) for v in value])
-        self._dirty = True
+        self._pending.add(key)
 
     def flush(self) -> None:
         """Send what was set since the last flush to every map."""
-        if self._dirty and self.dev is not None:
-            self._dirty = False
+        if self._pending and self.dev is not None:
+            self._pending.clear()
             self.dev.update_maps()
 
     def poll(self) -> None:

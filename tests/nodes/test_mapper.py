@@ -298,3 +298,35 @@ def test_without_the_extra_the_bus_says_which_to_install_and_a_patch_without_it_
         timeout=60,
     )
     assert found.stdout.strip() == "False", found.stderr
+
+
+def test_two_values_of_a_signal_before_a_flush_both_leave(client):
+    """libmapper keeps a signal's latest value until it sends: two datagrams read in one pass would lose
+    the first without the device's flush in between."""
+    device = bus.Device(unique("twice"), "lo")
+    try:
+        c = client()
+        sig = device.add(bus.SignalSpec("x"))
+        got = c.incoming("x")
+        deadline = time.monotonic() + WAIT
+        src = None
+        while src is None or not (device.ready and c.dev.ready):
+            assert time.monotonic() < deadline, "the device not on the bus"
+            device.poll()
+            c.dev.poll(5)
+            src = src or c.signal(device.name.rpartition(".")[0], "x")
+        m = mpr.Map(src, got)
+        m.push()
+        while not m.ready:
+            assert time.monotonic() < deadline, "the map not made"
+            device.poll()
+            c.dev.poll(5)
+        device.set(sig, 1.0)
+        device.set(sig, 2.0)
+        device.flush()
+        while len(c.got) < 2 and time.monotonic() < deadline:
+            device.poll()
+            c.dev.poll(5)
+        assert [v for _n, v in c.got] == [1.0, 2.0]
+    finally:
+        device.close()
