@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import signal
 import socket
 import statistics
@@ -144,14 +145,21 @@ class Patch:
         self.port = _free_port()
         path = folder / f"{name}.pat"
         path.write_text(PATCH.format(port=self.port, out=out_port))
-        self.proc = subprocess.Popen(
-            [str(POINTAT), "run", str(path), "--mapper", "lo", "--mapper-name", name, "--status", "0"]
-            + ["--for", str(seconds)],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            cwd=folder,
-        )
+        self.log = folder / f"{name}.log"
+        with self.log.open("w") as out:
+            self.proc = subprocess.Popen(
+                [str(POINTAT), "run", str(path), "--mapper", "lo", "--mapper-name", name, "--status", "0"]
+                + ["--for", str(seconds)],
+                stdout=out,
+                stderr=subprocess.STDOUT,
+                cwd=folder,
+            )
         self.name = name
+
+    def published(self) -> int | None:
+        """The values the patch set on the bus, as its summary says at the end (after :meth:`stop`)."""
+        found = re.findall(r"mapper: .*\bsent: (\d+)", self.log.read_text())
+        return int(found[-1]) if found else None
 
     def rss_kb(self) -> int:
         for line in Path(f"/proc/{self.proc.pid}/status").read_text().splitlines():
@@ -383,6 +391,9 @@ def soak(folder: Path, devices: int, seconds: float, progress: Callable[[str], N
         for p in patches:
             p.stop()
         sink.close()
+    published = [p.published() for p in patches]
+    if result and all(n is not None for n in published):
+        result["unpublished"] = sum(sent - n for sent, n in zip(feeder.count, published, strict=True))
     return result
 
 
@@ -435,7 +446,13 @@ def report(minutes: float, quick: bool, progress: Callable[[str], None] = print)
         f"{s['devices']} devices on one bus for {s['seconds'] / 60:g} min"
         + (" (the issue asks for 10: run `--minutes 10`)" if s["seconds"] < 600 else "")
         + f", each fed 100 values a second, every azimuth mapped to one client: {s['sent']} values sent, "
-        f"**{sum(lost)} lost** (per device, most {max(lost)}); {s['alive']} of {s['devices']} processes "
+        f"**{sum(lost)} lost** (per device, most {max(lost)}"
+        + (
+            f"; {s['unpublished']} of them never reached the bus: the patch did not publish them"
+            if "unpublished" in s
+            else ""
+        )
+        + f"); {s['alive']} of {s['devices']} processes "
         f"alive at the end.  Resident memory per process at the end {_range(s['rss_mb'], '{:.1f}')} MB; "
         + (
             f"growth from {window[0]:.0f} s to {window[1]:.0f} s **{_range(growth, '{:+.1f}')} KB/min**."
