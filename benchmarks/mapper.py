@@ -351,6 +351,7 @@ def soak(folder: Path, devices: int, seconds: float, progress: Callable[[str], N
         maps = [_map(client, s, d) for s, d in zip(srcs, sigs, strict=True)]
         client.poll_until(lambda: all(m.ready for m in maps), 60, "the maps")
         client.start()
+        drops_before = udp_receive_drops()
         feeder = _Feeder([p.port for p in patches], 100.0, keep=False)
         feeder.counting = True  # (every value: each one sent after the maps were made must arrive)
         feeder.start()
@@ -369,6 +370,7 @@ def soak(folder: Path, devices: int, seconds: float, progress: Callable[[str], N
             )
         feeder.stop()
         time.sleep(2.0)  # (the last values on their way)
+        drops_after = udp_receive_drops()
         last_at, last_rss = samples[-1]
         alive = [p.proc.poll() is None for p in patches]
         with client.lock:
@@ -385,6 +387,7 @@ def soak(folder: Path, devices: int, seconds: float, progress: Callable[[str], N
             "rss_mb": [r / 1024 for r in last_rss],
             "growth_kb_min": growth,
             "window_s": (first_at, last_at) if first_rss is not None else None,
+            "udp_drops": None if drops_before is None or drops_after is None else drops_after - drops_before,
         }
     finally:
         client.stop()
@@ -395,6 +398,18 @@ def soak(folder: Path, devices: int, seconds: float, progress: Callable[[str], N
     if result and all(n is not None for n in published):
         result["unpublished"] = sum(sent - n for sent, n in zip(feeder.count, published, strict=True))
     return result
+
+
+def udp_receive_drops() -> int | None:
+    """The system's count of UDP datagrams dropped for a full receive buffer (every process's), or None
+    where ``/proc/net/snmp`` does not say."""
+    try:
+        lines = [
+            ln.split() for ln in Path("/proc/net/snmp").read_text().splitlines() if ln.startswith("Udp:")
+        ]
+        return int(lines[1][lines[0].index("RcvbufErrors")])
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 def _range(values: Sequence[float], fmt: str = "{:.2f}") -> str:
@@ -450,6 +465,11 @@ def report(minutes: float, quick: bool, progress: Callable[[str], None] = print)
         + (
             f"; {s['unpublished']} of them never reached the bus: the patch did not publish them"
             if "unpublished" in s
+            else ""
+        )
+        + (
+            f"; meanwhile the system dropped {s['udp_drops']} UDP datagrams for a full receive buffer"
+            if s.get("udp_drops") is not None
             else ""
         )
         + f"); {s['alive']} of {s['devices']} processes "
