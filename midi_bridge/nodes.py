@@ -109,14 +109,16 @@ class MidiOut(PortWatch, Node):
     (its exact name, or a unique part of it); ``virtual=true`` creates a port named ``port`` (default
     ``pointat``) for a DAW to connect to.  Ports need python-rtmidi (``pip install 'pointat[midi]'``) and
     a MIDI system: without them a port is an error at start that says so.  With neither ``port`` nor
-    ``file`` the system's first output port is used when there is one, else ``NODE_NAME.mid`` in the
-    working directory (with a warning).  Several midi_out nodes may write the same file.  A port named
+    ``file`` the system's first output port is used when there is one, else ``NODE_NAME.mid`` where the
+    patch's own files go (beside it; a shipped patch's in the working directory or ``pointat run
+    --out``), with a warning.  Several midi_out nodes may write the same file.  A port named
     by ``port`` is looked for every second while the patch runs: unplugged mid-show, it is reported once
     and what would go to it is dropped (counted in ``dropped``); plugged back in, it is opened again and
     the last value is sent again, so the receiver catches up.
     """
 
     needs_input = True
+    role = "output"
 
     inlets = (
         Inlet(
@@ -187,7 +189,7 @@ dir.azimuth -> pan
     def _port_name(self) -> str:
         return getattr(self._sink.port, "name", "") if isinstance(self._sink, _PortSink) else ""
 
-    def describe_port(self) -> str:
+    def describe(self) -> str:
         """Where the messages go, named for the console's banner: a file, a port by name (with no
         ``port``, the system's first output as it lists now), or the file written when there is none."""
         if self._sink is not None:
@@ -200,7 +202,7 @@ dir.azimuth -> pan
             return f"MIDI port {self.p.port!r}"
         first, why = first_port("output")
         if first is None:
-            return f"MIDI file {Path(safe_stem(self.name) + '.mid').resolve()} (no MIDI port: {why})"
+            return f"MIDI file {self._fallback_file()} (no MIDI port: {why})"
         return f"MIDI port {first!r} (the system's first)"
 
     def _lost(self) -> None:
@@ -234,14 +236,22 @@ dir.azimuth -> pan
             if names:
                 return _PortSink(open_port(self, "output", names[0], False, lambda n: ports.open_output(n)))
             reason = "the MIDI system has no output port"
-        path = safe_stem(self.name) + ".mid"
+        path = self._fallback_file()
         log.warning(
-            "midi_out '%s': %s; writing %s instead (give port= or file= to choose)",
-            self.name,
-            reason,
-            Path(path).resolve(),
+            "midi_out '%s': %s; writing %s instead (give port= or file= to choose)", self.name, reason, path
         )
-        return _FileSink(path, self.p.bpm, self.p.ppq)
+        try:
+            return _FileSink(str(path), self.p.bpm, self.p.ppq)
+        except OSError as exc:
+            raise OSError(
+                f"cannot write {path}: {exc.strerror or exc} (give port= or file= to choose)"
+            ) from exc
+
+    def _fallback_file(self) -> Path:
+        """The file written when there is no MIDI port and none was asked for: ``NODE.mid`` where the
+        patch's own relative files go (:attr:`~pointat.node.Node.folder`), never the working directory of
+        whoever ran a patch file kept elsewhere."""
+        return ((self.folder or Path()) / (safe_stem(self.name) + ".mid")).resolve()
 
     def on_in(self, msg: Message) -> None:
         if msg.kind == "bang":
@@ -328,6 +338,8 @@ class MidiIn(PortWatch, Node):
     reported once, and when it is plugged back in it is opened again (the patch keeps running).
     """
 
+    role = "input"
+
     outlets = (
         Outlet("cc", "list", "controller number, value 0..127"),
         Outlet("note", "list", "note number, velocity 0..127 (0: note off)"),
@@ -359,7 +371,7 @@ press.0 -> ref.capture
         self._port: mido.ports.BaseInput | None = None
         self.received = 0
 
-    def describe_port(self) -> str:
+    def describe(self) -> str:
         """The port it listens on, named for the console's banner (with no ``port``, the system's first
         input as it lists now)."""
         if self._port is not None:

@@ -398,8 +398,9 @@ class GestureNode(_Learner):
     ... ``gate 0`` (a button or a pedal held while the gesture is made).  ``cut=spot`` finds them with
     no rest between them (repetitions one after another): every example is matched anywhere in the
     stream, and the best of overlapping matches is told half an example after it ends.  Each is compared to every
-    example by dynamic time warping (1-NN DTW, all features warped together; the accelerometer as it
-    is, so the hand's attitude counts), with a null class.  A movement is no gesture (``none``) when:
+    example by dynamic time warping (1-NN DTW; all features warped together, or each on its own when
+    that names more of the examples, each left out in turn; the accelerometer as it is, so the hand's
+    attitude counts), with a null class.  A movement is no gesture (``none``) when:
 
     * it is farther from its nearest class than ``reject`` times the class's reach (how far its
       examples are from keeping still);
@@ -461,7 +462,12 @@ class GestureNode(_Learner):
         ),
         Param("band", "float", 0.5, "DTW's band, a share of the longer movement", minimum=0.0, maximum=1.0),
         Param(
-            "warp", "symbol", "together", "all features warped together, or each on its own", choices=WARPS
+            "warp",
+            "symbol",
+            "auto",
+            "all features warped together, each on its own, or auto: the one that names more of the"
+            " examples, each left out in turn",
+            choices=WARPS,
         ),
         Param(
             "relative",

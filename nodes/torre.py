@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from pointat.maths import scalar as sq
-from pointat.maths.fusion import GyroIntegrator
+from pointat.maths.fusion import ComplementaryFilter, GyroIntegrator
 from pointat.message import Message, as_floats, floats
 from pointat.node import Inlet, Node, Outlet, Param
 from pointat.nodes.orientation import FLAGS, ORIENTATION, RATE, Flagged, SampleClock, as_quat, matrix_message
@@ -198,32 +198,28 @@ am -> fuse.accmag
 """
 
     def setup(self) -> None:
-        self.q: sq.Quat | None = None
+        self.filter = ComplementaryFilter(self.p.crossover)
         self._prev_gyro: sq.Quat | None = None
         self.reset_clock()
+
+    def param_changed(self, name: str) -> None:
+        self.filter.crossover_hz = self.p.crossover
 
     def on_gyro_orientation(self, msg: Message) -> None:
         g = as_quat(msg)
         dt = self.step(msg.time)
         am_msg = self.cold.pop("accmag", None)
         am = as_quat(am_msg) if am_msg is not None else None
-        if self.q is None:
-            if am is None:
-                self.report("waiting_accmag")
-                self._prev_gyro = g
-                return
-            self.q = am
-        elif self._prev_gyro is not None:
-            delta = sq.multiply(sq.conjugate(self._prev_gyro), g)  # body-frame increment
-            self.q = sq.normalize(sq.multiply(self.q, delta))
-        self._prev_gyro = g
-        if am is not None:
-            tau = 1.0 / (2.0 * math.pi * self.p.crossover)
-            self.q = sq.slerp(self.q, am, dt / (tau + dt))  # unit, along the shorter arc
-            self.report("ok")
-        else:
-            self.report("gyro_only")
-        self.out(0, matrix_message(self.q, msg.time))
+        prev, self._prev_gyro = self._prev_gyro, g
+        f = self.filter
+        if not f.initialized and am is None:
+            self.report("waiting_accmag")
+            return
+        # the body-frame increment since the previous gyro orientation (none before the first fused one)
+        delta = sq.multiply(sq.conjugate(prev), g) if f.initialized and prev is not None else None
+        q = f.fuse(delta, am, dt)
+        self.report("ok" if am is not None else "gyro_only")
+        self.out(0, matrix_message(q, msg.time))
 
     def do_reset(self) -> None:
         self.setup()

@@ -52,6 +52,9 @@ class TQT(SampleClock, Flagged, Node):
     ``use_gyro=false`` tracks from accel/mag alone, heading and tilt at gain ``k`` (robust default 50:
     within 20 ms of the measurement).  Send the gyro last (the left inlet is hot): mote and scaling
     nodes output right to left, so wiring gyro, accel and mag outlets to the same-named inlets does this.
+
+    ``backend=auto`` runs robust mode's step compiled by numba (one call a sample, the same results as
+    ``backend=python``'s step in Python, several times sooner); the patch loads it as it loads.
     """
 
     pure = True
@@ -125,6 +128,13 @@ class TQT(SampleClock, Flagged, Node):
             minimum=0.0,
         ),
         RATE,
+        Param(
+            "backend",
+            "symbol",
+            "auto",
+            "auto (numba when mode=robust), numba or python: the same results",
+            choices=("auto", "numba", "python"),
+        ),
     )
     example = """
 node glove simulate
@@ -145,9 +155,15 @@ fuse.flags -> state
         """The ranges the filter's settings mean something in (at load, and for every live change)."""
         if not (math.isnan(values["dip"]) or -90.0 <= values["dip"] <= 90.0):
             raise ValueError(f"dip must be -90..90 deg (or nan: learned), got {values['dip']}")
+        if values["backend"] == "numba" and values["mode"] != "robust":
+            raise ValueError("backend=numba runs mode=robust only (paper: backend=python or auto)")
+        # find_spec, not an import: numba costs a quarter of a second and ~50 MB to import, which a patch
+        # pays only when it builds a filter or a bank that runs it
+        if values["backend"] == "numba" and importlib.util.find_spec("numba") is None:
+            raise ValueError('backend=numba needs numba: pip install "pointat[fast]" (or backend=auto)')
 
     def setup(self) -> None:
-        self.filter = TQTFilter(self.p.k or None, **_settings(self.p))
+        self.filter = TQTFilter(self.p.k or None, backend=self.p.backend, **_settings(self.p))
         self._bits = 0  # the flags last reported ("ok" until a flag is up)
         self.reset_clock()
 
@@ -292,13 +308,6 @@ class TQTBankNode(Node):
             maximum=1024,
         ),
         *TQT.params,
-        Param(
-            "backend",
-            "symbol",
-            "auto",
-            "auto (numba when installed and mode=robust), numba or python",
-            choices=("auto", "numba", "python"),
-        ),
     )
     example = """
 node left  scaling
@@ -336,12 +345,6 @@ right.gyro -> suit.gyro2
     @classmethod
     def validate(cls, values: Mapping[str, Any]) -> None:
         TQT.validate(values)
-        if values["backend"] == "numba" and values["mode"] != "robust":
-            raise ValueError("backend=numba runs mode=robust only (paper: backend=python or auto)")
-        # find_spec, not an import: numba costs a quarter of a second and ~50 MB to import, which a patch
-        # pays only when it builds a bank that runs it
-        if values["backend"] == "numba" and importlib.util.find_spec("numba") is None:
-            raise ValueError('backend=numba needs numba: pip install "pointat[fast]" (or backend=auto)')
 
     def setup(self) -> None:
         p, n = self.p, self.p.sensors

@@ -78,6 +78,9 @@ body.segments -> out.segments
     def check_files(cls, values: Mapping[str, Any]) -> None:
         _load(values["file"])
 
+    def describe(self) -> str:
+        return f"OSC skeleton to {self.p.host}:{self.p.port}"
+
     def setup(self) -> None:
         body = _load(self.p.file)
         self.names = [s.name for s in body.segments]

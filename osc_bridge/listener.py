@@ -18,7 +18,8 @@ from pointat.control import control
 from pointat.devices.osc_wire import bundle_time, decode_packet
 from pointat.errors import Repeats, worth_reporting
 from pointat.message import floats, method
-from pointat.node import FULL_SCALE_PARAMS, RANGE_OUTLET, Node, Outlet, Param, full_scale
+from pointat.node import Node, Outlet, Param
+from pointat.nodes.sensors import FULL_SCALE_PARAMS, RANGE_OUTLET, full_scale
 from pointat.registry import register
 
 from .profiles import SENSORS, Rule, parse_rule
@@ -81,6 +82,7 @@ class OscIn(Node):
     sample_outlets = "gyro|quat"
 
     acts_alone = True  # live control
+    role = "input"
 
     outlets = (
         Outlet("gyro", "vector", "angular rate, rad/s"),
@@ -131,6 +133,12 @@ phone.quat -> dir
             raise ValueError(f"port {values['port']} is outside 0..65535")
         for item in values["map"]:
             parse_rule(item)
+
+    def describe(self) -> str:
+        p = self.p
+        what = "live control" if p.device == "none" and not p.map else f"{p.device}"
+        control = ": /pointat/NODE/PARAM value" if p.control else ""
+        return f"OSC on {p.host}:{p.port or 'a free port'} ({what}{control})"
 
     def setup(self) -> None:
         self.rules: tuple[Rule, ...] = SENSORS[self.p.device] + tuple(parse_rule(m) for m in self.p.map)

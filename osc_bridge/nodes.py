@@ -17,7 +17,7 @@ import numpy as np
 
 from pointat.devices.osc_wire import F32_MAX, encode_message
 from pointat.message import Message, as_float
-from pointat.node import Inlet, Param
+from pointat.node import Inlet, Param, Reading
 from pointat.registry import register
 from pointat.runtime import Timer
 
@@ -65,6 +65,15 @@ class OscOut(UdpSender):
     """
 
     needs_input = True
+    role = "output"
+    readings = (
+        Reading(
+            "aed",
+            "the direction last sent: azimuth (+ left), elevation (+ up), distance (0 far .. 90 near)",
+            units=("deg", "deg", ""),
+            direction=True,
+        ),
+    )
 
     inlets = (
         Inlet("azimuth", ("float", "int", "list", "bang"), "degrees, + left (or a list: az el dist spread)"),
@@ -254,8 +263,22 @@ dir.azimuth -> out.azimuth
             self._beat = (self.now, self.updates)
             self._look()
 
+    def describe(self) -> str:
+        return f"OSC to {', '.join(d.label for d in self.dests)}, profile {self.p.profile}"
+
+    def read(self) -> dict[str, Any]:
+        return {"aed": self.state[:3]}
+
     def health(self) -> dict[str, Any]:
-        return {"refused": self.refused, "failed": self.failed}
+        return {
+            "to": [d.label for d in self.dests],
+            "updates": self.updates,  # directions sent
+            "sent": self.sent,  # datagrams, the heartbeats among them
+            "heard": self.heard,  # directions in: the monitor's waiting, ok and dropout
+            "flag": self.flag,
+            "refused": self.refused,
+            "failed": self.failed,
+        }
 
     def on_elevation(self, msg: Message) -> None:
         v = msg.value if msg.kind == "float" else as_float(msg)  # (per sample: a call less)
@@ -396,6 +419,9 @@ go -> tell
             address = kind if kind.startswith("/") else f"{address.rstrip('/')}/{kind}"
             args = list(value or ())
         self.send([encode_message(address, [_osc_arg(a) for a in args])])
+
+    def describe(self) -> str:
+        return f"OSC {self.p.address} to {', '.join(d.label for d in self.dests)}"
 
     def health(self) -> dict[str, Any]:
         return {"sent": self.sent, "refused": self.refused, "failed": self.failed}

@@ -95,6 +95,7 @@ class UdpSender(Node):
     said once.  A subclass sets ``dests`` (:class:`Destination`), ``_outbox`` (``[]``), ``_timer``
     (``None``) and the counters ``sent``, ``failed``, ``refused`` in its ``setup``."""
 
+    role = "output"
     _timer: Timer | None = None
 
     def start(self) -> None:

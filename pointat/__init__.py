@@ -24,7 +24,8 @@ Cheat sheet::
 Modules: :mod:`pointat.message` (messages), :mod:`pointat.node` (the node model), :mod:`pointat.registry`,
 :mod:`pointat.runtime` (scheduler, clocks), :mod:`pointat.patchfile` (the .pat format),
 :mod:`pointat.pdfile` (Pure Data files), :mod:`pointat.loader` (check and build), :mod:`pointat.cli`,
-:mod:`pointat.testing` (patches in tests).  The pure math is in :mod:`pointat.maths` and the devices in
+:mod:`pointat.testing` (patches in tests), :mod:`pointat.monitor` (the console's status lines, the
+monitor page and OSCQuery).  The pure math is in :mod:`pointat.maths` and the devices in
 :mod:`pointat.devices`; neither imports the engine, and importing them does not load it either: the
 names below are loaded on first use.
 """
@@ -55,6 +56,7 @@ _EXPORTS = {
     "Node": "node",
     "Outlet": "node",
     "Param": "node",
+    "Reading": "node",
     "register": "registry",
     "Registry": "registry",
     "Runtime": "runtime",

@@ -17,6 +17,8 @@ calls, so a change to any of them must mean another folder (an installed copy an
 share one either).
 
 Compiling is lazy, as numba's is: a function is compiled (or loaded from the cache) at its first call.
+``options`` are numba's own for every function of the set (``{"_nrt": False}``: no reference counting,
+for code that allocates nothing; they are part of the cache folder's key too).
 
 >>> import pointat.maths.dtw as dtw
 >>> cache_dir(dtw).name.startswith("numba-")
@@ -31,7 +33,7 @@ import os
 import sys
 import threading
 import types
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -43,34 +45,44 @@ def cache_root() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pointat"
 
 
-def cache_dir(module: types.ModuleType, *, calls: Sequence[types.ModuleType] = ()) -> Path:
-    """Where :func:`compile_module` caches ``module`` compiled with ``calls``: a folder per version of
-    their sources, numba and Python."""
+def cache_dir(
+    module: types.ModuleType,
+    *,
+    calls: Sequence[types.ModuleType] = (),
+    options: Mapping[str, Any] | None = None,
+) -> Path:
+    """Where :func:`compile_module` caches ``module`` compiled with ``calls`` (and ``options``): a folder
+    per version of their sources, numba and Python."""
     import numba
 
     h = hashlib.sha256()
     for m in (module, *calls):
         h.update(f"{m.__file__}\n{inspect.getsource(m)}".encode())
     h.update(f"{numba.__version__} {sys.version}".encode())
+    if options:
+        h.update(repr(sorted(options.items())).encode())
     return cache_root() / f"numba-{h.hexdigest()[:16]}"
 
 
 _lock = threading.Lock()  # (numba reads its cache folder from its config as a function is decorated)
-_compiled: dict[tuple[str, ...], tuple[tuple[types.ModuleType, ...], types.SimpleNamespace]] = {}
+_compiled: dict[tuple[Any, ...], tuple[tuple[types.ModuleType, ...], types.SimpleNamespace]] = {}
 
 
 def compile_module(
-    module: types.ModuleType, *, calls: Sequence[types.ModuleType] = ()
+    module: types.ModuleType,
+    *,
+    calls: Sequence[types.ModuleType] = (),
+    options: Mapping[str, Any] | None = None,
 ) -> types.SimpleNamespace:
-    """``module``'s functions compiled by numba (``nogil``, cached in :func:`cache_dir`), as the
-    attributes of a namespace; those of the modules in ``calls`` are compiled for them to call.  Once a
-    process for the same modules: the second call gives the first one's namespace."""
+    """``module``'s functions compiled by numba (``nogil`` and ``options``, cached in :func:`cache_dir`),
+    as the attributes of a namespace; those of the modules in ``calls`` are compiled for them to call.
+    Once a process for the same modules and options: the second call gives the first one's namespace."""
     modules = (module, *calls)
-    key = tuple(m.__name__ for m in modules)
+    key = (*(m.__name__ for m in modules), repr(sorted((options or {}).items())))
     with _lock:
         done = _compiled.get(key)
         if done is None or any(m is not n for m, n in zip(done[0], modules, strict=True)):  # (reloaded)
-            done = _compiled[key] = (modules, _compile(module, calls))
+            done = _compiled[key] = (modules, _compile(module, calls, dict(options or {})))
     return done[1]
 
 
@@ -83,15 +95,17 @@ def _own(module: types.ModuleType) -> dict[str, types.FunctionType]:
     }
 
 
-def _compile(module: types.ModuleType, calls: Sequence[types.ModuleType]) -> types.SimpleNamespace:
+def _compile(
+    module: types.ModuleType, calls: Sequence[types.ModuleType], options: dict[str, Any]
+) -> types.SimpleNamespace:
     import numba
 
     modules = [module, *(m for m in calls if m is not module)]
-    where = cache_dir(module, calls=calls)
+    where = cache_dir(module, calls=calls, options=options)
     where.mkdir(parents=True, exist_ok=True)
     spaces = {m.__name__: dict(vars(m)) for m in modules}
     compiled: dict[int, Any] = {}  # id of a Python function -> its compiled form
-    jit = numba.njit(cache=True, nogil=True)
+    jit = numba.njit(cache=True, nogil=True, **options)
     saved = numba.config.CACHE_DIR
     numba.config.CACHE_DIR = str(where)
     try:

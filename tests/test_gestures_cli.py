@@ -110,7 +110,7 @@ def test_the_node_s_parameters_are_options_of_evaluate(basic_motions, capsys):
     for bad, said in (
         ("bogus=1", "NAME one of the gesture node's parameters (adapt, band, cut, early"),
         ("reject", "expected NAME=VALUE"),
-        ("warp=sideways", "parameter 'warp' expects one of each, together; got 'sideways'"),
+        ("warp=sideways", "parameter 'warp' expects one of auto, each, together; got 'sideways'"),
         ("reject=-1", "parameter 'reject' expects a number >= 0; got -1"),
         ("relative=[gyr]", "relative takes acc and q; got gyr"),
     ):

@@ -26,7 +26,7 @@ from pointat.loader import build, parse_overrides
 from pointat.monitor.observe import Observer
 from pointat.monitor.webserver import READS_METHODS, MonitorServer
 from pointat.registry import Registry
-from pointat.testing import ws_connect, ws_receive, ws_send
+from tests.monitor_client import ws_connect, ws_receive, ws_send
 
 #: Hypothesis examples of the request and frame properties (derandomized; the long fuzz run is
 #: tests/fuzz_websocket.py): POINTAT_FUZZ_EXAMPLES sets more.

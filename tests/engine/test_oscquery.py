@@ -24,7 +24,7 @@ from pointat.monitor.webserver import MonitorServer
 from pointat.patchfile import parse_patch
 from pointat.presets import Presets
 from pointat.registry import Registry
-from pointat.testing import ws_connect, ws_receive, ws_send
+from tests.monitor_client import ws_connect, ws_receive, ws_send
 
 REG = Registry().load_builtins()
 

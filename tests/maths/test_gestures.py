@@ -179,6 +179,27 @@ def test_a_gate_brackets_a_movement_and_a_refractory_period_follows():
     assert [type(e) for e in events] == [Ended, Dropped] and events[1] == Dropped("refractory")
 
 
+def test_warp_auto_takes_the_warp_that_names_more_of_the_examples_left_out():
+    """Two classes told apart by the order of two bumps on two axes, each bump at its own random time:
+    warping the axes together keeps their order, each on its own loses it (DTW_I cannot tell them)."""
+    rng = np.random.default_rng(4)
+    t = np.arange(80) / 50.0
+
+    def bump(at: float) -> np.ndarray:
+        return np.exp(-0.5 * ((t - at) / 0.08) ** 2)
+
+    examples = []
+    for label, (a, b) in (("xy", (0.4, 1.1)), ("yx", (1.1, 0.4))):
+        for _ in range(4):
+            x = np.column_stack([bump(a + rng.normal(0, 0.05)), bump(b + rng.normal(0, 0.05)), 0 * t])
+            examples.append(Example(label, t, x + rng.normal(0, 0.02, x.shape)))
+    model = GestureModel(("x",), size=3).train(examples)
+    assert model.named_left_out("together") == 8 and model.named_left_out("each") < 8
+    assert model.warped == "together"
+    fixed = GestureModel(("x",), size=3, warp="each").train(examples)
+    assert fixed.warped == "each"
+
+
 def test_segmenter_cuts_from_rest_to_rest():
     seg = Segmenter(on=1.0, off=0.5, settle=0.1, shortest=0.15, longest=2.0)
     energy = [0.0] * 10 + [0.6, 0.8, 1.5, 2.0, 1.5, 0.8, 0.6] + [0.1] * 20

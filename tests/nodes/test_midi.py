@@ -23,7 +23,7 @@ from pointat.midi_bridge import ports as midi_ports
 from pointat.midi_bridge.file_writer import MidiFileWriter
 from pointat.midi_bridge.mapping import MidiSender, scale_to_int
 from pointat.midi_bridge.ports import MidiUnavailable
-from pointat.testing import patch, wait_until
+from pointat.testing import patch, test_registry, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "midi_pan.pat"
@@ -414,6 +414,47 @@ def test_no_port_and_no_file_falls_back_to_a_file_when_there_is_no_midi_system(t
     rt.nodes["pan"].receive(0, make(-90.0))
     rt.shutdown()
     assert hexes(m for m in mido.MidiFile(tmp_path / "pan.mid").tracks[0] if not m.is_meta) == ["B0 0A 7F"]
+
+
+def test_with_no_midi_system_the_file_goes_beside_the_patch_not_into_the_working_directory(
+    tmp_path, monkeypatch
+):
+    """A patch kept in a folder of its own and run from another: ``NODE.mid`` is written beside the patch,
+    as a ``file=NODE.mid`` written in it would be, and the folder it was run from gets nothing."""
+
+    def no_system():
+        raise ImportError("No module named 'rtmidi'")
+
+    monkeypatch.setattr(midi_ports, "output_names", no_system)
+    show, elsewhere = tmp_path / "show", tmp_path / "elsewhere"
+    show.mkdir()
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    rt = patch("node n1 midi_out kind=note number=60", file=str(show / "notes.pat"))
+    rt.advance(0.0)
+    rt.nodes["n1"].receive(0, make(1.0))
+    rt.shutdown()
+    events = [m.hex() for m in mido.MidiFile(show / "n1.mid").tracks[0] if not m.is_meta]
+    assert events == ["90 3C 64", "80 3C 00"]  # the note held is released as the patch stops
+    assert list(elsewhere.iterdir()) == []
+
+
+def test_a_shipped_patch_names_its_midi_files_in_its_out_folder(tmp_path):
+    """A shipped patch is read-only: its files go to ``pointat run --out`` (the working directory by
+    default), the fallback MIDI file too."""
+    from pointat.checking import check
+    from pointat.expansion import read_spec
+    from pointat.loader import build
+
+    spec = read_spec(str(ROOT / "patches" / "gestures.pat"))
+    spec.out = str(tmp_path)
+    checked = check(spec, test_registry())
+    assert {checked.nodes[n].folder for n in ("n1", "n2", "n3")} == {tmp_path}
+    rt = build(checked, realtime=False)
+    try:
+        assert rt.nodes["n1"]._fallback_file() == tmp_path.resolve() / "n1.mid"
+    finally:
+        rt.shutdown()
 
 
 # --------------------------------------------------------------------------- no MIDI system

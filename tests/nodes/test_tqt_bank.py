@@ -270,15 +270,18 @@ def test_the_shipped_three_glove_patch_sends_three_sources_over_osc():
 
 def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path):
     """numba costs a quarter of a second and ~50 MB to import: listing every node type and checking a
-    patch without a bank must not pay it (every patch would); building the bank does, and so does
-    checking it (check builds every node, as run does)."""
+    patch without a compiled filter must not pay it (every patch would); building the bank does, and so
+    does checking it (check builds every node, as run does).  A ``tqt`` node in paper mode, or told
+    ``backend=python``, runs the step in Python and does not pay it either."""
     import subprocess
     import sys
 
     pat = tmp_path / "bank.pat"
     pat.write_text("node bank tqt_bank sensors=2 backend=numba\n")
     plain = tmp_path / "plain.pat"
-    plain.write_text("node fuse tqt\nnode p print\nfuse -> p\n")
+    plain.write_text(
+        "node fuse tqt backend=python\nnode old tqt mode=paper\nnode p print\nfuse -> p\nold -> p\n"
+    )
     code = (
         "import contextlib, io, sys\n"
         "from pointat.cli import main\n"

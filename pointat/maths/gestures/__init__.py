@@ -18,8 +18,9 @@ Conventions
   when ``relative`` says so; ``mag`` as a unit vector; ``q`` as the rotation since the gesture began (a
   rotation vector, radians: where the performer faces does not matter); each channel group then divided
   by its spread over the examples (:attr:`GestureModel.scales`), so that no unit outweighs another.
-* Distances are dynamic time warping's (:mod:`pointat.maths.dtw`), all features warped together, nearest
-  template wins (1-NN DTW, the baseline the literature holds every newer method against).
+* Distances are dynamic time warping's (:mod:`pointat.maths.dtw`), all features warped together (DTW_D)
+  or each on its own (DTW_I), whichever names more of the model's examples left out one at a time;
+  nearest template wins (1-NN DTW, the baseline the literature holds every newer method against).
 * The *null class* (:meth:`GestureModel.decide`): a movement farther from its nearest class than
   ``reject`` times the class's reach (its examples' distance from keeping still), or no nearer to it than
   three times its own distance from keeping still, or three times faster, slower, stronger or weaker than

@@ -15,8 +15,9 @@ GRAVITY = 9.80665
 #: The channel groups a frame may hold, and their sizes (``x``'s size is the model's).
 CHANNELS: dict[str, int] = {"acc": 3, "gyr": 3, "mag": 3, "q": 4, "x": 0}
 
-#: How the features are warped: ``each`` on its own (DTW_I), or all ``together`` (DTW_D).
-WARPS = ("each", "together")
+#: How the features are warped: ``each`` on its own (DTW_I), all ``together`` (DTW_D), or ``auto``: the
+#: one of the two that names more of the model's own examples left out one at a time (together on a tie).
+WARPS = ("auto", "each", "together")
 
 #: The channel groups taken relative to how a movement began (:func:`transform`), by default: the
 #: accelerometer as it is (the hand's attitude tells gestures apart), the turn since the start.

@@ -62,7 +62,8 @@ class TQTBank(_TQTParams):
             raise ValueError(f"backend='numba' runs mode='robust' only, got mode {self.mode!r}")
         numba = backend == "numba" or (backend == "auto" and self.mode == "robust")
         self.backend = "numba" if numba else "python"
-        self._kernel = compiled.robust_bank if numba else None
+        self._kernel = compiled.bank_kernel() if numba else None
+        self._all = np.ones(self.n, dtype=bool)  # present: every sensor (read only)
         self._p = np.array(self._p) if numba else self._p
         if numba and not compiled.compiled():
             # numba compiles the kernel (or loads it from its cache) on its first call, up to a second or
@@ -143,15 +144,16 @@ class TQTBank(_TQTParams):
                 f"gyro, acc and mag must have shape {shape}, got {g.shape}, {a.shape}, {m.shape}"
             )
         if present is None:
-            here = np.ones(self.n, dtype=bool)
+            here = self._all
         else:
             here = np.asarray(present, dtype=bool)
             if here.shape != (self.n,):
                 raise ValueError(f"present must have shape ({self.n},), got {here.shape}")
         dt = float(dt)
         if self._kernel is not None:
-            self._kernel(np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m), dt, here,
-                         self._s, self._p, self._flags)  # fmt: skip
+            if not (g.flags.c_contiguous and a.flags.c_contiguous and m.flags.c_contiguous):
+                g, a, m = np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m)
+            self._kernel(g, a, m, dt, here, self._s, self._p, self._flags)
             return self._s[:, :4].copy()
         run, p = self._step, self._p
         for i, (gi, ai, mi) in enumerate(zip(g.tolist(), a.tolist(), m.tolist(), strict=True)):
