@@ -19,11 +19,12 @@ lists each glove by its node's name, and a map from glove A's azimuth is drawn f
 ============================  =======  =========  ==============  ========================================
 signal                        length   unit       range           from
 ============================  =======  =========  ==============  ========================================
-``NODE/azimuth``              1        deg        -180 .. 180     every pointer (a node that takes
-``NODE/elevation``            1        deg        -90 .. 90       ``azimuth``, ``elevation`` and
-``NODE/distance``             1        deg        0 .. 90         ``distance``: ``osc_out``), in pointat's
-                                                                  convention (+ left, + up, 0 far .. 90
-                                                                  near), before any receiver's profile
+``NODE/azimuth``              1        deg        -180 .. 180     every pointer (a node with a reading
+``NODE/elevation``            1        deg        -90 .. 90       marked ``direction``: ``osc_out``), as
+``NODE/distance``             1        deg        0 .. 90         it reads after each message to its hot
+                                                                  inlet, in pointat's convention (+ left,
+                                                                  + up, 0 far .. 90 near), before any
+                                                                  receiver's profile
 ``NODE/quat``                 4        (none)     -1 .. 1         the nearest ``quat`` outlet upstream of
                                                                   that pointer (w x y z, sensor -> NWU)
 ``NODE/LABEL``                1        score      0 .. 1          a ``gesture`` outlet's LABEL SCORE, one
@@ -37,7 +38,7 @@ signal                        length   unit       range           from
                                                                   it (``segment0``... otherwise)
 ============================  =======  =========  ==============  ========================================
 
-Found by declaration (the outlets' and inlets' names), never by node type: a third party's node with a
+Found by declaration (a node's readings, its outlets' names), never by node type: a third party's node with a
 ``gesture`` outlet is published as the built-in one is.  A value is set as the message passes and the
 bus is told when the scheduler's pass ends (:meth:`pointat.runtime.Runtime.at_pass_end`), so a glove's
 three coordinates leave together.
