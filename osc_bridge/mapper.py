@@ -155,17 +155,21 @@ node bus  mapper interface=lo device=anna
 
     def _pointer(self, node: Node, nodes: list[Node]) -> None:
         """Taps for a node that points (a :class:`~pointat.node.Reading` marked ``direction``, as
-        ``osc_out`` declares): the direction it reads after each message to its hot inlet, and the
-        quaternion nearest upstream of it."""
-        reading = next((r for r in type(node).readings if r.direction), None)
-        if reading is None:
+        ``osc_out`` declares): its azimuth, elevation and distance as they reach its inlets of those
+        names, and the quaternion nearest upstream of it.  (What reaches it, not what it reads: a
+        compiled chain feeds the node's inlets and keeps its state apart until the end.)"""
+        if not any(r.direction for r in type(node).readings):
+            return
+        names = [i.name for i in node.in_specs]
+        coords = [c[0] for c in bus.POINTER]
+        where = {names.index(c): k for k, c in enumerate(coords) if c in names}
+        if not where:
             return
         assert self.device is not None
         sigs = [
             self.device.add(bus.SignalSpec(bus.signal_name(node.name, c), 1, "f", unit, (lo,), (hi,)))
             for c, unit, lo, hi in bus.POINTER
         ]
-        hot = [i for i, spec in enumerate(node.in_specs) if spec.is_hot(i)]
         feeders: dict[Node, list[Node]] = {}
         for src in nodes:
             for o, targets in enumerate(src._targets):
@@ -173,19 +177,22 @@ node bus  mapper interface=lo device=anna
                     if isinstance(dst, _Tap):
                         continue
                     feeders.setdefault(dst, []).append(src)
-                    if dst is node and inlet in hot:  # (the tap runs after the node took the message)
-                        tap(src, o, self._direction(node, reading.name, sigs))
+                    if dst is node and inlet in where:
+                        tap(src, o, self._coordinate(sigs, where[inlet]))
         quat = _nearest_quat(node, feeders)
         if quat is not None:
             qsig = self.device.add(replace(bus.QUAT, name=bus.signal_name(node.name, "quat")))
             tap(*quat, self._vector(qsig, 4))
 
-    def _direction(self, node: Node, name: str, sigs: list[Any]) -> Callable[[Message], None]:
-        def take(_msg: Message) -> None:
-            values = [float(v) for v in node.read().get(name, ())][:3]
-            if len(values) == 3 and bus.finite(values):
-                for sig, v in zip(sigs, values, strict=True):
-                    self._publish(sig, v)
+    def _coordinate(self, sigs: list[Any], k: int) -> Callable[[Message], None]:
+        def take(msg: Message) -> None:
+            if msg.kind == "list" and k == 0:  # az el dist [spread] at the azimuth inlet
+                values = [float(v) for v in msg.value[:3] if isinstance(v, (int, float))]
+                for j, v in enumerate(values):
+                    if math.isfinite(v):
+                        self._publish(sigs[j], v)
+            elif msg.kind in ("float", "int") and math.isfinite(msg.value):
+                self._publish(sigs[k], float(msg.value))
 
         return take
 

@@ -21,9 +21,9 @@ signal                        length   unit       range           from
 ============================  =======  =========  ==============  ========================================
 ``NODE/azimuth``              1        deg        -180 .. 180     every pointer (a node with a reading
 ``NODE/elevation``            1        deg        -90 .. 90       marked ``direction``: ``osc_out``), as
-``NODE/distance``             1        deg        0 .. 90         it reads after each message to its hot
-                                                                  inlet, in pointat's convention (+ left,
-                                                                  + up, 0 far .. 90 near), before any
+``NODE/distance``             1        deg        0 .. 90         they reach its inlets of those names,
+                                                                  in pointat's convention (+ left, + up,
+                                                                  0 far .. 90 near), before any
                                                                   receiver's profile
 ``NODE/quat``                 4        (none)     -1 .. 1         the nearest ``quat`` outlet upstream of
                                                                   that pointer (w x y z, sensor -> NWU)
