@@ -330,3 +330,17 @@ def test_two_values_of_a_signal_before_a_flush_both_leave(client):
         assert [v for _n, v in c.got] == [1.0, 2.0]
     finally:
         device.close()
+
+
+def test_pointat_run_mapper_joins_the_bus_and_a_missing_interface_is_an_error_said_plainly(tmp_path, capsys):
+    from pointat.cli import main
+
+    pat = tmp_path / "two.pat"
+    pat.write_text("node lb loadbang\nnode m msg 1\nnode p print\nlb -> m -> p\n")
+    name = unique("cli")
+    assert (
+        main(["run", str(pat), "--mapper", "lo", "--mapper-name", name, "--for", "1.5", "--status", "0"]) == 0
+    )
+    assert "mapper:" in capsys.readouterr().out  # (its health in the summary)
+    assert main(["run", str(pat), "--mapper", "nosuch0", "--for", "1"]) != 0
+    assert "no network interface 'nosuch0'" in capsys.readouterr().err
