@@ -100,6 +100,15 @@ class TQT(SampleClock, Flagged, Node):
             minimum=0.0,
         ),
         Param(
+            "k_heading_rest",
+            "float",
+            0.2,
+            "heading-correction gain while the sensor rests (robust mode; the larger of it and the gain of the moment)",
+            unit="1/s",
+            live=True,
+            minimum=0.0,
+        ),
+        Param(
             "k_heading_unrested",
             "float",
             0.1,
@@ -227,6 +236,7 @@ def _settings(p: Any) -> dict[str, Any]:
         "dip": None if math.isnan(p.dip) else math.radians(p.dip),
         "k_heading": p.k_heading,
         "k_heading_unrested": p.k_heading_unrested,
+        "k_heading_rest": p.k_heading_rest,
         "acc_range": p.acc_range * STANDARD_GRAVITY,
         "gyro_range": math.radians(p.gyro_range),
     }

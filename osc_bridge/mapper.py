@@ -20,7 +20,7 @@ from pointat import mapper as bus
 from pointat.control import PREFIX, control
 from pointat.errors import worth_reporting
 from pointat.message import Message, make
-from pointat.monitor.observe import _Tap, tap
+from pointat.monitor.observe import _Tap
 from pointat.node import Node, Outlet, Param
 from pointat.registry import register
 
@@ -115,6 +115,7 @@ node bus  mapper interface=lo device=anna
         self.joined = ""  # the device's name once the bus agreed it (pointat_glove_tqt.1)
         self._flushing = False
         self._events: dict[str, Any] = {}  # posture node name -> the label it holds
+        self._taps: list[tuple[Node, int, Any]] = []  # (node, outlet, the tap on it)
 
     def device_name(self) -> str:
         """The name asked of the bus (it adds the ordinal): ``device``, else ``pointat_`` and the patch's."""
@@ -126,6 +127,32 @@ node bus  mapper interface=lo device=anna
     def start(self) -> None:
         self.device = bus.Device(self.device_name(), self.p.interface)
         self.active = True
+        self._attach()
+        reloader = getattr(self._runtime(), "reloader", None)
+        if reloader is not None:  # (pointat run --watch: the patch's nodes may be made anew)
+            reloader.listen(self.reattach)
+
+    def reattach(self, _plan: Any = None) -> None:
+        """After a reload (scheduler thread): the taps taken off, the patch's signals found again; this
+        node back among the runtime's when the new file does not name it (``--mapper`` added it)."""
+        if self.device is None:
+            return  # (closed: the reload dropped it)
+        rt = self._runtime()
+        if rt.nodes.get(self.name) is not self:  # type: ignore[attr-defined]
+            rt.nodes = {**rt.nodes, self.name: self}  # type: ignore[attr-defined]
+        for node, outlet, t in self._taps:
+            node._targets[outlet] = [x for x in node._targets[outlet] if x[0] is not t]
+        self._taps = []
+        self._attach()
+
+    def _tap(self, node: Node, outlet: int, fn: Callable[[Message], None]) -> None:
+        t = _Tap(fn)
+        node._targets[outlet].append((t, 0))
+        self._taps.append((node, outlet, t))
+
+    def _attach(self) -> None:
+        """Signals for what the patch's nodes declare, and taps on their outlets."""
+        assert self.device is not None
         rt = self._runtime()
         nodes = [n for n in rt.nodes.values() if n is not self]  # type: ignore[attr-defined]
         for node in nodes:
@@ -178,11 +205,11 @@ node bus  mapper interface=lo device=anna
                         continue
                     feeders.setdefault(dst, []).append(src)
                     if dst is node and inlet in where:
-                        tap(src, o, self._coordinate(sigs, where[inlet]))
+                        self._tap(src, o, self._coordinate(sigs, where[inlet]))
         quat = _nearest_quat(node, feeders)
         if quat is not None:
             qsig = self.device.add(replace(bus.QUAT, name=bus.signal_name(node.name, "quat")))
-            tap(*quat, self._vector(qsig, 4))
+            self._tap(*quat, self._vector(qsig, 4))
 
     def _coordinate(self, sigs: list[Any], k: int) -> Callable[[Message], None]:
         def take(msg: Message) -> None:
@@ -209,17 +236,17 @@ node bus  mapper interface=lo device=anna
         assert self.device is not None
         for o, spec in enumerate(node.out_specs):
             if spec.name == "gesture" and spec.kind == "list":
-                tap(node, o, self._gesture(node.name))
+                self._tap(node, o, self._gesture(node.name))
             elif spec.name == "posture" and spec.kind == "symbol":
-                tap(node, o, self._posture(node.name))
+                self._tap(node, o, self._posture(node.name))
                 none = [i for i, s in enumerate(node.out_specs) if s.name == "none"]
                 if none:
-                    tap(node, none[0], self._posture(node.name, leaves=True))
+                    self._tap(node, none[0], self._posture(node.name, leaves=True))
             elif spec.name == "stroke" and spec.kind == "list":
                 sig = self.device.add(replace(bus.STROKE, name=bus.signal_name(node.name, "stroke")))
-                tap(node, o, self._vector(sig, 3))
+                self._tap(node, o, self._vector(sig, 3))
             elif spec.name == "segments" and spec.kind == "vector":
-                tap(node, o, self._segments(node))
+                self._tap(node, o, self._segments(node))
 
     def _label_signal(self, node_name: str, label: Any, unit: str) -> Any:
         assert self.device is not None

@@ -652,8 +652,8 @@ class Node:
             return
         self._handlers, self._deliver = self._held
         self._held = None
-        for name in ("receive", "set_params", "health"):
-            self.__dict__.pop(name, None)
+        for method in (Node.receive, Node.set_params, Node.health):
+            self.__dict__.pop(method.__name__, None)
 
     # receiving --------------------------------------------------------------
     def receive(self, index: int, msg: Message) -> None:

@@ -134,6 +134,8 @@ class Runtime:
         self._input_at = -math.inf  # when a pass last served input (time.monotonic)
         #: The patch's presets (:class:`pointat.presets.Presets`), when it runs from a file.
         self.presets: Any = None
+        #: What reloads the patch from its file (:class:`pointat.reload.Reloader`), when it runs from one.
+        self.reloader: Any = None
         #: Where ``print`` nodes write; the CLI points it at the terminal, tests at a list.
         self.console: Callable[[str], None] = logging.getLogger("pointat.console").info
         for node in nodes:

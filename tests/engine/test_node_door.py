@@ -63,7 +63,7 @@ def test_a_held_node_calls_release_before_what_reaches_it_and_sync_before_its_he
     o.set_params(radius=2.0)
     assert set(calls) == {"release 10.0 1.0"} and o.p.radius == 2.0
     calls.clear()
-    assert o.health() == {"refused": 0, "failed": 0}
+    assert {"refused": 0, "failed": 0}.items() <= o.health().items()
     assert calls == ["sync"]
     o.unhold()
     o.unhold()  # (idempotent)

@@ -344,3 +344,41 @@ def test_pointat_run_mapper_joins_the_bus_and_a_missing_interface_is_an_error_sa
     assert "mapper:" in capsys.readouterr().out  # (its health in the summary)
     assert main(["run", str(pat), "--mapper", "nosuch0", "--for", "1"]) != 0
     assert "no network interface 'nosuch0'" in capsys.readouterr().err
+
+
+def test_after_a_reload_the_bus_has_the_new_nodes_signals_and_each_outlet_one_tap(tmp_path, client):
+    from pointat.checking import check
+    from pointat.expansion import read_spec
+    from pointat.loader import ready
+    from pointat.monitor.observe import _Tap
+    from pointat.reload import Reloader
+
+    path = tmp_path / "p.pat"
+    text = "node t trigger f\nnode out osc_out port=9\nt -> out.azimuth\n"
+    path.write_text(text)
+    reg = test_registry()
+    checked, rt = ready(read_spec(path), reg, realtime=False)
+    rt.reloader = Reloader(rt, checked, lambda: check(read_spec(path), reg, read_files=True), path=path)
+    name = unique("reload")
+    bus_node = rt.add(reg.get("mapper")("mapper", {"interface": "lo", "device": name}))
+    try:
+        c = client()
+        rt.start()
+        path.write_text(
+            text.replace("node out", "node aim").replace("-> out", "-> aim") + "node p print decimals=1\n"
+        )
+        assert rt.reloader.reload(), rt.reloader.problems
+        assert rt.nodes["mapper"] is bus_node
+        sigs: dict = {}
+        until(rt, lambda: all([_found(sigs, c, name, s) for s in ("aim/azimuth", "p/decimals")]), c, "new")
+        taps = [d for d, _ in rt.nodes["t"]._targets[0] if isinstance(d, _Tap)]
+        assert len(taps) == 1
+        got = c.incoming("aim")
+        m = mpr.Map(sigs["aim/azimuth"], got)
+        m.push()
+        until(rt, lambda: m.ready, c, "the map")
+        rt.nodes["t"].receive(0, make(12.5))
+        until(rt, lambda: c.got, c, "the value through the new node")
+        assert c.got == [("aim", 12.5)]
+    finally:
+        rt.shutdown()
