@@ -17,10 +17,13 @@ from pointat.registry import Registry, RegistryError
 from pointat.testing import patch, test_registry
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The engine's modules that tell people about nodes, and the node model itself.
+#: The engine's modules that tell people about nodes, the node model itself, and what loads, checks, runs
+#: and reloads a patch (Pd's scheduler never asks what an object is).
 ENGINE = [
-    ROOT / "pointat" / "console.py",
-    ROOT / "pointat" / "node.py",
+    *(
+        ROOT / "pointat" / f"{name}.py"
+        for name in ("console", "node", "registry", "checking", "loader", "runtime", "scheduling", "reload")
+    ),
     *sorted((ROOT / "pointat" / "monitor").glob("*.py")),
 ]
 #: The built-in types' names, but those that name a part of every node too (``receive``: a method).
