@@ -26,7 +26,7 @@ from ..node import Reading
 
 __all__ = ["EXTENSIONS", "address_space", "find", "value_of"]
 
-log = logging.getLogger("pointat.oscquery")
+log = logging.getLogger("pointat.monitor.oscquery")
 
 #: What the server implements of the proposal's optional parts (HOST_INFO's EXTENSIONS).
 EXTENSIONS = {
