@@ -149,7 +149,8 @@ def _accepted(model: GestureModel, d: Decision, k: float) -> bool:
     saved, model.reject = model.reject, k
     try:
         distances = np.array([d.per_class[label] for label in model.labels])
-        return model.decide(distances, duration=d.duration, still=d.still).label is not None
+        gauge = np.array([d.distance if label == d.nearest else math.inf for label in model.labels])
+        return model.decide(distances, duration=d.duration, still=d.still, gauge=gauge).label is not None
     finally:
         model.reject = saved
 
