@@ -38,7 +38,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 def _ws_client(port: int, commands: Sequence[dict]) -> tuple[socket.socket, threading.Thread, list[int]]:
     """A plain WebSocket client that sends ``commands`` and reads every frame until closed."""
-    from pointat.testing import ws_connect, ws_send
+    from tests.monitor_client import ws_connect, ws_send
 
     s = ws_connect(port)
     for cmd in commands:
@@ -68,9 +68,9 @@ def batch_cost(monitored: bool) -> float:
     from pointat.expansion import read_spec
     from pointat.loader import build, parse_overrides
     from pointat.maths.evaluation import BROAD_SAMPLE
-    from pointat.observe import Observer
+    from pointat.monitor.observe import Observer
+    from pointat.monitor.webserver import MonitorServer
     from pointat.registry import Registry
-    from pointat.webserver import MonitorServer
 
     # a socket nobody reads (no thread in this process to wake for each datagram: a reader here would
     # take the interpreter from the scheduler thousands of times a second, and more so beside the
@@ -120,7 +120,7 @@ def _browser(url: str) -> Callable[[], None] | None:
         from selenium import webdriver
         from selenium.webdriver.chrome.service import Service
 
-        from pointat.testing import CHROMIUM_FLAGS
+        from tests.monitor_client import CHROMIUM_FLAGS
     except ImportError:
         return None
     if not (shutil.which("chromium") and shutil.which("chromedriver")):

@@ -16,7 +16,8 @@ shared, and the fastest of many tries shows what it can do when nothing else run
   a fresh instance of that node alone (its outlets into a sink that does nothing): microseconds per input
   sample, which add up to about the chain's cost.  A ``cProfile`` of (b) names the hot functions.
 * **Pure filters.**  One ``update`` per sample of a BROAD trial, inputs prepared beforehand in each
-  library's own format: pointat's ``TQTFilter`` (robust, paper), ``ComplementaryFilter``, ``TQTBank`` over
+  library's own format: pointat's ``TQTFilter`` (robust, paper), ``ComplementaryFilter`` (and its ``fuse``
+  alone: what the ``complementary`` node runs a sample, the filter's own code), ``TQTBank`` over
   15 sensors (per sensor-sample), against ``ahrs`` Madgwick and Mahony, ``imufusion`` and ``vqf`` called
   once per sample, and VQF's and BasicVQF's ``updateBatch`` (one call for the whole trial) beside the bank,
   batch against batch.
@@ -51,12 +52,14 @@ from pointat.devices.glove_sim import GloveSimulator
 from pointat.loader import load
 from pointat.maths.evaluation import BROAD_RATE
 from pointat.maths.fusion import ComplementaryFilter
+from pointat.maths.scalar import accmag_quat as accmag_quat_floats
+from pointat.maths.scalar import axis_angle_quat
 from pointat.maths.tqt import TQTBank, TQTFilter
 from pointat.message import Message, floats, vector
 from pointat.node import Inlet, Node
 from pointat.nodes.body import SkeletonNode
-from pointat.nodes.orientation import TQT as TQTNode
-from pointat.nodes.orientation import TQTBankNode
+from pointat.nodes.tqt import TQT as TQTNode
+from pointat.nodes.tqt import TQTBankNode
 from pointat.runtime import Runtime
 
 from .latency import (
@@ -606,6 +609,13 @@ def _feed(
     rt.shutdown()
 
 
+def _increment(rate: list[float], dt: float) -> tuple[float, float, float, float] | None:
+    """The body-frame rotation of one gyro sample, as :meth:`ComplementaryFilter.update` makes it."""
+    wx, wy, wz = rate
+    r = math.sqrt(wx * wx + wy * wy + wz * wz)
+    return axis_angle_quat(wx / r, wy / r, wz / r, r * dt) if r > 0.0 else None
+
+
 def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[list[FilterCost], list[str]]:
     """Per-update cost of pointat's pure filters and of the peers, same samples, same rounds."""
     g, a, m = (np.ascontiguousarray(sample[k][:n]) for k in ("gyr", "acc", "mag"))
@@ -615,19 +625,25 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     out: list[FilterCost] = []
     errors: list[str] = []
 
-    def tqt(mode: str) -> Callable[[], None]:
+    def tqt(mode: str, backend: str) -> Callable[[], None]:
         def run() -> None:
-            f = TQTFilter(mode=mode)  # type: ignore[arg-type]
+            f = TQTFilter(mode=mode, backend=backend)  # type: ignore[arg-type]
             upd = f.update
             for i in range(n):
                 upd(gl[i], al[i], ml[i], dt)
 
         return run
 
-    for mode in ("robust", "paper"):
-        out.append(
-            FilterCost(f"TQTFilter {mode}", "pointat", _rounds(tqt(mode), n, rounds), "Python floats in")
+    TQTFilter()  # compiles the robust step (or loads it from numba's cache) outside the timing
+    for mode, backend, note in (
+        ("robust", "auto", "Python floats in; the step compiled (numba), one call a sample"),
+        ("robust", "python", "Python floats in; the step in Python"),
+        ("paper", "python", "Python floats in"),
+    ):
+        name = f"TQTFilter {mode}" + (
+            ", the step in Python" if backend == "python" and mode == "robust" else ""
         )
+        out.append(FilterCost(name, "pointat", _rounds(tqt(mode, backend), n, rounds), note))
 
     def compl() -> None:
         f = ComplementaryFilter(0.05)
@@ -637,18 +653,33 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     us = _rounds(compl, n, max(1, rounds - 1))
     out.append(FilterCost("ComplementaryFilter", "pointat", us, "numpy rows in"))
 
+    # what the complementary node runs a sample: fuse, on the gyro's increment and the acc/mag orientation
+    # (the chain's gyro_integrator and accmag_matrix give them; here made beforehand from the same samples)
+    increments = [_increment(gl[i], dt) for i in range(n)]
+    accmags = [accmag_quat_floats(al[i], ml[i]) for i in range(n)]
+
+    def fuse() -> None:
+        step = ComplementaryFilter(0.05).fuse
+        for i in range(n):
+            step(increments[i], accmags[i], dt)
+
+    us = _rounds(fuse, n, max(1, rounds - 1))
+    out.append(
+        FilterCost(
+            "ComplementaryFilter.fuse",
+            "pointat",
+            us,
+            "the complementary node's step: gyro increment and acc/mag orientation in, Python floats",
+        )
+    )
+
     k15 = 15
     nb = min(n, 4000)
     G = np.repeat(g[:nb, None, :], k15, 1)
     A = np.repeat(a[:nb, None, :], k15, 1)
     M = np.repeat(m[:nb, None, :], k15, 1)
 
-    from pointat.maths.tqt import compiled as tqt_compiled
-
-    backends = ["numba", "python"] if tqt_compiled.available() else ["python"]
-    if not tqt_compiled.available():
-        errors.append('TQTBank numba backend: numba is not installed (pip install ".[fast]")')
-    for backend in backends:
+    for backend in ("numba", "python"):
         TQTBank(k15, backend=backend).update(G[0], A[0], M[0], dt)  # compiles (numba) outside the timing
 
         def bank(backend: str = backend) -> None:

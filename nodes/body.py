@@ -275,6 +275,7 @@ class BvhRecord(Node):
     """
 
     needs_input = True
+    role = "output"
 
     inlets = (
         Inlet("segments", ("vector", "list"), "each segment's orientation, 4M numbers (skeleton.segments)"),
@@ -298,6 +299,9 @@ body.segments -> take.segments
     @classmethod
     def check_files(cls, values: Mapping[str, Any]) -> None:
         _load(values["skeleton"])
+
+    def describe(self) -> str:
+        return f"records into {self.p.file}"
 
     def setup(self) -> None:
         self.body = _load(self.p.skeleton)
@@ -356,6 +360,7 @@ class SimulateBody(PacedSource):
     """
 
     sample_outlets = "gyro[0-9]+"
+    role = "input"
 
     outlets = (Outlet("truth", "vector", "every segment's true orientation, body frame, 4M numbers"),)
     #: Pd's stub is drawn for the 15-sensor body, so that it connects as any smaller one does.
@@ -411,6 +416,9 @@ class SimulateBody(PacedSource):
     @classmethod
     def check_files(cls, values: Mapping[str, Any]) -> None:
         _load(values["file"])
+
+    def describe(self) -> str:
+        return f"a simulated body, {self.p.rate:g} Hz"
 
     def setup(self) -> None:
         self.sim = BodySimulator(

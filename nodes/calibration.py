@@ -78,6 +78,7 @@ class Offset(Node):
     """
 
     pure = True
+    fusable = True
 
     inlets = (ADC,)
     outlets = (Outlet("adc", "vector", "nine counts relative to their nulls"), STATUS)
@@ -134,6 +135,15 @@ class Offset(Node):
             c[6] - n[6], c[7] - n[7], c[8] - n[8],
         )  # fmt: skip
         self.out(0, floats(d, msg.time))
+
+    def fused_state(self) -> dict[str, Any] | None:
+        """The nulls, once no gyro average is under way and the output flows (:mod:`pointat.compiled`)."""
+        if self._n < self.p.samples or not self._flowing:
+            return None
+        return {"nulls": self.nulls}
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        self.nulls = tuple(state["nulls"])
 
     def health(self) -> dict[str, Any]:
         if self._ready:
@@ -207,6 +217,7 @@ class Scaling(Node):
     """
 
     pure = True
+    fusable = True
 
     #: Counts from the null to the nearer rail when the file gives no nulls.
     RAIL_COUNTS = ADC_NULL - 0.05 * ADC_MAX
@@ -300,6 +311,19 @@ class Scaling(Node):
 
     def loadbang(self) -> None:
         self.out(3, self.full_scale)
+
+    def fused_state(self) -> dict[str, Any]:
+        """The factors and matrices (row major; None: the identity) a sample is scaled with
+        (:mod:`pointat.compiled`): set when the node is built, never moved on."""
+        return {
+            "factor": self.factor,
+            "soft_iron": self.soft_iron,
+            "acc_misalignment": self.acc_misalignment,
+            "gyro_misalignment": self.gyro_misalignment,
+        }
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        """Nothing to take back: the chain only reads them."""
 
     #: How far (a factor) a file's gyro or accelerometer scale may be from the nominal resolution's.
     PLAUSIBLE = 4.0
@@ -408,6 +432,7 @@ class Calibrate(Node):
     """
 
     needs_input = True
+    role = "output"
 
     #: How far (a factor) a gyro scale from a turn may be from the nominal ``gyro`` resolution's.
     TURN_FACTOR = 2.0
@@ -457,6 +482,9 @@ class Calibrate(Node):
             minimum=0.0,
         ),
     )
+
+    def describe(self) -> str:
+        return f"calibration, writes {self.p.file} (steps by OSC: /pointat/{self.name}/rest ...)"
 
     def setup(self) -> None:
         self.calibration = Calibration()

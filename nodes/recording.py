@@ -36,7 +36,8 @@ import numpy as np
 
 from pointat.maths.quaternion import enu_to_nwu
 from pointat.message import Message, floats, vector
-from pointat.node import FULL_SCALE_PARAMS, RANGE_OUTLET, Inlet, Node, Outlet, Param, full_scale
+from pointat.node import Inlet, Node, Outlet, Param
+from pointat.nodes.sensors import FULL_SCALE_PARAMS, RANGE_OUTLET, full_scale
 from pointat.registry import register
 from pointat.userfiles import UserFileError
 from pointat.userfiles import lines as user_lines
@@ -169,6 +170,7 @@ class Record(Node):
     """
 
     needs_input = True
+    role = "output"
 
     inlets = (Inlet("in", ("any",), "the stream to record"),)
     params = (
@@ -188,6 +190,9 @@ node sink record file=out.csv columns=[qw, qx, qy, qz]
                 f"file {values['file']!r}: record writes plain text, line by line, so that nothing is lost"
                 " if the patch stops: name it without .gz (and compress it afterwards)"
             )
+
+    def describe(self) -> str:
+        return f"records into {self.p.file}"
 
     def setup(self) -> None:
         self._fh: TextIO | None = None
@@ -340,6 +345,7 @@ class Replay(Node):
     """
 
     sample_outlets = "gyro"
+    role = "input"
 
     outlets = (
         Outlet("gyro", "vector", "angular rate, rad/s (gyr_*/gyro_* columns)"),
@@ -379,6 +385,10 @@ source.mag -> fuse.mag
     #: Seconds a row's time may be ahead of the next row's, which is not behind the row before it, before
     #: the row counts as damaged (it goes out at once instead of being waited for).
     SPIKE = 1.0
+
+    def describe(self) -> str:
+        pace = "as fast as it can" if self.p.speed == 0 else f"at {self.p.speed:g}x"
+        return f"plays {self.p.file} {pace}"
 
     def setup(self) -> None:
         self.emitted = 0

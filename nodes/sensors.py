@@ -33,6 +33,7 @@ from pointat.devices.serial_reader import (
     SerialMoteReader,
 )
 from pointat.errors import worth_reporting
+from pointat.maths.calibration import STANDARD_GRAVITY
 from pointat.message import Message, method, vector
 from pointat.node import Inlet, Node, Outlet, Param, names_path
 from pointat.registry import register
@@ -41,6 +42,35 @@ from pointat.runtime import Timer
 log = logging.getLogger("pointat.nodes.sensors")
 
 ADC_DOC = "nine ADC counts 0..4095: gyro x y z, accel x y z, mag x y z"
+
+# ----------------------------------------------------------------------------- sensor full scale
+#: The sensor full scale, for a source that delivers readings of sensors it cannot see (``replay``,
+#: ``osc_in``): the user says it, the ``range`` outlet (:data:`RANGE_OUTLET`) tells ``tqt``'s ``range``.
+FULL_SCALE_PARAMS = (
+    Param(
+        "acc_range",
+        "float",
+        0.0,
+        "the accelerometer's full scale per axis, as its data sheet gives it (0: not known)",
+        unit="g",
+        minimum=0.0,
+    ),
+    Param(
+        "gyro_range", "float", 0.0, "the gyro's full scale per axis (0: not known)", unit="deg/s", minimum=0.0
+    ),
+)
+RANGE_OUTLET = Outlet(
+    "range",
+    "list",
+    "full scale: accelerometer m/s², gyro rad/s, once at start when acc_range or gyro_range is set",
+)
+
+
+def full_scale(node: Node) -> None:
+    """Send ``node``'s full scale (:data:`FULL_SCALE_PARAMS`) from its ``range`` outlet, when one is set."""
+    if node.p.acc_range or node.p.gyro_range:
+        outlet = [o.name for o in type(node).outlets].index("range")
+        node.out(outlet, (node.p.acc_range * STANDARD_GRAVITY, math.radians(node.p.gyro_range)))
 
 
 class _MoteClock:
@@ -109,6 +139,7 @@ class Mote(Node):
     """
 
     sample_outlets = "m[0-9]+"
+    role = "input"
 
     inlets = (
         Inlet("control", ("symbol", "bang"), "a device path to open; methods: open PATH, close, stats"),
@@ -180,6 +211,10 @@ base.1 -> nulls2 -> right
 
     #: The compiled chains behind the outlets (:class:`pointat.fusion.Group`), set by the runtime.
     _fused: Any = None
+
+    def describe(self) -> str:
+        device = self.p.device or "the simulated glove's pseudo-terminal"
+        return f"base station on {device}, motes {list(self.p.ids)}"
 
     def setup(self) -> None:
         self._outlet = {int(i): k for k, i in enumerate(self.p.ids)}
@@ -536,6 +571,7 @@ class Simulate(PacedSource):
     """
 
     sample_outlets = "adc"
+    role = "input"
 
     outlets = (
         Outlet("adc", "vector", ADC_DOC + " (output=direct)"),
@@ -629,6 +665,11 @@ glove -> nulls -> cal
                 kind=values["burst"],
                 every=values["burst_every"],
             ),
+        )
+
+    def describe(self) -> str:
+        return f"the simulated glove, {self.p.rate:g} Hz" + (
+            " (through a pseudo-terminal, as a real base station)" if self.p.output == "pty" else ""
         )
 
     def setup(self) -> None:

@@ -8,7 +8,7 @@ The address space, in the style of pointat's own profile (``/pointat/N/aed``), o
     /pointat/body/SEGMENT/end   x y z       its far end (the fingertips of a hand), metres
 
 float32 throughout, as every OSC receiver reads it.  Sockets, destinations, refusals and lost
-datagrams are ``osc_out``'s (:class:`~pointat.osc_bridge.nodes.UdpSender`).
+datagrams are ``osc_out``'s (:class:`~pointat.osc_bridge.sender.UdpSender`).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pointat.node import Inlet, Param
 from pointat.nodes.body import ARM, _load
 from pointat.registry import register
 
-from .nodes import UdpSender, _Destination, destinations
+from .sender import Destination, UdpSender, destinations
 
 __all__ = ["OscBody"]
 
@@ -78,6 +78,9 @@ body.segments -> out.segments
     def check_files(cls, values: Mapping[str, Any]) -> None:
         _load(values["file"])
 
+    def describe(self) -> str:
+        return f"OSC skeleton to {self.p.host}:{self.p.port}"
+
     def setup(self) -> None:
         body = _load(self.p.file)
         self.names = [s.name for s in body.segments]
@@ -85,7 +88,7 @@ body.segments -> out.segments
             (f"{self.p.prefix}/{n}/quat", f"{self.p.prefix}/{n}/pos", f"{self.p.prefix}/{n}/end")
             for n in self.names
         ]
-        self.dests = [_Destination(h, p) for h, p in destinations(self.p.host, self.p.port, self.p.to)]
+        self.dests = [Destination(h, p) for h, p in destinations(self.p.host, self.p.port, self.p.to)]
         self._joints: tuple[float, ...] = ()
         self._ends: tuple[float, ...] = ()
         self._timer = None

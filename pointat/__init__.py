@@ -24,7 +24,8 @@ Cheat sheet::
 Modules: :mod:`pointat.message` (messages), :mod:`pointat.node` (the node model), :mod:`pointat.registry`,
 :mod:`pointat.runtime` (scheduler, clocks), :mod:`pointat.patchfile` (the .pat format),
 :mod:`pointat.pdfile` (Pure Data files), :mod:`pointat.loader` (check and build), :mod:`pointat.cli`,
-:mod:`pointat.testing` (patches in tests).  The pure math is in :mod:`pointat.maths` and the devices in
+:mod:`pointat.testing` (patches in tests), :mod:`pointat.monitor` (the console's status lines, the
+monitor page and OSCQuery).  The pure math is in :mod:`pointat.maths` and the devices in
 :mod:`pointat.devices`; neither imports the engine, and importing them does not load it either: the
 names below are loaded on first use.
 """
@@ -55,6 +56,7 @@ _EXPORTS = {
     "Node": "node",
     "Outlet": "node",
     "Param": "node",
+    "Reading": "node",
     "register": "registry",
     "Registry": "registry",
     "Runtime": "runtime",
@@ -70,14 +72,14 @@ __all__ = ["__version__", *sorted(_EXPORTS)]
 
 #: Subpackages kept at the top of the repository (as the project is laid out) that install inside this
 #: package (pyproject's package-dir): in a checkout they are found there.
-_CHECKOUT_FOLDERS = ("nodes", "osc_bridge")
+_CHECKOUT_FOLDERS = ("nodes", "osc_bridge", "midi_bridge")
 
 
 class _CheckoutFolders(importlib.abc.MetaPathFinder):
-    """``pointat.nodes`` and ``pointat.osc_bridge`` from a source checkout's ``nodes/`` and
-    ``osc_bridge/``, where no installed copy is inside the package (a wheel has them inside; an
-    editable install maps them itself).  Only those two names: nothing else of the checkout becomes
-    part of the package."""
+    """``pointat.nodes``, ``pointat.osc_bridge`` and ``pointat.midi_bridge`` from a source checkout's
+    ``nodes/``, ``osc_bridge/`` and ``midi_bridge/``, where no installed copy is inside the package (a
+    wheel has them inside; an editable install maps them itself).  Only those names: nothing else of
+    the checkout becomes part of the package."""
 
     def __init__(self, root: Path) -> None:
         self.root = root

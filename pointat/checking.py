@@ -39,6 +39,8 @@ class Resolved:
     values: dict[str, Any]
     inlets: tuple[Inlet, ...]
     outlets: tuple[Outlet, ...]
+    #: Where the node's files go when the patch names none (:func:`files_folder`).
+    folder: Path | None = None
 
 
 @dataclass
@@ -281,7 +283,7 @@ def _parameters(run: _Run, decl: NodeDecl, cls: type[Node]) -> dict[str, Any] | 
         run.refuse(decl, f"{label}: {exc}{run.hint(decl.name)}")
         run.set_aside(cls, decl, values)
         return None
-    run.result.nodes[decl.name] = Resolved(decl, cls, values, ins, outs)
+    run.result.nodes[decl.name] = Resolved(decl, cls, values, ins, outs, files_folder(decl.where, run.out))
     return values
 
 
@@ -545,6 +547,15 @@ def _writable(name: str, value: str) -> None:
             kind, f"cannot be: {kind}"
         )
         raise ValueError(f"parameter '{name}': cannot write {value!r}: the folder {str(folder)!r} {what}")
+
+
+def files_folder(where: Where | None, out: Path) -> Path | None:
+    """The folder a node's relative files written in its patch go to (:func:`_anchor_paths`), for a file
+    the node names itself (``midi_out``'s ``NODE.mid`` when there is no MIDI port): beside the patch file,
+    as in Pd, or ``out`` for a shipped patch, which is read-only; None for a patch read from no file."""
+    if where is None or where.file.startswith("<"):
+        return None
+    return out if shipped.is_shipped(where.file) else Path(where.file).parent
 
 
 def _anchor_paths(

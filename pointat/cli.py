@@ -23,13 +23,12 @@ from .errors import PatchError, PointatError, did_you_mean
 from .expansion import read_spec
 from .loader import parse_overrides, ready
 from .maths.vbap import parse_layout, read_layout
-from .observe import Observer
+from .monitor import MonitorServer, Observer
 from .presets import Presets, presets_path
 from .registry import Registry, default_registry
 from .scheduling import CPU_DMA_LATENCY, keep_cpus_awake, quiet_thread, realtime_priority
 from .spec import is_pd_file
 from .terminal import LineHandler, LineWriter
-from .webserver import MonitorServer
 
 log = logging.getLogger("pointat")
 LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"

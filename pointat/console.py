@@ -46,59 +46,12 @@ def about(path: str | os.PathLike[str]) -> str:
     return sentence if len(sentence) <= 200 else sentence[:199] + "…"
 
 
-def _p(node: Any, name: str, default: Any = None) -> Any:
-    return getattr(node.p, name, default)
-
-
 def describe(node: Any) -> str:
-    """One node as a performer would name it: what it reads or where it sends."""
-    t = node.type_name
-    label = f"{t} '{node.name}'"
-    if t == "simulate":
-        out = _p(node, "output")
-        return f"{label}: the simulated glove, {_p(node, 'rate'):g} Hz" + (
-            " (through a pseudo-terminal, as a real base station)" if out == "pty" else ""
-        )
-    if t == "simulate_body":
-        return f"{label}: a simulated body, {_p(node, 'rate'):g} Hz"
-    if t == "mote":
-        device = _p(node, "device") or "the simulated glove's pseudo-terminal"
-        return f"{label}: base station on {device}, motes {list(_p(node, 'ids', ()))}"
-    if t == "replay":
-        speed = _p(node, "speed")
-        pace = "as fast as it can" if speed == 0 else f"at {speed:g}x"
-        return f"{label}: plays {_p(node, 'file')} {pace}"
-    if t == "osc_in":
-        what = (
-            "live control"
-            if _p(node, "device") == "none" and not _p(node, "map")
-            else f"{_p(node, 'device')}"
-        )
-        port = _p(node, "port") or "a free port"
-        control = " /pointat/NODE/PARAM value" if _p(node, "control") else ""
-        return f"{label}: OSC on {_p(node, 'host')}:{port} ({what}{':' + control if control else ''})"
-    if t == "osc_out":
-        dests = ", ".join(f"{d.host}:{d.port}" for d in getattr(node, "dests", ()))
-        return f"{label}: OSC to {dests}, profile {_p(node, 'profile')}"
-    if t == "osc_body":
-        return f"{label}: OSC skeleton to {_p(node, 'host')}:{_p(node, 'port')}"
-    if t in ("record", "bvh_record"):
-        return f"{label}: records into {_p(node, 'file')}"
-    if t in ("midi_out", "midi_in"):
-        port = getattr(node, "describe_port", None)  # the port by name, even the system's first
-        return f"{label}: {port() if port else 'MIDI port ' + repr(_p(node, 'port'))}"
-    if t == "osc_send":
-        dests = ", ".join(f"{d.host}:{d.port}" for d in getattr(node, "dests", ()))
-        return f"{label}: OSC {_p(node, 'address')} to {dests}"
-    if t == "calibrate":
-        return (
-            f"{label}: calibration, writes {_p(node, 'file')} (steps by OSC: /pointat/{node.name}/rest ...)"
-        )
-    return label
-
-
-_INPUTS = ("simulate", "simulate_body", "mote", "replay", "osc_in", "midi_in")
-_OUTPUTS = ("osc_out", "osc_send", "osc_body", "record", "bvh_record", "midi_out", "calibrate")
+    """One node as a performer would name it: its type and name, and what it reads or where it sends
+    (what the node's own :meth:`~pointat.node.Node.describe` says)."""
+    label = f"{node.type_name} '{node.name}'"
+    what = node.describe()
+    return f"{label}: {what}" if what else label
 
 
 def files(rt: Any, copied: Sequence[tuple[Path, Path]] = ()) -> list[str]:
@@ -125,9 +78,9 @@ def banner(
     name = Path(patch).stem
     what = about(patch)
     lines = [f"pointat {__version__} · {name}" + (f": {what}" if what else "")]
-    for label, types in (("in ", _INPUTS), ("out", _OUTPUTS)):
+    for label, role in (("in ", "input"), ("out", "output")):
         for node in rt.nodes.values():
-            if node.type_name in types:
+            if node.role == role:
                 lines.append(f"  {label}  {describe(node)}")
     if monitor is not None:
         lines.append(

@@ -49,7 +49,7 @@ def build(checked: Checked, *, realtime: bool = True) -> Runtime:
         except Exception as exc:
             problems.append(Problem(r.decl.where, f"node '{name}' ({r.decl.type}): cannot be created: {exc}"))
             continue
-        node.where = r.decl.where
+        node.where, node.folder = r.decl.where, r.folder
         rt.add(node)
     if problems:
         rt.shutdown()

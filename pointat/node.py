@@ -16,6 +16,16 @@ in connection order, before it returns.  A data message goes straight to the inl
 method message goes through :meth:`Node.receive`, and so does every message to a node type that
 overrides ``receive`` (``trigger``, ``pack``: the class's own, bound when the node is made).
 
+A node type whose per-sample work a compiled chain (:mod:`pointat.compiled`, ``pointat run --compiled``)
+can do for it says so (``fusable = True``) and owns its state there as everywhere: :meth:`Node.fused_state`
+gives the state the chain runs on, as plain values (None while the node is in no steady state to hand
+over: an average under way, a capture pending), and :meth:`Node.restore_fused` takes it back, moved on,
+when the chain hands the node its work again.  What the chain needs of every node the base gives:
+:meth:`Node.targets` to read the wiring, :meth:`Node.detach` and :meth:`Node.reattach` to leave out a link
+whose work it does, and :meth:`Node.hold` and :meth:`Node.unhold` to be told before the node handles
+anything from outside the chain (a message, a method, a parameter) or shows its health.  The chain reads
+no private field of any node: a node's author may change those freely.
+
 A minimal node::
 
     @register("double")
@@ -36,21 +46,22 @@ import logging
 import math
 import re
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from .errors import FeedbackError, did_you_mean, worth_reporting
-from .maths.calibration import STANDARD_GRAVITY
 from .message import KINDS, Message, make
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from .errors import Where
     from .scheduling import Scheduler, Timer
 
-__all__ = ["REQUIRED", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError"]
+__all__ = ["REQUIRED", "ROLES", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError", "Reading"]
 
 log = logging.getLogger("pointat.node")
 
@@ -265,6 +276,34 @@ class Outlet:
     doc: str = ""
 
 
+@dataclass(frozen=True)
+class Reading:
+    """A value a node lets people read while it runs, given by :meth:`Node.read`: the monitor shows it,
+    OSCQuery serves it read-only at ``/pointat/NODE/NAME``.
+
+    ``units``: one per number (their count is the reading's size; ``deg``, ``Hz``... or ``""``);
+    ``minimum`` and ``maximum``: the range of every number, when it has one.  ``direction=True`` says
+    the three numbers are where the node points, azimuth (degrees, + left), elevation (degrees, + up) and
+    distance (0 far .. 90 near): the console writes them and the monitor draws them as a pointer.
+    """
+
+    name: str
+    doc: str = ""
+    units: tuple[str, ...] = ("",)
+    minimum: float | None = None
+    maximum: float | None = None
+    direction: bool = False
+
+    @property
+    def size(self) -> int:
+        """How many numbers it is."""
+        return len(self.units)
+
+
+#: A node's roles (:attr:`Node.role`).
+ROLES = ("input", "output", "process")
+
+
 class Params:
     """A node's parameter values as attributes (``node.p.rate``), what :func:`vars` gives as a dict.
 
@@ -290,6 +329,19 @@ class Node:
     Subclasses declare ``inlets``, ``outlets``, ``params`` and optionally ``example`` (a patch snippet
     shown by ``pointat help``), and override the hooks they need: :meth:`setup`, :meth:`start`,
     :meth:`loadbang`, :meth:`param_changed`, :meth:`close`.
+
+    What people see of a node is declared too, and the engine knows no node type by name: ``role``
+    (``input``, ``output`` or ``process``: the console's banner lists inputs and outputs, with what
+    :meth:`describe` says of each), ``readings`` (values of its state, each a :class:`Reading` with its
+    units and range, given by :meth:`read`: the monitor shows them and OSCQuery serves them read-only;
+    one marked ``direction`` is a pointer on the monitor and a direction on the console's status line),
+    and :meth:`health` (plain words and numbers: a mote's lost packets, a calibration's step)::
+
+        role = "output"
+        readings = (Reading("aed", "the direction last sent", units=("deg", "deg", ""), direction=True),)
+
+        def read(self):
+            return {"aed": self.last}
     """
 
     type_name: ClassVar[str] = ""
@@ -318,11 +370,43 @@ class Node:
     origin: ClassVar[str] = ""
     #: A source's outlets that carry one sensor sample per message (a regular expression over outlet
     #: names, ``m[0-9]+`` for a mote's): the console, the monitor and OSCQuery count them for the rate,
-    #: and tell a dropout when they fall silent (:mod:`pointat.observe`).
+    #: and tell a dropout when they fall silent (:mod:`pointat.monitor.observe`).
     sample_outlets: ClassVar[str] = ""
     #: Where the node is declared (patch file and line), when it was built from a patch: the runtime's
     #: errors name the place.
     where: Where | None = None
+    #: Where a file the node names itself goes, as its patch's own relative files do: beside the patch
+    #: file, or ``pointat run --out`` (the working directory by default) for a shipped patch; None (the
+    #: working directory) for a patch read from no file (:func:`pointat.checking.files_folder`).
+    folder: Path | None = None
+
+    # ----------------------------------------------------------------- what people see of it
+    #: What the node is to a performer: ``input`` (where the patch's data comes from: a glove, a file, a
+    #: port), ``output`` (where it goes: a receiver, a file, a port) or ``process`` (the work between).
+    #: The console's banner lists the inputs and outputs, each with what :meth:`describe` says.
+    role: ClassVar[str] = "process"
+    #: The values the node lets people read while it runs (:class:`Reading`), given by :meth:`read`: the
+    #: monitor shows them, OSCQuery serves them; a ``direction`` one is drawn as a pointer.
+    readings: ClassVar[tuple[Reading, ...]] = ()
+
+    def describe(self) -> str:
+        """What the node reads or where it sends, as a performer names it (``OSC to 127.0.0.1:9000``):
+        the console's banner line after the node's type and name.  Default: nothing."""
+        return ""
+
+    def read(self) -> Mapping[str, Any]:
+        """The value of each of :attr:`readings` now, by name (a number, or a sequence of ``size``).
+        Called from the observer's thread (:mod:`pointat.monitor.observe`), so it only reads attributes.
+
+        A node with a ``direction`` reading says through :meth:`health` whether it is fresh: ``heard``
+        (the directions that came in so far: none yet is *waiting*, no new one for the node's ``dropout``
+        seconds a *dropout*), ``flag`` (the filter's state, as it was told) and ``updates`` (sent).
+        Default: nothing."""
+        return {}
+
+    #: True for node types whose per-sample work a compiled chain (:mod:`pointat.compiled`) can do: they
+    #: implement :meth:`fused_state` and :meth:`restore_fused`.
+    fusable: ClassVar[bool] = False
 
     # ----------------------------------------------------------------- declaration
     @classmethod
@@ -436,6 +520,8 @@ class Node:
             if cls.receive is Node.receive
             else [functools.partial(self.receive, i) for i in range(len(self.in_specs))]
         )
+        self._detached: dict[int, list[tuple[Node, int]]] = {}  # outlet -> its targets before detach
+        self._held: tuple[list[Callable[[Message], None]], list[Callable[[Message], None]]] | None = None
         self.setup()
 
     def __repr__(self) -> str:
@@ -478,11 +564,96 @@ class Node:
     def health(self) -> Mapping[str, Any]:
         """What a person would want to know of this node while it runs (a filter's rest, a mote's lost
         packets, a calibration's step), as names and plain values; read from the observer's thread
-        (:mod:`pointat.observe`), so it must only read attributes, never change them.  Default: nothing."""
+        (:mod:`pointat.monitor.observe`), so it must only read attributes, never change them.  Default: nothing."""
         return {}
 
     def close(self) -> None:
         """Release ports, files and threads. Must be idempotent."""
+
+    # the compiled chain's door (pointat.compiled) ---------------------------------
+    def fused_state(self) -> dict[str, Any] | None:
+        """The state a compiled chain runs this node's work on, as plain values (numbers, tuples), or None
+        while the node is in no steady state to hand over.  Implemented by :attr:`fusable` types; the
+        chain reads parameters from ``self.p`` as anyone may."""
+        raise NotImplementedError(f"{self.type_name} nodes cannot be fused")
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        """Take back the state a compiled chain ran on: what :meth:`fused_state` gave, its values moved on
+        by the samples the chain handled meanwhile."""
+        raise NotImplementedError(f"{self.type_name} nodes cannot be fused")
+
+    def targets(self, outlet: int) -> list[tuple[Node, int]]:
+        """Where ``outlet`` sends, in connection order: ``(node, inlet index)`` pairs (a copy)."""
+        return list(self._targets[outlet])
+
+    def connected(self, outlet: int) -> bool:
+        """Whether ``outlet`` sends anywhere (what :meth:`targets` says, with no copy made)."""
+        return bool(self._targets[outlet])
+
+    def detach(self, outlet: int, target: Node, inlet: int) -> None:
+        """Stop sending from ``outlet`` to ``target``'s inlet ``inlet`` until :meth:`reattach` (a compiled
+        chain does that link's work meanwhile).  Connections made meanwhile stay, after the old ones."""
+        self._detached.setdefault(outlet, self._targets[outlet])
+        self._targets[outlet] = [(n, i) for n, i in self._targets[outlet] if not (n is target and i == inlet)]
+
+    def reattach(self, outlet: int | None = None) -> None:
+        """Send again over the links :meth:`detach` left out, at ``outlet`` or at every outlet, in their
+        old order (idempotent)."""
+        for o in list(self._detached) if outlet is None else [outlet]:
+            old = self._detached.pop(o, None)
+            if old is not None:
+                old += [t for t in self._targets[o] if t not in old]
+                self._targets[o] = old
+
+    def hold(
+        self, release: Callable[[], None], sync: Callable[[], None], *, open_inlets: Collection[str] = ()
+    ) -> None:
+        """Until :meth:`unhold`, call ``release()`` before this node handles anything that reaches it (a
+        message at any inlet but those named in ``open_inlets``, a method, a parameter set), and
+        ``sync()`` before its :meth:`health` is read: a compiled chain doing this node's work hands it
+        back first, or writes its state into the node (:mod:`pointat.compiled`).  ``release`` may be
+        called more than once for one message (by :meth:`receive`, then by the inlet's handler)."""
+        if self._held is not None:
+            raise RuntimeError(f"node '{self.name}' is held already")
+
+        def first(before: Callable[[], None], fn: Callable[..., Any]) -> Callable[..., Any]:
+            @functools.wraps(fn)  # (its marks too: names_path)
+            def wrapper(*args: Any, **kwargs: Any) -> Any:
+                before()
+                return fn(*args, **kwargs)
+
+            return wrapper
+
+        handlers = list(self._handlers)
+        deliver = handlers if self._deliver is self._handlers else list(self._deliver)
+        held = [i for i, spec in enumerate(self.in_specs) if spec.name not in open_inlets]
+        for i in held:
+            handlers[i] = first(release, self._handlers[i])
+            if deliver is not handlers:
+                deliver[i] = first(release, self._deliver[i])
+        self._held = (self._handlers, self._deliver)
+        self._handlers, self._deliver = handlers, deliver
+        receive = self.receive
+
+        @functools.wraps(receive)
+        def receive_held(index: int, msg: Message) -> None:
+            if index in held:  # (a method or a parameter comes to the left inlet: held unless open)
+                release()
+            receive(index, msg)
+
+        # the instance's own, in front of the class's methods until unhold
+        self.receive = receive_held  # type: ignore[method-assign]
+        self.set_params = first(release, self.set_params)  # type: ignore[method-assign]
+        self.health = first(sync, self.health)  # type: ignore[method-assign]
+
+    def unhold(self) -> None:
+        """End :meth:`hold` (idempotent)."""
+        if self._held is None:
+            return
+        self._handlers, self._deliver = self._held
+        self._held = None
+        for name in ("receive", "set_params", "health"):
+            self.__dict__.pop(name, None)
 
     # receiving --------------------------------------------------------------
     def receive(self, index: int, msg: Message) -> None:
@@ -684,6 +855,10 @@ class Node:
             lines.append(f"  {i} {outlet.name:<10} {outlet.kind:<19} {outlet.doc}")
         if not outs:
             lines.append("  (none)")
+        if cls.readings:
+            lines.append("readings (what the monitor and OSCQuery show of it while it runs):")
+            for r in cls.readings:
+                lines.append(f"  {r.name:<12} [{', '.join(u or '-' for u in r.units)}] {r.doc}")
         lines.append("parameters (by name, or by position in this order):")
         for p in cls.params:
             default = "required" if p.default is REQUIRED else f"default {p.default!r}"
@@ -756,33 +931,3 @@ def names_path(fn: Callable[..., Any]) -> Callable[..., Any]:
     """
     fn.names_path = True  # type: ignore[attr-defined]
     return fn
-
-
-# ----------------------------------------------------------------------------- sensor full scale
-#: The sensor full scale, for a source that delivers readings of sensors it cannot see (``replay``,
-#: ``osc_in``): the user says it, the ``range`` outlet (:data:`RANGE_OUTLET`) tells ``tqt``'s ``range``.
-FULL_SCALE_PARAMS = (
-    Param(
-        "acc_range",
-        "float",
-        0.0,
-        "the accelerometer's full scale per axis, as its data sheet gives it (0: not known)",
-        unit="g",
-        minimum=0.0,
-    ),
-    Param(
-        "gyro_range", "float", 0.0, "the gyro's full scale per axis (0: not known)", unit="deg/s", minimum=0.0
-    ),
-)
-RANGE_OUTLET = Outlet(
-    "range",
-    "list",
-    "full scale: accelerometer m/s², gyro rad/s, once at start when acc_range or gyro_range is set",
-)
-
-
-def full_scale(node: Node) -> None:
-    """Send ``node``'s full scale (:data:`FULL_SCALE_PARAMS`) from its ``range`` outlet, when one is set."""
-    if node.p.acc_range or node.p.gyro_range:
-        outlet = [o.name for o in type(node).outlets].index("range")
-        node.out(outlet, (node.p.acc_range * STANDARD_GRAVITY, math.radians(node.p.gyro_range)))

@@ -18,12 +18,13 @@ import importlib.metadata
 import importlib.util
 import inspect
 import logging
+import re
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from .errors import PointatError, closest
-from .node import PARAM_TYPES, Node
+from .node import PARAM_TYPES, ROLES, Node
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -56,6 +57,24 @@ def _check_declaration(cls: type[Node]) -> None:
             raise RegistryError(f"{where}: 'name' is reserved for the node's name in a patch")
         if hasattr(cls, "do_" + p.name):
             raise RegistryError(f"{where}: parameter '{p.name}' clashes with method do_{p.name}")
+    if cls.role not in ROLES:
+        raise RegistryError(f"{where}: role '{cls.role}' is none of {', '.join(ROLES)}")
+    readings = [r.name for r in cls.readings]
+    for r in cls.readings:
+        if not re.fullmatch(r"[A-Za-z_]\w*", r.name):
+            raise RegistryError(
+                f"{where}: reading {r.name!r} is no name (letters, digits, _): an OSC address"
+            )
+        if readings.count(r.name) > 1 or cls.param(r.name) is not None or hasattr(cls, "do_" + r.name):
+            raise RegistryError(
+                f"{where}: reading '{r.name}' is named twice, or as a parameter or a method (its OSCQuery "
+                f"address /pointat/NODE/{r.name} would be two things)"
+            )
+        if not r.units or (r.direction and r.size != 3):
+            raise RegistryError(
+                f"{where}: reading '{r.name}' has {r.size} unit(s); expected one per number"
+                + (", three for a direction (azimuth, elevation, distance)" if r.direction else "")
+            )
     inlet_names = {i.name for i in cls.inlets}
     for attr in dir(cls):
         if (

@@ -1,5 +1,5 @@
 r"""A mutation fuzzer of the monitor's server, over real sockets: mutated WebSocket client streams and
-mutated HTTP requests sent to a running :class:`~pointat.webserver.MonitorServer` (on 127.0.0.1, a free
+mutated HTTP requests sent to a running :class:`~pointat.monitor.webserver.MonitorServer` (on 127.0.0.1, a free
 port) must be answered or closed, never log an error or a traceback, and never stop it serving.
 
 ::
@@ -379,10 +379,10 @@ class Served:
     def __init__(self) -> None:
         from pointat.checking import check
         from pointat.loader import build
-        from pointat.observe import Observer
+        from pointat.monitor.observe import Observer
+        from pointat.monitor.webserver import MonitorServer
         from pointat.patchfile import parse_patch
         from pointat.registry import Registry
-        from pointat.webserver import MonitorServer
 
         self.bad: list[str] = []
         self.rt = build(check(parse_patch(self.PATCH, "fuzz.pat"), Registry().load_builtins()))

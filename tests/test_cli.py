@@ -28,13 +28,13 @@ PATCHES = sorted((ROOT / "patches").glob("*.pat")) + sorted((ROOT / "examples").
 GLOVE = ROOT / "patches" / "glove_tqt.pat"
 
 
-def pointat(*args, timeout=60):
+def pointat(*args, timeout=60, cwd=ROOT):
     return subprocess.run(
         [sys.executable, "-m", "pointat.cli", *map(str, args)],
         capture_output=True,
         text=True,
         timeout=timeout,
-        cwd=ROOT,
+        cwd=cwd,
     )
 
 
@@ -78,14 +78,16 @@ RUN_BRIEFLY = [p for p in PATCHES if "evaluate" not in p.name]
 
 
 @pytest.fixture(scope="module")
-def shipped_runs(copy_of_repo):
+def shipped_runs(copy_of_repo, tmp_path_factory):
     """Every shipped patch run for 0.75 s (3 s each in tests/test_wheel.py, the slow tier), four at a time (each is mostly a Python start-up and a wait):
     {path: the finished process}."""
     from concurrent.futures import ThreadPoolExecutor
 
+    here = tmp_path_factory.mktemp("cwd")  # what a patch writes where it is run from lands here
+
     def run(path):
         copy = copy_of_repo / path.relative_to(ROOT)
-        return pointat("run", copy, "--for", "0.75", *beside(copy), timeout=600)
+        return pointat("run", copy, "--for", "0.75", *beside(copy), timeout=600, cwd=here)
 
     with ThreadPoolExecutor(max_workers=4) as pool:
         return dict(zip(RUN_BRIEFLY, pool.map(run, RUN_BRIEFLY), strict=True))

@@ -1,7 +1,8 @@
-"""The doctests of the node packages kept at the top of the repository (``nodes/``, ``osc_bridge/``).
+"""The doctests of the node packages kept at the top of the repository (``nodes/``, ``osc_bridge/``,
+``midi_bridge/``).
 
-pytest's ``--doctest-modules`` collects ``pointat/`` itself; these two install inside the package
-(``pointat.nodes``, ``pointat.osc_bridge``) and must be imported under those names, once, as the
+pytest's ``--doctest-modules`` collects ``pointat/`` itself; these install inside the package
+(``pointat.nodes``, ``pointat.osc_bridge``, ``pointat.midi_bridge``) and must be imported under those names, once, as the
 registry imports them: collected from their folders they would be imported a second time under
 another name and register every node type twice.
 """
@@ -14,18 +15,19 @@ import pkgutil
 
 import pytest
 
+import pointat.midi_bridge
 import pointat.nodes
 import pointat.osc_bridge
 
 MODULES = [
     f"{package.__name__}.{info.name}"
-    for package in (pointat.nodes, pointat.osc_bridge)
+    for package in (pointat.nodes, pointat.osc_bridge, pointat.midi_bridge)
     for info in pkgutil.iter_modules(package.__path__)
 ]
 
 
 def test_every_node_module_is_found():
-    assert {"pointat.nodes.orientation", "pointat.nodes.midi", "pointat.osc_bridge.profiles"} <= set(MODULES)
+    assert {"pointat.nodes.tqt", "pointat.midi_bridge.mapping", "pointat.osc_bridge.profiles"} <= set(MODULES)
 
 
 @pytest.mark.parametrize("name", MODULES)

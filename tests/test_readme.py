@@ -41,7 +41,8 @@ def _pointat(*args: str, cwd: Path, env: dict[str, str] | None = None) -> subpro
     )
 
 
-PATCH = "node lb loadbang\nnode m msg 100\nnode snap snap step=45\nnode show print\nlb -> m -> snap -> show\n"
+PATCH = "node lb loadbang\nnode m msg 100\nnode near nearest step=30\nlb -> m -> near\n"
+SAID = "near: the loudspeaker at 90°"  # 100 to the nearest of a loudspeaker every 30 degrees
 
 
 def test_the_readme_is_a_manual_not_a_report():
@@ -55,33 +56,33 @@ def test_the_readme_is_a_manual_not_a_report():
         "Gestures",
     ):
         _section(title)
-    for title in ("Several gloves and bodies", "On stage", "Troubleshooting", "Write your own node"):
+    for title in ("Several gloves and bodies", "On stage", "Troubleshooting", "Writing a node"):
         _section(title)
     (quick,) = _blocks(_section("Quick start"), "sh")
     assert len(quick.strip().splitlines()) == 2  # install and run; install and test
 
 
 def test_the_readmes_node_runs_from_a_plugins_folder(tmp_path):
-    (code,) = _blocks(_section("Write your own node"), "python")
+    (code,) = _blocks(_section("Writing a node"), "python")
     (tmp_path / "mine").mkdir()
-    (tmp_path / "mine" / "snap.py").write_text(code)
+    (tmp_path / "mine" / "nearest.py").write_text(code)
     (tmp_path / "my.pat").write_text(PATCH)
     ran = _pointat("run", "my.pat", "--plugins", "mine", "--for", "0.5", "--status", "0", cwd=tmp_path)
     assert ran.returncode == 0, ran.stderr
-    assert "print: 90.0" in ran.stdout.splitlines(), ran.stdout  # 100 snapped to the grid of 45
-    helped = _pointat("help", "snap", "--plugins", "mine", cwd=tmp_path)
+    assert SAID in ran.stdout.splitlines(), ran.stdout
+    helped = _pointat("help", "nearest", "--plugins", "mine", cwd=tmp_path)
     assert helped.returncode == 0 and "step" in helped.stdout and "[deg]" in helped.stdout, helped
 
 
 def test_the_readmes_node_arrives_through_the_entry_point_group_once_installed(tmp_path):
     """A package installed as pip installs one (a module and its dist-info with the README's entry
     point): every command finds the node with no --plugins."""
-    (code,) = _blocks(_section("Write your own node"), "python")
-    (toml,) = _blocks(_section("Write your own node"), "toml")
+    (code,) = _blocks(_section("Writing a node"), "python")
+    (toml,) = _blocks(_section("Writing a node"), "toml")
     site = tmp_path / "site"
     (site / "mine").mkdir(parents=True)
     (site / "mine" / "__init__.py").write_text("")
-    (site / "mine" / "snap.py").write_text(code)
+    (site / "mine" / "nearest.py").write_text(code)
     info = site / "mine-0.1.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: mine\nVersion: 0.1\n")
@@ -92,9 +93,9 @@ def test_the_readmes_node_arrives_through_the_entry_point_group_once_installed(t
     (tmp_path / "my.pat").write_text(PATCH)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])}
     listed = _pointat("nodes", cwd=tmp_path, env=env)
-    assert listed.returncode == 0 and re.search(r"^\s*snap\b", listed.stdout, flags=re.M), listed
+    assert listed.returncode == 0 and re.search(r"^\s*nearest\b", listed.stdout, flags=re.M), listed
     ran = _pointat("run", "my.pat", "--for", "0.5", "--status", "0", cwd=tmp_path, env=env)
-    assert ran.returncode == 0 and "print: 90.0" in ran.stdout.splitlines(), (ran.stdout, ran.stderr)
+    assert ran.returncode == 0 and SAID in ran.stdout.splitlines(), (ran.stdout, ran.stderr)
 
 
 def _commands() -> list[list[str]]:

@@ -13,8 +13,8 @@ different lengths.  The open end (:func:`dtw_prefix`) lets the template stop any
 :math:`D(n, j) / (n + j)` over :math:`j`, and that :math:`j`, is how far through the template a gesture
 in progress has come (early recognition).
 
-The loops are compiled by numba on first use (a dependency of pointat; it is imported here only when a
-distance is first asked for, so that a patch without gestures does not load it).
+The loops are compiled by numba on first use (:func:`pointat.jit.compile_module`; numba is imported
+only when a distance is first asked for, so that a patch without gestures does not load it).
 
 >>> import numpy as np
 >>> a = np.array([[0.0], [1.0], [2.0], [1.0], [0.0]])
@@ -31,12 +31,11 @@ distance is first asked for, so that a patch without gestures does not load it).
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
-
-from pointat.maths.numba_cache import user_cache
 
 __all__ = ["Spring", "band", "dtw_distance", "dtw_many", "dtw_prefix", "dtw_prefix_many", "warm"]
 
@@ -174,25 +173,17 @@ def _spring(
         out[j, 1] = s[at + m]
 
 
-_compiled: dict[str, Callable[..., Any]] = {}
+_compiled: Any = None
 
 
 def _kernel(name: str) -> Callable[..., Any]:
     """The compiled form of this module's function ``name`` (numba, cached in the user's cache folder)."""
-    fn = _compiled.get(name)
-    if fn is None:
-        import numba  # here: ~0.25 s to import, only once gestures are compared
+    global _compiled
+    if _compiled is None:
+        from pointat import jit  # here: numba costs ~0.25 s to import, only once gestures are compared
 
-        jit = numba.njit(cache=True, nogil=True)
-        glb = globals()
-        space: dict[str, Any] = {"np": np, "math": math, "__name__": __name__}
-        with user_cache(numba):  # (never beside this file: inside an installed package)
-            for each in ("band", "_cumulative", "_distance", "_prefix", "_many", "_prefix_many", "_spring"):
-                code = glb[each]
-                space[each] = jit(type(code)(code.__code__, space, each))
-        _compiled.update({k: space[k] for k in ("_distance", "_prefix", "_many", "_prefix_many", "_spring")})
-        fn = _compiled[name]
-    return fn
+        _compiled = jit.compile_module(sys.modules[__name__])
+    return getattr(_compiled, name)  # type: ignore[no-any-return]
 
 
 def _frames(x: Any, what: str) -> np.ndarray:

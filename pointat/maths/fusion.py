@@ -45,7 +45,6 @@ from numpy.typing import ArrayLike
 from pointat.maths import scalar as _sq
 from pointat.maths.quaternion import (
     matrix_to_quat,
-    quat_identity,
     quat_normalize,
 )
 
@@ -526,9 +525,14 @@ class ComplementaryFilter:
         self.crossover_hz = float(crossover_hz)
         self.accel_tolerance = accel_tolerance
         self.gravity = float(gravity)
-        self.q = quat_identity()
+        self._q: _sq.Quat = (1.0, 0.0, 0.0, 0.0)
         self.initialized = False
         self.reset(q0)
+
+    @property
+    def q(self) -> np.ndarray:
+        """The orientation now, sensor -> earth, shape (4,) (a copy)."""
+        return np.array(self._q)
 
     @property
     def tau(self) -> float:
@@ -538,10 +542,10 @@ class ComplementaryFilter:
     def reset(self, q: ArrayLike | None = None) -> None:
         """Forget the state; start from ``q`` (shape (4,)) or wait for the next valid acc/mag sample."""
         if q is None:
-            self.q = quat_identity()
+            self._q = (1.0, 0.0, 0.0, 0.0)
             self.initialized = False
         else:
-            self.q = quat_normalize(np.asarray(q, dtype=float).reshape(4))
+            self._q = tuple(quat_normalize(np.asarray(q, dtype=float).reshape(4)).tolist())
             self.initialized = True
 
     def _accmag(self, acc: ArrayLike, mag: ArrayLike) -> tuple[float, float, float, float] | None:
@@ -587,20 +591,53 @@ class ComplementaryFilter:
             raise ValueError(f"dt must be a finite non-negative number of seconds, got {dt}")
         # the per-sample work runs on plain floats (pointat.maths.scalar): numpy costs more than the maths
         rate = math.sqrt(wx * wx + wy * wy + wz * wz)
-        q = tuple(self.q.tolist())
-        if rate > 0.0 and dt > 0.0:
-            q = _sq.normalize(
-                _sq.multiply(q, _sq.axis_angle_quat(wx / rate, wy / rate, wz / rate, rate * dt))
-            )
+        delta = (
+            _sq.axis_angle_quat(wx / rate, wy / rate, wz / rate, rate * dt)
+            if rate > 0.0 and dt > 0.0
+            else None
+        )
         q_am = self._accmag(acc, mag)
+        return np.array(self.fuse(delta, q_am, dt)), q_am is not None
+
+    def fuse(self, delta: _sq.Quat | None, q_am: _sq.Quat | None, dt: float) -> _sq.Quat:
+        r"""One step on rotations, from the gyro's increment and the acc/mag orientation: the whole filter
+        but for where those come from.  The ``complementary`` node runs it with the increment between two
+        of ``gyro_integrator``'s orientations, :math:`\delta = g_{k-1}^{*} \otimes g_k`; :meth:`update`
+        with the gyro's own, :math:`\delta = \exp(\tfrac12\omega\,\Delta t)`.
+
+        Parameters
+        ----------
+        delta : tuple of 4 floats, or None
+            Body-frame increment since the previous sample, a unit quaternion ``(w, x, y, z)``; None: none.
+        q_am : tuple of 4 floats, or None
+            Acc/mag orientation, sensor -> earth, unit; None: this sample has none (gyro only).
+        dt : float
+            Time since the previous sample, s (>= 0).
+
+        Returns
+        -------
+        tuple of 4 floats
+            The orientation, sensor -> earth: :math:`q^- = q \otimes \delta`, then
+            :math:`\mathrm{slerp}(q^-, q_{am}, \alpha)`; the first ``q_am`` is taken as it is (snapped)
+            unless a ``q0`` was given.
+
+        >>> f = ComplementaryFilter(crossover_hz=1.0)
+        >>> f.fuse(None, (1.0, 0.0, 0.0, 0.0), 0.01)        # the first acc/mag orientation: snapped
+        (1.0, 0.0, 0.0, 0.0)
+        >>> [round(v, 6) for v in f.fuse(None, (0.0, 0.0, 0.0, 1.0), 0.01)]   # then pulled by alpha
+        [0.995691, 0.0, 0.0, 0.092728]
+        """
+        q = self._q
+        if delta is not None:
+            q = _sq.normalize(_sq.multiply(q, delta))
         if q_am is not None and not self.initialized:
             q = q_am
             self.initialized = True
         elif q_am is not None:
             alpha = dt / (self.tau + dt) if dt > 0.0 else 0.0
             q = _sq.normalize(_sq.slerp(q, q_am, alpha))  # along the shorter arc: the sign stays continuous
-        self.q = np.array(q)
-        return self.q.copy(), q_am is not None
+        self._q = q
+        return q
 
 
 class RollDistance:

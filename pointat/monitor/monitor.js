@@ -186,8 +186,8 @@ function drawTables(snap) {
     return `<div class="pointer${stale(p) ? " stale" : ""}" data-state="${esc(p.state)}" style="color:${COLOURS[k % COLOURS.length]}">` +
     `<span data-name="${esc(p.name)}" class="aed">az ${p.azimuth.toFixed(1)}°  el ${p.elevation.toFixed(1)}°  dist ${p.distance.toFixed(0)}</span>` +
     `<span class="state ${cls}">${esc(word)}</span> ` +
-    `<small>${esc(p.name)} → ${esc(p.profile)} ${esc(p.to.join(", "))} · ${p.updates} sent${p.refused ? `; ${p.refused} refused: receiver not listening` : ""}</small></div>`;
-  }).join("") || "<p>No osc_out in this patch.</p>";
+    `<small>${esc(p.name)} → ${esc(p.about)}${p.updates !== undefined ? ` · ${p.updates} sent` : ""}${p.refused ? `; ${p.refused} refused: receiver not listening` : ""}</small></div>`;
+  }).join("") || "<p>Nothing in this patch says where it points.</p>";
   $("sensors").tBodies[0].innerHTML = snap.streams.map((s) =>
     `<tr><td>${esc(s.name)} <small>(${esc(s.type)})</small></td><td class="${stateClass(s.state)}">${s.state === "dropout" ? "NO DATA " + s.silent_s.toFixed(1) + " s" : s.state}</td>` +
     `<td>${s.rate.toFixed(0)} Hz</td><td>${s.samples}</td><td>${s.dropouts}</td><td>${s.lost ?? "–"}</td></tr>`).join("");

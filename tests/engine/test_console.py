@@ -103,7 +103,7 @@ f2.flags -> o2.flags
 
 
 def test_a_filter_has_no_input_only_when_its_own_glove_is_down_and_the_other_gloves_line_stays_clear():
-    from pointat.observe import Observer, _worst_flag
+    from pointat.monitor.observe import Observer, _worst_flag
 
     rt = patch(TWO_GLOVES)
     try:
@@ -120,7 +120,7 @@ def test_a_filter_has_no_input_only_when_its_own_glove_is_down_and_the_other_glo
 
 
 def test_before_any_data_the_status_lines_say_waiting_not_ok_at_0_hz():
-    from pointat.observe import Observer
+    from pointat.monitor.observe import Observer
 
     rt = patch(TWO_GLOVES)
     try:
@@ -140,7 +140,7 @@ def test_a_glove_gone_silent_is_a_dropout_of_its_pointer_and_no_input_of_its_fil
     sent nothing yet."""
     from types import SimpleNamespace
 
-    from pointat import observe
+    from pointat.monitor import observe
 
     now = [100.0]
     monkeypatch.setattr(observe, "time", SimpleNamespace(monotonic=lambda: now[0], sleep=lambda s: None))

@@ -23,10 +23,10 @@ from pointat.checking import check
 from pointat.devices.osc_wire import encode_message
 from pointat.expansion import read_spec
 from pointat.loader import build, parse_overrides
-from pointat.observe import Observer
+from pointat.monitor.observe import Observer
+from pointat.monitor.webserver import READS_METHODS, MonitorServer
 from pointat.registry import Registry
-from pointat.testing import ws_connect, ws_receive, ws_send
-from pointat.webserver import READS_METHODS, MonitorServer
+from tests.monitor_client import ws_connect, ws_receive, ws_send
 
 #: Hypothesis examples of the request and frame properties (derandomized; the long fuzz run is
 #: tests/fuzz_websocket.py): POINTAT_FUZZ_EXAMPLES sets more.
@@ -488,7 +488,7 @@ def test_a_stage_tablet_needs_the_allow_list_and_the_token(tmp_path):
     """Served on this machine's network address (as with --monitor-host 0.0.0.0) to a tablet in
     --monitor-allow: the page wants the printed URL's token and keeps it as a cookie for its socket;
     an OSCQuery tool there (no Origin) reads the tree without it."""
-    from pointat.webaccess import _lan_address
+    from pointat.monitor.webaccess import _lan_address
 
     lan = _lan_address()
     if lan is None:

@@ -18,13 +18,13 @@ from pointat.checking import check
 from pointat.devices.osc_wire import decode_packet, encode_message
 from pointat.expansion import read_spec
 from pointat.loader import build, parse_overrides
-from pointat.observe import Observer
-from pointat.oscquery import address_space, find, value_of
+from pointat.monitor.observe import Observer
+from pointat.monitor.oscquery import address_space, find, value_of
+from pointat.monitor.webserver import MonitorServer
 from pointat.patchfile import parse_patch
 from pointat.presets import Presets
 from pointat.registry import Registry
-from pointat.testing import ws_connect, ws_receive, ws_send
-from pointat.webserver import MonitorServer
+from tests.monitor_client import ws_connect, ws_receive, ws_send
 
 REG = Registry().load_builtins()
 

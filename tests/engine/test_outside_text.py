@@ -13,11 +13,11 @@ from hypothesis import strategies as st
 
 from pointat.checking import check
 from pointat.loader import build
-from pointat.observe import Observer
+from pointat.monitor.observe import Observer
+from pointat.monitor.webserver import READS_METHODS, MonitorServer
 from pointat.patchfile import parse_patch
 from pointat.presets import Presets
 from pointat.registry import Registry
-from pointat.webserver import READS_METHODS, MonitorServer
 
 SETTINGS = settings(
     derandomize=True,

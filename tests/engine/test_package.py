@@ -17,7 +17,7 @@ def test_math_and_devices_do_not_load_the_engine():
     code = (
         "import sys, pointat.maths.tqt, pointat.maths.vbap, pointat.maths.smoothing, pointat.devices.glove_sim;"
         "print(sorted(m for m in sys.modules if m in ('pointat.node', 'pointat.runtime', 'pointat.loader',"
-        " 'pointat.registry', 'pointat.nodes', 'pointat.osc_bridge')))"
+        " 'pointat.registry', 'pointat.nodes', 'pointat.osc_bridge', 'pointat.midi_bridge')))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
@@ -57,7 +57,7 @@ def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path)
     }
     for path in (
         "pointat/nodes/orientation.py",
-        "pointat/nodes/midi.py",
+        "pointat/midi_bridge/nodes.py",
         "pointat/osc_bridge/nodes.py",
         "pointat/devices/osc_wire.py",
         "pointat/maths/tqt/step.py",
@@ -71,7 +71,7 @@ def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path)
     code = {f"pointat/{p.relative_to(root / 'pointat').as_posix()}" for p in (root / "pointat").rglob("*.py")}
     code |= {
         f"pointat/{p.relative_to(root).as_posix()}"
-        for d in ("nodes", "osc_bridge")
+        for d in ("nodes", "osc_bridge", "midi_bridge")
         for p in (root / d).glob("*.py")
     }
     assert code <= set(names), sorted(code - set(names))  # every module (a package missing from pyproject)
@@ -80,4 +80,4 @@ def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path)
     entry_points = (
         zipfile.ZipFile(wheel).read(next(n for n in names if n.endswith("entry_points.txt"))).decode()
     )
-    assert "[pointat.nodes]" in entry_points and "orientation = pointat.nodes.orientation" in entry_points
+    assert "[pointat.nodes]" in entry_points and "tqt = pointat.nodes.tqt" in entry_points

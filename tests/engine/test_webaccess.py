@@ -1,10 +1,10 @@
-"""Who may use the monitor's port (pointat.webaccess), as plain functions: Host, Origin, peers, token."""
+"""Who may use the monitor's port (pointat.monitor.webaccess), as plain functions: Host, Origin, peers, token."""
 
 from __future__ import annotations
 
 import pytest
 
-from pointat.webaccess import Access, LogLimit
+from pointat.monitor.webaccess import Access, LogLimit
 
 
 def test_on_loopback_only_this_machines_names_on_the_port_served_are_hosts():

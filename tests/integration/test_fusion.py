@@ -146,7 +146,9 @@ def _run(mode: str, counts: np.ndarray, batch: int = 3) -> tuple[list[bytes], di
         name: [(m.kind, m.value, m.time) for m in rt.nodes[name].messages]
         for name in ("show", "tag", "modes", "flags1", "flags2", "flags3")
     }
-    tqt = {i: (rt.nodes[f"tqt{i}"].filter._s[:], rt.nodes[f"out{i}"].updates) for i in (1, 2, 3)}
+    tqt = {
+        i: (np.array(rt.nodes[f"tqt{i}"].filter._s).tolist(), rt.nodes[f"out{i}"].updates) for i in (1, 2, 3)
+    }
     return got, {"heard": heard, "state": tqt}, fused_frames
 
 

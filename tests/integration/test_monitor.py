@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pointat.testing import CHROMIUM_FLAGS
+from tests.monitor_client import CHROMIUM_FLAGS
 
 ROOT = Path(__file__).resolve().parents[2]
 POINTER = np.array([0x4F, 0xC3, 0xF7])  # the first pointer's colour (monitor.js COLOURS[0])

@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from pointat.webaccess import _lan_address
+from pointat.monitor.webaccess import _lan_address
 
 from .test_monitor import _wait, browser  # noqa: F401 (the browser fixture)
 

@@ -661,13 +661,11 @@ def test_bank_reset_and_bad_dt(backend):
 
 
 def test_bank_backend_is_checked():
-    from pointat.maths.tqt import compiled
-
     with pytest.raises(ValueError, match="backend must be"):
         TQTBank(2, backend="fortran")
-    with pytest.raises(ValueError, match="needs numba"):
+    with pytest.raises(ValueError, match="runs mode='robust' only"):
         TQTBank(2, mode="paper", backend="numba")
-    assert TQTBank(2, backend="auto").backend == ("numba" if compiled.available() else "python")
+    assert TQTBank(2, backend="auto").backend == "numba"
     assert TQTBank(2, mode="paper").backend == "python"  # numba compiles robust mode only
 
 

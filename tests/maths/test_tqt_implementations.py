@@ -1,17 +1,19 @@
 """Every implementation of the TQT update gives the quaternions and flags of Python's TQTFilter, to the bit.
 
 The step is written once (:mod:`pointat.maths.tqt.step`; paper mode's in :mod:`pointat.maths.tqt.paper`)
-and runs in five implementations, each held here to the reference, one :class:`TQTFilter` per sensor fed
-lists of floats:
+and runs in six implementations, each held here to the reference, one ``TQTFilter(backend="python")`` per
+sensor fed lists of floats (the step in plain Python):
 
-* ``TQTFilter`` -- the same class again, fed numpy rows (its other input path), sharing nothing with the
-  reference's run;
+* ``TQTFilter-python`` -- the same class again, fed numpy rows (its other input path), sharing nothing
+  with the reference's run;
+* ``TQTFilter-numba`` -- the robust step compiled by numba, one call a sample
+  (:func:`pointat.maths.tqt.step.robust_update`; what a filter runs by default; robust mode only);
 * ``TQTBank-python`` -- the same step on the rows of a state array, a Python loop over the sensors;
 * ``TQTBank-numba`` -- the robust step compiled by numba into one loop (:mod:`pointat.maths.tqt.compiled`;
-  robust mode only; skipped without numba unless ``POINTAT_REQUIRE_TOOLS`` is set);
+  robust mode only);
 * ``tqt-node`` / ``tqt_bank-node`` -- the nodes that wrap a filter and a bank in a patch (readings as
   messages, the time step from their stamps, settings in the nodes' units: dip in degrees, full scales
-  in g and deg/s); the bank node runs numba where it is installed, as a patch's ``backend=auto`` does.
+  in g and deg/s); both run the compiled step in robust mode, as a patch's ``backend=auto`` does.
 
 Each case runs every implementation that exists for its mode, several sensors at once (a bank's sensors,
 or one filter or node each), and asserts that the quaternion and the flag bits of every sensor at every
@@ -47,7 +49,6 @@ from pointat.maths.calibration import STANDARD_GRAVITY
 from pointat.maths.evaluation import BROAD_RATE, BROAD_SAMPLE, load_broad
 from pointat.maths.quaternion import quat_from_axis_angle
 from pointat.maths.tqt import TQTBank, TQTFilter
-from pointat.maths.tqt import compiled as tqt_compiled
 from pointat.message import floats
 from pointat.testing import patch
 from tests.maths.test_tqt import DIP, FIELD, G, synthetic
@@ -183,9 +184,10 @@ RUNS = [
 # --------------------------------------------------------------------------------------------------------
 
 
-def run_filters(case: Case, mode: str, *, rows: bool = False) -> Run:
+def run_filters(case: Case, mode: str, *, rows: bool = False, backend: str = "python") -> Run:
     """The reference: one TQTFilter a sensor, fed lists of floats (``rows``: numpy rows instead)."""
-    filters = [TQTFilter(mode=mode, **case.settings) for _ in range(case.n)]
+    filters = [TQTFilter(mode=mode, backend=backend, **case.settings) for _ in range(case.n)]
+    assert all(f.backend == backend for f in filters)
     if case.start is not None:
         for f in filters:
             f.reset(case.start)
@@ -269,7 +271,7 @@ def run_tqt_nodes(case: Case, mode: str, started) -> Run:
 
 
 def run_tqt_bank_node(case: Case, mode: str, started) -> Run:
-    """One ``tqt_bank`` node for all the sensors (``backend=auto``: numba where installed, robust)."""
+    """One ``tqt_bank`` node for all the sensors (``backend=auto``: numba in robust mode)."""
     text = f"node bank tqt_bank sensors={case.n} {node_settings(case, mode)}\n"
     text += "".join(f"node o{j} collect\nbank.quat{j + 1} -> o{j}\n" for j in range(case.n))
     rt = started(patch(text))
@@ -298,7 +300,8 @@ def run_tqt_bank_node(case: Case, mode: str, started) -> Run:
 
 
 IMPLEMENTATIONS: dict[str, Callable[[Case, str, object], Run]] = {
-    "TQTFilter": lambda case, mode, started: run_filters(case, mode, rows=True),
+    "TQTFilter-python": lambda case, mode, started: run_filters(case, mode, rows=True),
+    "TQTFilter-numba": lambda case, mode, started: run_filters(case, mode, backend="numba"),
     "TQTBank-python": lambda case, mode, started: run_bank(case, mode, "python"),
     "TQTBank-numba": lambda case, mode, started: run_bank(case, mode, "numba"),
     "tqt-node": run_tqt_nodes,
@@ -312,7 +315,7 @@ def implementations() -> list:
     out = []
     for name, mode in RUNS:
         for impl in IMPLEMENTATIONS:
-            if impl == "TQTBank-numba" and mode != "robust":
+            if impl.endswith("numba") and mode != "robust":
                 continue
             if impl.endswith("node") and name == "known_start":
                 continue
@@ -328,9 +331,7 @@ def reference(name: str, mode: str) -> Run:
 
 
 @pytest.mark.parametrize(("name", "mode", "impl"), implementations())
-def test_every_implementation_gives_the_filters_bits(name, mode, impl, require_tool, started):
-    if impl == "TQTBank-numba":
-        require_tool(tqt_compiled.available(), "numba is not installed (the 'fast' extra)")
+def test_every_implementation_gives_the_filters_bits(name, mode, impl, started):
     case, want = CASES[name](), reference(name, mode)
     got = IMPLEMENTATIONS[impl](case, mode, started)
     out = ~np.isnan(got.q[..., 0])  # where a quaternion was put out

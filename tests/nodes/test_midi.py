@@ -19,9 +19,11 @@ from pointat.errors import PatchError
 from pointat.maths.quaternion import azimuth_elevation, pointing_direction
 from pointat.maths.scalar import fold_front
 from pointat.message import bang, make, method
-from pointat.nodes import midi
-from pointat.nodes.midi import MidiFileWriter, MidiSender, MidiUnavailable, scale_to_int
-from pointat.testing import patch, wait_until
+from pointat.midi_bridge import ports as midi_ports
+from pointat.midi_bridge.file_writer import MidiFileWriter
+from pointat.midi_bridge.mapping import MidiSender, scale_to_int
+from pointat.midi_bridge.ports import MidiUnavailable
+from pointat.testing import patch, test_registry, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "midi_pan.pat"
@@ -170,8 +172,8 @@ def capture(monkeypatch):
         opened.append(port)
         return port
 
-    monkeypatch.setattr(midi, "open_output", fake_open_output)
-    monkeypatch.setattr(midi, "output_names", lambda: ["Capture Port 1", "Other Synth"])
+    monkeypatch.setattr(midi_ports, "open_output", fake_open_output)
+    monkeypatch.setattr(midi_ports, "output_names", lambda: ["Capture Port 1", "Other Synth"])
     return opened
 
 
@@ -403,7 +405,7 @@ def test_no_port_and_no_file_falls_back_to_a_file_when_there_is_no_midi_system(t
     def no_system():
         raise ImportError("No module named 'rtmidi'")
 
-    monkeypatch.setattr(midi, "output_names", no_system)
+    monkeypatch.setattr(midi_ports, "output_names", no_system)
     monkeypatch.chdir(tmp_path)
     rt = patch("node pan midi_out number=10 range=[90, -90]")
     with caplog.at_level(logging.WARNING, logger="pointat.midi"):
@@ -412,6 +414,47 @@ def test_no_port_and_no_file_falls_back_to_a_file_when_there_is_no_midi_system(t
     rt.nodes["pan"].receive(0, make(-90.0))
     rt.shutdown()
     assert hexes(m for m in mido.MidiFile(tmp_path / "pan.mid").tracks[0] if not m.is_meta) == ["B0 0A 7F"]
+
+
+def test_with_no_midi_system_the_file_goes_beside_the_patch_not_into_the_working_directory(
+    tmp_path, monkeypatch
+):
+    """A patch kept in a folder of its own and run from another: ``NODE.mid`` is written beside the patch,
+    as a ``file=NODE.mid`` written in it would be, and the folder it was run from gets nothing."""
+
+    def no_system():
+        raise ImportError("No module named 'rtmidi'")
+
+    monkeypatch.setattr(midi_ports, "output_names", no_system)
+    show, elsewhere = tmp_path / "show", tmp_path / "elsewhere"
+    show.mkdir()
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    rt = patch("node n1 midi_out kind=note number=60", file=str(show / "notes.pat"))
+    rt.advance(0.0)
+    rt.nodes["n1"].receive(0, make(1.0))
+    rt.shutdown()
+    events = [m.hex() for m in mido.MidiFile(show / "n1.mid").tracks[0] if not m.is_meta]
+    assert events == ["90 3C 64", "80 3C 00"]  # the note held is released as the patch stops
+    assert list(elsewhere.iterdir()) == []
+
+
+def test_a_shipped_patch_names_its_midi_files_in_its_out_folder(tmp_path):
+    """A shipped patch is read-only: its files go to ``pointat run --out`` (the working directory by
+    default), the fallback MIDI file too."""
+    from pointat.checking import check
+    from pointat.expansion import read_spec
+    from pointat.loader import build
+
+    spec = read_spec(str(ROOT / "patches" / "gestures.pat"))
+    spec.out = str(tmp_path)
+    checked = check(spec, test_registry())
+    assert {checked.nodes[n].folder for n in ("n1", "n2", "n3")} == {tmp_path}
+    rt = build(checked, realtime=False)
+    try:
+        assert rt.nodes["n1"]._fallback_file() == tmp_path.resolve() / "n1.mid"
+    finally:
+        rt.shutdown()
 
 
 # --------------------------------------------------------------------------- no MIDI system
@@ -440,8 +483,8 @@ def test_rtmidi_system_error_names_the_node_and_the_fix(monkeypatch):
     def alsa_down(*args, **kwargs):
         raise RtMidiSystemError("MidiOutAlsa::initialize: error creating ALSA sequencer client object.")
 
-    monkeypatch.setattr(midi, "open_output", alsa_down)
-    monkeypatch.setattr(midi, "output_names", alsa_down)
+    monkeypatch.setattr(midi_ports, "open_output", alsa_down)
+    monkeypatch.setattr(midi_ports, "output_names", alsa_down)
     msg = _start_error('node synth midi_out port="IAC Bus 1"')
     assert msg.startswith("midi_out 'synth': cannot open MIDI output port 'IAC Bus 1': no MIDI system")
     assert "ALSA sequencer" in msg  # the backend's own words
@@ -459,7 +502,7 @@ def test_missing_python_rtmidi_and_unknown_port_messages(monkeypatch, capture):
     def no_rtmidi(*args, **kwargs):
         raise ModuleNotFoundError("No module named 'rtmidi'")
 
-    monkeypatch.setattr(midi, "open_output", no_rtmidi)
+    monkeypatch.setattr(midi_ports, "open_output", no_rtmidi)
     msg = _start_error("node synth midi_out virtual=true")
     assert "python-rtmidi, the backend mido uses, is not installed" in msg
     assert "pip install 'pointat[midi]'" in msg and "file=synth.mid" in msg
@@ -494,8 +537,8 @@ def test_midi_in_outputs_cc_lists_and_note_events(monkeypatch):
         ports.append(FootPort(name, callback=callback))
         return ports[-1]
 
-    monkeypatch.setattr(midi, "open_input", fake_open_input)
-    monkeypatch.setattr(midi, "input_names", lambda: ["FCB1010 MIDI 1"])
+    monkeypatch.setattr(midi_ports, "open_input", fake_open_input)
+    monkeypatch.setattr(midi_ports, "input_names", lambda: ["FCB1010 MIDI 1"])
     rt = patch(
         """
 node foot midi_in port=FCB1010 channel=1
@@ -556,9 +599,9 @@ def test_midi_in_unplugged_mid_show_is_reported_and_reopened_when_it_is_back(mon
         ports.append(FootPort(name, callback=callback))
         return ports[-1]
 
-    monkeypatch.setattr(midi, "open_input", fake_open_input)
-    monkeypatch.setattr(midi, "input_names", lambda: list(names))
-    monkeypatch.setattr(midi, "WATCH_PERIOD", 0.01)
+    monkeypatch.setattr(midi_ports, "open_input", fake_open_input)
+    monkeypatch.setattr(midi_ports, "input_names", lambda: list(names))
+    monkeypatch.setattr(midi_ports, "WATCH_PERIOD", 0.01)
     rt = patch("node foot midi_in port=FCB1010\nnode cc collect\nfoot.cc -> cc")
     foot = rt.nodes["foot"]
     caplog.set_level(logging.INFO, logger="pointat.midi")
@@ -608,9 +651,9 @@ def test_midi_out_drops_while_unplugged_and_catches_the_receiver_up_when_it_is_b
         ports.append(SynthPort(name))
         return ports[-1]
 
-    monkeypatch.setattr(midi, "open_output", fake_open_output)
-    monkeypatch.setattr(midi, "output_names", lambda: list(names))
-    monkeypatch.setattr(midi, "WATCH_PERIOD", 0.01)
+    monkeypatch.setattr(midi_ports, "open_output", fake_open_output)
+    monkeypatch.setattr(midi_ports, "output_names", lambda: list(names))
+    monkeypatch.setattr(midi_ports, "WATCH_PERIOD", 0.01)
     rt = patch("node vol midi_out kind=cc number=7 range=[0, 1] port=Synth")
     vol = rt.nodes["vol"]
     caplog.set_level(logging.WARNING)
@@ -691,7 +734,7 @@ def test_the_banner_says_which_file_is_written_when_there_is_no_midi_system(tmp_
     def no_rtmidi():
         raise ImportError("No module named 'rtmidi'")
 
-    monkeypatch.setattr(midi, "output_names", no_rtmidi)
+    monkeypatch.setattr(midi_ports, "output_names", no_rtmidi)
     monkeypatch.chdir(tmp_path)
     rt = patch("node pan midi_out number=10")
     assert describe(rt.nodes["pan"]) == (

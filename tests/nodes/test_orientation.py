@@ -69,24 +69,24 @@ def test_leave_above_enter_is_refused_at_load_and_live():
 
 
 def test_an_orientation_in_is_a_unit_quaternion_and_nan_or_infinity_is_refused():
-    from pointat.nodes.orientation import _as_quat
+    from pointat.nodes.orientation import as_quat
 
     unit = (0.5, 0.5, -0.5, 0.5)
-    assert _as_quat(floats(unit)) is unit  # a unit quaternion (what the nodes send) passes as it is
-    assert _as_quat(floats((2.0, 0.0, 0.0, 0.0))) == (1.0, 0.0, 0.0, 0.0)
-    assert _as_quat(floats((0.0, 0.0, 0.0, 1.0 + 1e-9))) == (0.0, 0.0, 0.0, 1.0)  # off by more: normalised
+    assert as_quat(floats(unit)) is unit  # a unit quaternion (what the nodes send) passes as it is
+    assert as_quat(floats((2.0, 0.0, 0.0, 0.0))) == (1.0, 0.0, 0.0, 0.0)
+    assert as_quat(floats((0.0, 0.0, 0.0, 1.0 + 1e-9))) == (0.0, 0.0, 0.0, 1.0)  # off by more: normalised
     for bad in ((math.nan, 0.0, 0.0, 1.0), (math.inf, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, math.nan)):
         with pytest.raises(ValueError, match="NaN or infinite"):
-            _as_quat(floats(bad))
+            as_quat(floats(bad))
     # a list is read as numbers, a matrix becomes its quaternion, any other size or kind is an error
-    assert _as_quat(make([0, 0, 0, 2])) == (0.0, 0.0, 0.0, 1.0)
-    assert _as_quat(floats(sq.quat_matrix(unit))) == pytest.approx(unit, abs=1e-15)
+    assert as_quat(make([0, 0, 0, 2])) == (0.0, 0.0, 0.0, 1.0)
+    assert as_quat(floats(sq.quat_matrix(unit))) == pytest.approx(unit, abs=1e-15)
     for wrong, error in (
         (floats((1.0, 0.0, 0.0)), "4 or 9 numbers, got 3"),
         (make(1.0), "expected a vector"),
     ):
         with pytest.raises(TypeError, match=error):
-            _as_quat(wrong)
+            as_quat(wrong)
 
 
 def test_azi_ele_and_roll_distance_on_one_outlet_each_get_their_own_direction():
@@ -158,3 +158,41 @@ def test_gyro_integrator_reports_a_glitch_and_holds_its_orientation():
     first, held, after = rt.nodes["out"].values
     assert held == first and after != first
     assert rt.nodes["flags"].values == ["bad_gyro", "ok"]  # (reported when it changes)
+
+
+CHAIN = """
+node gyro gyro_integrator mode=exact
+node am   accmag_matrix accel_tolerance=0 mag_tolerance=0 dip_tolerance=0
+node fuse complementary crossover={crossover}
+node out  collect
+gyro -> fuse.gyro_orientation
+am -> fuse.accmag
+fuse -> out
+"""
+
+
+@pytest.mark.parametrize("crossover", [0.05, 0.2, 2.0])
+def test_the_complementary_chain_is_the_complementary_filter(crossover):
+    """Torre's chain as a patch wires it (gyro_integrator, accmag_matrix, complementary) and
+    ComplementaryFilter.update on the raw samples run one algorithm (the node runs the filter's fuse):
+    the same orientation at every sample, to rounding."""
+    from pointat.maths.fusion import ComplementaryFilter
+
+    rng = np.random.default_rng(7)
+    n, dt = 600, 0.01
+    gyro = rng.normal(0.0, 1.5, (n, 3))
+    acc = np.array([0.0, 0.0, 9.81]) + rng.normal(0.0, 0.3, (n, 3))
+    mag = np.array([0.2, 0.0, -0.4]) + rng.normal(0.0, 0.02, (n, 3))
+    rt = patch(CHAIN.format(crossover=crossover))
+    f = ComplementaryFilter(crossover)
+    expected = []
+    for k in range(n):
+        rt.nodes["am"].receive(1, floats(tuple(mag[k]), k * dt))
+        rt.nodes["am"].receive(0, floats(tuple(acc[k]), k * dt))
+        rt.nodes["gyro"].receive(0, floats(tuple(gyro[k]), k * dt))
+        q, used = f.update(gyro[k], acc[k], mag[k], dt)
+        assert used
+        expected.append(sq.quat_matrix(tuple(q.tolist())))
+    got = np.array(rt.nodes["out"].values)
+    assert got.shape == (n, 9)
+    np.testing.assert_allclose(got, np.array(expected), rtol=0, atol=1e-9)

@@ -502,9 +502,9 @@ def test_a_receiver_host_that_refuses_once_a_second_is_not_taken_for_back(starte
 
 
 def test_the_log_says_when_a_receiver_is_back_and_of_each_outage(started, receivers, caplog, monkeypatch):
-    from pointat.osc_bridge.nodes import _Destination
+    from pointat.osc_bridge.sender import Destination
 
-    monkeypatch.setattr(_Destination, "BACK_QUIET", 0.0)  # loopback refuses at once: no need to wait
+    monkeypatch.setattr(Destination, "BACK_QUIET", 0.0)  # loopback refuses at once: no need to wait
     probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     probe.bind(("127.0.0.1", 0))
     port = probe.getsockname()[1]
@@ -822,7 +822,7 @@ def test_timetags_stamp_a_burst_with_the_senders_spacing(started):
 
 @pytest.mark.parametrize("ppm", [80, -80])
 def test_tag_clock_follows_a_drifting_sender_and_one_set_back(ppm):
-    from pointat.osc_bridge.nodes import TagClock
+    from pointat.osc_bridge.tagclock import TagClock
 
     rng = np.random.default_rng(3)
     clock = TagClock()
@@ -998,7 +998,7 @@ def test_our_encoder_writes_what_python_osc_writes():
 @pytest.mark.parametrize("profile", sorted(PROFILES))
 def test_the_compiled_update_encoder_writes_what_render_and_encode_message_write(profile):
     from pointat.devices.osc_wire import encode_message
-    from pointat.osc_bridge.nodes import UpdateEncoder
+    from pointat.osc_bridge.encoder import UpdateEncoder
     from pointat.osc_bridge.profiles import Source
 
     prof = PROFILES[profile]

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from pointat.errors import PatchError
-from pointat.maths.tqt import compiled as tqt_compiled
 from pointat.message import floats, method
 from pointat.testing import patch
 
@@ -37,9 +36,7 @@ def gloves(n, backend):
 
 
 @pytest.mark.parametrize("backend", ["python", "numba"])
-def test_each_sensor_of_the_bank_follows_its_own_tqt_node(backend, require_tool):
-    if backend == "numba":
-        require_tool(tqt_compiled.available(), "numba is not installed (pip install '.[fast]')")
+def test_each_sensor_of_the_bank_follows_its_own_tqt_node(backend):
     rt = gloves(3, backend)
     rt.advance(20.0)
     for i in (1, 2, 3):
@@ -139,7 +136,7 @@ def test_sensors_delivered_in_no_fixed_order_are_each_updated_once_a_sample():
 
 def test_a_silent_sensor_is_not_waited_for_and_is_waited_for_again_when_back(caplog):
     rt, bank = bank2()
-    caplog.set_level(logging.WARNING, "pointat.nodes.orientation")  # a glove lost in a show: said plainly
+    caplog.set_level(logging.WARNING, "pointat.nodes.tqt")  # a glove lost in a show: said plainly
     for k in range(10):
         tick(bank, k)
     for k in range(10, 30):  # sensor 2 switched off
@@ -158,7 +155,7 @@ def test_a_silent_sensor_is_not_waited_for_and_is_waited_for_again_when_back(cap
 
 def test_a_sensor_that_keeps_dropping_out_is_told_of_a_few_times_not_every_time(caplog):
     rt, bank = bank2()
-    caplog.set_level(logging.WARNING, "pointat.nodes.orientation")
+    caplog.set_level(logging.WARNING, "pointat.nodes.tqt")
     k = 0
     for _ in range(12):  # out of range, back, out again... 12 times
         for _ in range(8):
@@ -271,18 +268,20 @@ def test_the_shipped_three_glove_patch_sends_three_sources_over_osc():
     assert np.ptp(last[:, 0]) < 5.0 and np.ptp(last[:, 1]) < 5.0, last  # degrees
 
 
-def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path, require_tool):
+def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path):
     """numba costs a quarter of a second and ~50 MB to import: listing every node type and checking a
-    patch without a bank must not pay it (every patch would); building the bank does, and so does
-    checking it (check builds every node, as run does)."""
+    patch without a compiled filter must not pay it (every patch would); building the bank does, and so
+    does checking it (check builds every node, as run does).  A ``tqt`` node in paper mode, or told
+    ``backend=python``, runs the step in Python and does not pay it either."""
     import subprocess
     import sys
 
-    require_tool(tqt_compiled.available(), "numba is not installed (pip install '.[fast]')")
     pat = tmp_path / "bank.pat"
     pat.write_text("node bank tqt_bank sensors=2 backend=numba\n")
     plain = tmp_path / "plain.pat"
-    plain.write_text("node fuse tqt\nnode p print\nfuse -> p\n")
+    plain.write_text(
+        "node fuse tqt backend=python\nnode old tqt mode=paper\nnode p print\nfuse -> p\nold -> p\n"
+    )
     code = (
         "import contextlib, io, sys\n"
         "from pointat.cli import main\n"
@@ -299,7 +298,7 @@ def test_numba_is_imported_only_by_a_patch_that_builds_a_bank(tmp_path, require_
 
 
 def test_the_help_gives_the_tick_counts_the_node_uses():
-    from pointat.nodes.orientation import TQTBankNode
+    from pointat.nodes.tqt import TQTBankNode
 
     doc = " ".join(TQTBankNode.__doc__.split())
     assert f"misses {TQTBankNode.MISSES} ticks in a row (``MISSES``)" in doc

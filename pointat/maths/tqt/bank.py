@@ -26,9 +26,9 @@ class TQTBank(_TQTParams):
     (:mod:`pointat.maths.tqt.step`), so a bank agrees with ``n`` independent filters to the last bit.
 
     Two ways to run it (``backend``): ``numba`` runs the robust step compiled, as one loop over the sensors
-    (:mod:`pointat.maths.tqt.compiled`; ``pip install "pointat[fast]"``), well under a microsecond per
-    sensor; ``python`` loops over the sensors in Python, a few microseconds each.  ``auto`` (default)
-    takes numba when it is installed and the mode is robust.
+    (:mod:`pointat.maths.tqt.compiled`), well under a microsecond per sensor; ``python`` loops over the
+    sensors in Python, a few microseconds each.  ``auto`` (default) takes numba in robust mode (numba
+    compiles robust mode only).
 
     Parameters
     ----------
@@ -58,14 +58,12 @@ class TQTBank(_TQTParams):
         if backend not in ("auto", "numba", "python"):
             raise ValueError(f"backend must be 'auto', 'numba' or 'python', got {backend!r}")
         super().__init__(k, **params)  # type: ignore[arg-type]
-        if backend == "numba" and (not compiled.available() or self.mode != "robust"):
-            raise ValueError(
-                "backend='numba' needs numba (pip install \"pointat[fast]\") and mode='robust'"
-                f" (numba installed: {compiled.available()}, mode: {self.mode})"
-            )
-        numba = backend == "numba" or (backend == "auto" and compiled.available() and self.mode == "robust")
+        if backend == "numba" and self.mode != "robust":
+            raise ValueError(f"backend='numba' runs mode='robust' only, got mode {self.mode!r}")
+        numba = backend == "numba" or (backend == "auto" and self.mode == "robust")
         self.backend = "numba" if numba else "python"
-        self._kernel = compiled.robust_bank if numba else None
+        self._kernel = compiled.bank_kernel() if numba else None
+        self._all = np.ones(self.n, dtype=bool)  # present: every sensor (read only)
         self._p = np.array(self._p) if numba else self._p
         if numba and not compiled.compiled():
             # numba compiles the kernel (or loads it from its cache) on its first call, up to a second or
@@ -146,15 +144,16 @@ class TQTBank(_TQTParams):
                 f"gyro, acc and mag must have shape {shape}, got {g.shape}, {a.shape}, {m.shape}"
             )
         if present is None:
-            here = np.ones(self.n, dtype=bool)
+            here = self._all
         else:
             here = np.asarray(present, dtype=bool)
             if here.shape != (self.n,):
                 raise ValueError(f"present must have shape ({self.n},), got {here.shape}")
         dt = float(dt)
         if self._kernel is not None:
-            self._kernel(np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m), dt, here,
-                         self._s, self._p, self._flags)  # fmt: skip
+            if not (g.flags.c_contiguous and a.flags.c_contiguous and m.flags.c_contiguous):
+                g, a, m = np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m)
+            self._kernel(g, a, m, dt, here, self._s, self._p, self._flags)
             return self._s[:, :4].copy()
         run, p = self._step, self._p
         for i, (gi, ai, mi) in enumerate(zip(g.tolist(), a.tolist(), m.tolist(), strict=True)):

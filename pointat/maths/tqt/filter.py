@@ -1,12 +1,18 @@
 """The TQT filter for one sensor: :class:`TQTFilter` (documented here; the theory and its sources are in
 :mod:`pointat.maths.tqt`).
 
-Its state is the flat vector of :mod:`pointat.maths.tqt.step` in a Python list, and each update runs the
-step of its mode on plain floats: :func:`~pointat.maths.tqt.step.robust_step` or
-:func:`~pointat.maths.tqt.paper.paper_step`.
+Its state is the flat vector of :mod:`pointat.maths.tqt.step`, and each update runs the step of its mode:
+in robust mode (``backend="numba"``, what ``"auto"`` takes) one call
+of :func:`~pointat.maths.tqt.step.robust_update` compiled (:mod:`pointat.maths.tqt.compiled`), the state
+a float64 array it changes in place; otherwise (``backend="python"``, paper mode)
+:func:`~pointat.maths.tqt.step.robust_step` or :func:`~pointat.maths.tqt.paper.paper_step` on plain
+floats, the state a Python list.  The two give the same bits
+(``tests/maths/test_tqt_implementations.py``).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -151,6 +157,11 @@ class TQTFilter(_TQTParams):
         Robust mode: the sensor's full scale per axis, in the readings' units (m/s² or whatever the
         accelerometer reads in; rad/s), 0 (default) when not known (the accelerometer's is then found
         from the data if it clips).  A reading at or beyond it is saturated (extension 5).
+    backend : {"auto", "numba", "python"}, keyword-only
+        How the update runs (the results agree to the bit): ``numba`` the robust step compiled, one call
+        a sample (robust mode); ``python`` the same step in Python, several times slower.  ``auto``
+        (default) takes numba in robust mode.  The first compiled filter of a process compiles the step, or loads it from numba's
+        cache: here, where a patch loads, not at the first update.
 
     Notes
     -----
@@ -187,6 +198,22 @@ class TQTFilter(_TQTParams):
     [1.0, 0.0, 0.0, 0.0]
     """
 
+    def __init__(self, k: float | None = None, *, backend: str = "auto", **params: object) -> None:
+        if backend not in ("auto", "numba", "python"):
+            raise ValueError(f"backend must be 'auto', 'numba' or 'python', got {backend!r}")
+        self._kernel = None  # (reset, which the settings' constructor calls, asks)
+        super().__init__(k, **params)  # type: ignore[arg-type]
+        if backend == "numba" and self.mode != "robust":
+            raise ValueError(f"backend='numba' runs mode='robust' only, got mode {self.mode!r}")
+        numba = backend == "numba" or (backend == "auto" and self.mode == "robust")
+        self.backend = "numba" if numba else "python"
+        if numba:
+            from pointat.maths.tqt import compiled  # here: numba loads only where it runs
+
+            self._kernel = compiled.update_kernel()
+            self._p = np.array(self._p)
+            self._s = np.array(self._s)
+
     # -- state ---------------------------------------------------------------------------------------------
 
     def reset(self, q: ArrayLike | None = None) -> None:
@@ -201,14 +228,32 @@ class TQTFilter(_TQTParams):
             Known orientation; normalised here.
         """
         q0 = None if q is None else tuple(float(c) for c in quat_normalize(q))
-        self._s = step.new_state(q0, self.dip)  # type: ignore[arg-type]
+        s = step.new_state(q0, self.dip)  # type: ignore[arg-type]
+        self._s = s if self._kernel is None else np.array(s)
         self._flags = 0 if q0 is not None else step.F_UNINITIALISED
+
+    def export_state(self) -> tuple[list[float], list[float], int]:
+        """Copies of what the step runs on: the state vector (:data:`~pointat.maths.tqt.step.STATE_SIZE`),
+        the parameter vector (the step keeps per-step coefficients at its end) and the flag bits, for a
+        compiled copy of the step to go on from (:mod:`pointat.compiled`)."""
+        return list(self._s), list(self._p), self._flags
+
+    def import_state(self, s: Sequence[float], p: Sequence[float], flags: int) -> None:
+        """Go on from :meth:`export_state`'s values, moved on elsewhere (in place: the vectors keep their
+        identity)."""
+        self._s[:] = [float(x) for x in s]
+        self._p[:] = [float(x) for x in p]
+        self._flags = int(flags)
 
     @property
     def q(self) -> tuple[float, float, float, float]:
         """Current orientation ``(w, x, y, z)``, sensor -> NWU."""
-        s = self._s
-        return (s[0], s[1], s[2], s[3])
+        return self._floats(step.S_QW, 4)  # type: ignore[return-value]
+
+    def _floats(self, at: int, n: int) -> tuple[float, ...]:
+        """``n`` values of the state from ``at``, as Python floats."""
+        part = self._s[at : at + n]
+        return tuple(part.tolist() if isinstance(part, np.ndarray) else part)
 
     @property
     def flags(self) -> TQTFlags:
@@ -223,25 +268,24 @@ class TQTFilter(_TQTParams):
     @property
     def initialised(self) -> bool:
         """Whether the orientation has been set (first valid acc / mag pair, or :meth:`reset` with ``q``)."""
-        return self._s[step.S_INIT] != 0.0
+        return bool(self._s[step.S_INIT] != 0.0)
 
     @property
     def bias(self) -> tuple[float, float, float]:
         """Gyro bias learned at rest (rad/s, sensor frame; robust mode)."""
-        b = step.S_BIAS
-        return (self._s[b], self._s[b + 1], self._s[b + 2])
+        return self._floats(step.S_BIAS, 3)  # type: ignore[return-value]
 
     @property
     def bias_seconds(self) -> float:
         """Seconds of rest the bias estimate has taken in so far (robust mode)."""
-        return self._s[step.S_BIAS_T]
+        return float(self._s[step.S_BIAS_T])
 
     @property
     def magnetic_dip(self) -> float | None:
         """Dip reference in radians (``None`` until learned)."""
         if self.dip is None and not self._s[step.S_MAG_KNOWN]:
             return None
-        return self._s[step.S_DIP]
+        return float(self._s[step.S_DIP])
 
     # -- update --------------------------------------------------------------------------------------------
 
@@ -266,6 +310,13 @@ class TQTFilter(_TQTParams):
         tuple of 4 floats
             ``(w, x, y, z)``, sensor -> NWU; never NaN.
         """
+        kernel = self._kernel
+        if kernel is not None:  # compiled: any sequence of three numbers, converted to floats by numba
+            gx, gy, gz = gyro
+            ax, ay, az = acc
+            mx, my, mz = mag
+            self._flags, w, x, y, z = kernel(self._s, self._p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
+            return (w, x, y, z)
         # plain Python floats are several times faster than numpy scalars in the arithmetic
         gx, gy, gz = gyro.tolist() if isinstance(gyro, np.ndarray) else gyro
         ax, ay, az = acc.tolist() if isinstance(acc, np.ndarray) else acc

@@ -53,6 +53,7 @@ __all__ = [
     "new_state",
     "robust_bank",
     "robust_step",
+    "robust_update",
 ]
 
 _INF = math.inf
@@ -110,8 +111,10 @@ _CLIP_MARGIN = 1e-3
 _MAG_LATE_FACTOR = 0.5
 # time constant (s) of the gyro / accelerometer low-pass the rest detector compares against (as VQF)
 _REST_TAU = 0.5
-# below this squared half-angle the exponential map uses its Taylor series (error < 1e-18)
-_EXP_TAYLOR = 1e-8
+# below this squared half-angle (1.8 degrees of turn a sample: 60 rad/s at 100 Hz) the exponential map
+# uses its Taylor series to the n2**3 term: the first term left out is below 3e-17, a fraction of the last
+# bit, and the step spends no sine and cosine on it (the gyro's and the heading's turns of a sample)
+_EXP_TAYLOR = 1e-3
 _PARALLEL_EPS = 1e-6  # as pointat.maths.scalar.accmag_matrix
 
 # flag bits (pointat.maths.tqt.TQTFlags)
@@ -145,7 +148,7 @@ S_A_OVER = 29  # readings in a row beyond it
 S_MAG_KNOWN = 30  # 1.0: the magnetic reference is set
 S_MAG_NORM = 31
 S_DIP = 32  # dip reference (rad)
-S_NX = 33  # magnetic reference (cos dip, 0, -sin dip)
+S_NX = 33  # magnetic reference (cos dip, 0, -sin dip): paper mode's
 S_NZ = 34
 S_ACC_SAT_T = 35  # seconds since the accelerometer last saturated
 S_GYRO_SAT_T = 36  # seconds since the gyro last saturated
@@ -263,7 +266,8 @@ def _exp(hx, hy, hz):  # type: ignore[no-untyped-def]
     """:math:`\\exp(0, h)`, the unit quaternion of half rotation vector ``h``, for floats."""
     n2 = hx * hx + hy * hy + hz * hz
     if n2 < _EXP_TAYLOR:
-        c, s = 1.0 - 0.5 * n2, 1.0 - n2 / 6.0
+        c = 1.0 - n2 * (0.5 - n2 * (1.0 / 24.0 - n2 / 720.0))
+        s = 1.0 - n2 * (1.0 / 6.0 - n2 * (1.0 / 120.0 - n2 / 5040.0))
     else:
         n = math.sqrt(n2)
         c, s = math.cos(n), math.sin(n) / n
@@ -543,7 +547,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     # (1) + (4) magnetometer: gated heading-only correction
     if m_use:
         bex, bey, bez = _rotate(w, x, y, z, mx, my, mz)
-        bh = math.hypot(bex, bey)
+        bh = math.sqrt(bex * bex + bey * bey)
         norm, dip = math.sqrt(bh * bh + bez * bez), math.atan2(-bez, bh)
         if _magnetic_gate(s, p, norm, dip, dt, dip_gate):
             flags |= F_MAG_DISTURBED
@@ -562,8 +566,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
                 and s[S_BIAS_T] < p[P_BIAS_TAU]
             ):
                 _motion_bias(s, p, w, x, y, z, psi)
-            half = -0.5 * k * psi
-            cz, sz = math.cos(half), math.sin(half)
+            cz, _, _, sz = _exp(0.0, 0.0, -0.5 * k * psi)
             w, x, y, z = cz * w - sz * z, cz * x - sz * y, cz * y + sz * x, cz * z + sz * w
             _turn_average(s, cz, 0.0, 0.0, sz)
     _store(s, w, x, y, z)
@@ -647,7 +650,8 @@ def _motion_bias(s, p, w, x, y, z, psi):  # type: ignore[no-untyped-def]
 
 
 def _set_dip(s, d):  # type: ignore[no-untyped-def]
-    s[S_DIP], s[S_NX], s[S_NZ] = d, math.cos(d), -math.sin(d)
+    """Robust mode's dip reference (its reference vector, ``S_NX``, ``S_NZ``, is paper mode's alone)."""
+    s[S_DIP] = d
 
 
 def _heading_gain(s, p, dt):  # type: ignore[no-untyped-def]
@@ -664,6 +668,14 @@ def _heading_gain(s, p, dt):  # type: ignore[no-untyped-def]
     t = s[S_MAG_T] + dt
     s[S_MAG_T] = t
     return max(k, dt / t)
+
+
+def robust_update(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-untyped-def]
+    """:func:`robust_step` and its result in one call: ``(flags, w, x, y, z)``.  Compiled by
+    :mod:`pointat.maths.tqt.compiled`, it is :class:`~pointat.maths.tqt.TQTFilter`'s whole update: one
+    call from Python a sample, the state an array that stays where it is."""
+    flags = robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt)
+    return flags, s[S_QW], s[S_QX], s[S_QY], s[S_QZ]
 
 
 def robust_bank(g, a, m, dt, here, state, p, flags):  # type: ignore[no-untyped-def]

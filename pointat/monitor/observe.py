@@ -6,16 +6,20 @@ An :class:`Observer` watches a built :class:`~pointat.runtime.Runtime` from a th
   class's :attr:`~pointat.node.Node.sample_outlets`: a ``mote``'s ``m1``, a ``replay``'s ``gyro``...).
   A tap on it counts the samples and notes when the last came: the rate, and a *dropout* when none came
   for :attr:`Observer.DROPOUT` seconds (or five sample periods, whichever is longer).
-* **Pointers**: every ``osc_out``: the direction it last sent (azimuth, elevation, distance), read from
-  the node, never fed, and its state as its receiver is told it: ``waiting`` (no direction in yet),
-  ``ok``, ``dropout`` (no direction in for the node's ``dropout`` seconds) or the filter's flag.
+* **Pointers**: every node that declares a ``direction`` reading (:class:`~pointat.node.Reading`, an
+  ``osc_out``'s ``aed``): the direction it last sent (azimuth, elevation, distance), read from the node
+  (:meth:`~pointat.node.Node.read`), never fed, and its state as its health tells it: ``waiting`` (no
+  direction in yet), ``ok``, ``dropout`` (no direction in for the node's ``dropout`` seconds) or the
+  filter's flag.
 * **Flags**: every ``flags`` outlet is tapped: the filter's state as it changes (``mag_disturbed``,
   ``acc_saturated``...), with when it changed; a filter whose every stream upstream is down is
   ``no input``, whatever its last flag said (a silent filter sends no flag).
-* **Health**: what each node's :meth:`~pointat.node.Node.health` says (a filter's rest and bias
-  learning, a mote's lost packets, a calibration's step, an ``osc_out``'s refused datagrams).
-* **Loudspeakers**: the layout of the patch's first ``vbap`` node, else the one given (``pointat run
-  --layout``), else a ring of eight; the VBAP gains of each pointer's direction are worked out here.
+* **Health and readings**: what each node's :meth:`~pointat.node.Node.health` says (a filter's rest
+  and bias learning, a mote's lost packets, a calibration's step, an ``osc_out``'s refused datagrams),
+  and the values of its other readings, with their units.
+* **Loudspeakers**: the :class:`~pointat.maths.vbap.Layout` of the patch's first node that holds one as
+  its ``layout`` (a ``vbap``), else the one given (``pointat run --layout``), else a ring of eight; the
+  VBAP gains of each pointer's direction are worked out here.
 
 The scheduler pays one call per sample and per flag for the taps (a counter and a clock read).  Every
 other reading, the history of the last :attr:`Observer.HISTORY` seconds and the gains are the observer
@@ -39,14 +43,14 @@ from typing import Any
 
 import numpy as np
 
-from .maths.vbap import Layout, make_layout, vbap_gains
-from .message import Message
-from .node import Inlet, Node
-from .scheduling import quiet_thread
+from ..maths.vbap import Layout, make_layout, vbap_gains
+from ..message import Message
+from ..node import Inlet, Node
+from ..scheduling import quiet_thread
 
 __all__ = ["Observer", "fmt_direction"]
 
-log = logging.getLogger("pointat.observe")
+log = logging.getLogger("pointat.monitor.observe")
 
 
 class _Tap(Node):
@@ -115,9 +119,10 @@ class Stream:
 
 @dataclass
 class Pointer:
-    """One ``osc_out``: where it points, and its recent past."""
+    """One node with a ``direction`` reading: where it points, and its recent past."""
 
     node: Node
+    reading: str  # the name of its direction reading
     history: deque = field(default_factory=deque)  # (t, az, el, dist)
     heard: tuple[int, float] = (0, -math.inf)  # (directions in, when a reading saw that count change)
 
@@ -177,8 +182,8 @@ class Observer:
     # -- setting up --------------------------------------------------------------------------------
     def _layout(self, given: Layout | None) -> tuple[Layout, str]:
         for node in self.rt.nodes.values():
-            if node.type_name == "vbap" and getattr(node, "layout", None) is not None:
-                return node.layout, f"vbap '{node.name}'"
+            if isinstance(getattr(node, "layout", None), Layout):
+                return node.layout, f"{node.type_name} '{node.name}'"
         if given is not None:
             return given, "--layout"
         return make_layout(
@@ -206,8 +211,10 @@ class Observer:
                         self.accel[f"{node.name}.accel"] = box = [None]
                         self.accel_history[f"{node.name}.accel"] = deque()
                         tap(node, i, _keep(box))
-            if node.type_name == "osc_out":
-                self.pointers.append(Pointer(node))
+            for reading in type(node).readings:
+                if reading.direction:
+                    self.pointers.append(Pointer(node, reading.name))
+                    break
         for name in self.flags:
             self.fed_by[name] = [s for s in self.streams if name in _downstream(s.node, s.index)]
         return self
@@ -256,12 +263,44 @@ class Observer:
     def read(self) -> dict[str, Any]:
         """Take one reading now (the thread does this :attr:`RATE` times a second)."""
         now = time.monotonic()
-        counts = {s.key: s.count for s in self.streams}
-        self._marks.append((now, counts))
+        t = round(now - self.started, 3)
+        streams = self._read_streams(now)
+        snap = {
+            "patch": self.patch,
+            "about": self.about,
+            "t": t,
+            "layout": {
+                "from": self.layout_from,
+                "dim": self.layout.dim,
+                "azimuths": [float(a) for a in self.layout.azimuths],
+                "elevations": [float(e) for e in self.layout.elevations],
+            },
+            "streams": streams,
+            "flags": self._read_flags(now, streams),
+            "pointers": self._read_pointers(now),
+            "history": {p.node.name: list(p.history) for p in self.pointers},
+            "accel": self._read_accel(t),
+            "accel_history": {k: list(h) for k, h in self.accel_history.items()},
+            "nodes": self._read_others(),
+            "events": [
+                [round(when - self.started, 2), name, word] for when, name, word in list(self.flag_log)[-20:]
+            ],
+        }
+        with self._lock:
+            self._snapshot = snap
+        return snap
+
+    def _rates_since(self, now: float) -> tuple[float, dict[str, int]]:
+        """The seconds since a mark about a second ago, and each stream's count then (the rates' base)."""
+        self._marks.append((now, {s.key: s.count for s in self.streams}))
         while len(self._marks) > 2 and now - self._marks[1][0] >= 1.0:
             self._marks.popleft()
         then, before = self._marks[0]
-        span = now - then
+        return now - then, before
+
+    def _read_streams(self, now: float) -> list[dict[str, Any]]:
+        """Each sensor stream's rate and state: ``waiting``, ``ok`` or ``dropout`` (counted as it begins)."""
+        span, before = self._rates_since(now)
         streams = []
         for s in self.streams:
             _let_others_run()
@@ -279,7 +318,6 @@ class Observer:
             elif not down and s.down_since is not None:
                 s.down_total += s.last - s.down_since
                 s.down_since = None
-            health = _health(s.node)
             streams.append(
                 {
                     "name": s.key,
@@ -291,9 +329,13 @@ class Observer:
                     "samples": s.count,
                     "dropouts": s.dropouts,
                     "silent_s": round(late, 2) if down else 0.0,
-                    **health,
+                    **_health(s.node),
                 }
             )
+        return streams
+
+    def _read_flags(self, now: float, streams: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+        """Each filter's flag as it last said it, or ``no input`` when every stream upstream is down."""
         flags = {}
         down = {s["name"]: s["silent_s"] for s in streams if s["state"] == "dropout"}
         for name, (word, since, changes) in self.flags.items():
@@ -307,12 +349,16 @@ class Observer:
                 "changes": changes,
                 **(_health(node) if node is not None else {}),
             }
+        return flags
+
+    def _read_pointers(self, now: float) -> list[dict[str, Any]]:
+        """Each pointer's direction, state and (for the page) VBAP gains; its history grows."""
         pointers = []
         for p in self.pointers:
             _let_others_run()
-            az, el, dist, _spread = (float(v) for v in p.node.state)
-            updates = getattr(p.node, "updates", 0)
-            heard = getattr(p.node, "heard", updates)
+            health = _health(p.node)
+            az, el, dist = _direction(p.node, p.reading)
+            heard = health.get("heard", health.get("updates", 0))
             if heard != p.heard[0]:
                 p.heard = (heard, now)
             silent = now - p.heard[1]
@@ -321,31 +367,32 @@ class Observer:
             elif silent > getattr(p.node.p, "dropout", self.DROPOUT):
                 state = "dropout"
             else:
-                state = getattr(p.node, "flag", "ok") or "ok"
+                state = health.get("flag", "ok") or "ok"
             p.history.append((round(now - self.started, 3), round(az, 2), round(el, 2), round(dist, 2)))
             while p.history and p.history[-1][0] - p.history[0][0] > self.HISTORY:
                 p.history.popleft()
-            if self.detailed and updates:  # the page's; the console needs none
+            if self.detailed and heard:  # the page's; the console needs none
                 gains = vbap_gains(self.layout, az, el)
             else:
                 gains = np.zeros(self.layout.n)
             pointers.append(
                 {
+                    **({"sent": health["updates"]} if "updates" in health else {}),
+                    **health,
                     "name": p.node.name,
-                    "profile": p.node.p.profile,
-                    "to": _destinations(p.node),
+                    "about": p.node.describe(),
                     "azimuth": round(az, 1),
                     "elevation": round(el, 1),
                     "distance": round(dist, 1),
-                    "updates": updates,
-                    "sent": getattr(p.node, "sent", updates),
                     "state": state,
                     "silent_s": round(silent, 2) if state == "dropout" else 0.0,
                     "gains": [round(float(g), 3) for g in gains],
-                    **_health(p.node),
                 }
             )
-        t = round(now - self.started, 3)
+        return pointers
+
+    def _read_accel(self, t: float) -> dict[str, float]:
+        """Each tapped acceleration's magnitude in g; their history grows."""
         accel = {}
         for key, (value,) in self.accel.items():
             if value is not None:
@@ -355,39 +402,23 @@ class Observer:
                 h.append((t, accel[key]))
                 while h and t - h[0][0] > self.HISTORY:
                     h.popleft()
+        return accel
+
+    def _read_others(self) -> list[dict[str, str]]:
+        """What the other nodes' health and readings say (a calibration's step, a recording's rows), in
+        words."""
         seen = {s.node.name for s in self.streams} | set(self.flags) | {p.node.name for p in self.pointers}
         others = []
         for name, node in self.rt.nodes.items():
-            if name not in seen and type(node).health is not Node.health:
-                h = _health(node)
-                if h:
-                    others.append(
-                        {"name": name, "text": ", ".join(f"{k.replace('_', ' ')}: {v}" for k, v in h.items())}
-                    )
-        snap = {
-            "patch": self.patch,
-            "about": self.about,
-            "t": round(now - self.started, 3),
-            "layout": {
-                "from": self.layout_from,
-                "dim": self.layout.dim,
-                "azimuths": [float(a) for a in self.layout.azimuths],
-                "elevations": [float(e) for e in self.layout.elevations],
-            },
-            "streams": streams,
-            "flags": flags,
-            "pointers": pointers,
-            "history": {p.node.name: list(p.history) for p in self.pointers},
-            "accel": accel,
-            "accel_history": {k: list(h) for k, h in self.accel_history.items()},
-            "nodes": others,
-            "events": [
-                [round(t - self.started, 2), name, word] for t, name, word in list(self.flag_log)[-20:]
-            ],
-        }
-        with self._lock:
-            self._snapshot = snap
-        return snap
+            if name in seen:
+                continue
+            words = []
+            if type(node).health is not Node.health:
+                words += [f"{k.replace('_', ' ')}: {v}" for k, v in _health(node).items()]
+            words += _reading_words(node)
+            if words:
+                others.append({"name": name, "text": ", ".join(words)})
+        return others
 
     def snapshot(self) -> dict[str, Any]:
         """The latest reading (taken now when the thread has not run yet)."""
@@ -409,10 +440,12 @@ class Observer:
             if p["state"] == "dropout":
                 lines.append(f"{p['name']}: NO DATA for {p['silent_s']:.1f} s (last {where})")
                 continue
-            sent = f"{p['updates']} sent" + (
-                f"; {p['refused']} refused: receiver not listening" if p.get("refused") else ""
-            )
-            lines.append(f"{p['name']}: {where}  ({sent})" + (f"  [{worst}]" if worst else ""))
+            sent = f"  ({p['updates']} sent" if "updates" in p else ""
+            if sent:
+                sent += (
+                    f"; {p['refused']} refused: receiver not listening" if p.get("refused") else ""
+                ) + ")"
+            lines.append(f"{p['name']}: {where}{sent}" + (f"  [{worst}]" if worst else ""))
         for s in snap["streams"]:
             lost = f", {s['lost']} lost" if s.get("lost") else ""
             if s["state"] == "waiting":
@@ -442,14 +475,16 @@ class Observer:
                 + (f", {s.dropouts} dropouts ({down:.1f} s without data)" if s.dropouts else ", no dropout")
             )
         for p in snap["pointers"]:
-            to = ", ".join(p["to"])
+            to = " to " + ", ".join(p["to"]) if p.get("to") else ""
+            if "updates" not in p:  # a pointer that sends nothing, or does not count
+                continue
             if p.get("refused"):  # datagrams, beside datagrams (the heartbeats are some of them)
                 lines.append(
-                    f"{p['name']}: {p['updates']} updates to {to} ({p['sent']} datagrams sent, "
+                    f"{p['name']}: {p['updates']} updates{to} ({p['sent']} datagrams sent, "
                     f"{p['refused']} refused: the receiver was not listening)"
                 )
             else:
-                lines.append(f"{p['name']}: {p['updates']} updates sent to {to}")
+                lines.append(f"{p['name']}: {p['updates']} updates sent{to}")
         for other in snap["nodes"]:
             lines.append(f"{other['name']}: {other['text']}")
         for name, (word, _since, changes) in self.flags.items():
@@ -495,8 +530,33 @@ def _downstream(node: Node, outlet: int) -> set[str]:
     return seen
 
 
-def _destinations(node: Node) -> list[str]:
-    return [f"{d.host}:{d.port}" for d in getattr(node, "dests", ())]
+def _reading_words(node: Node) -> list[str]:
+    """A node's readings in words, each number with its unit (``level: -6 dB``)."""
+    readings = type(node).readings
+    if not readings:
+        return []
+    try:
+        values = node.read()
+    except Exception:  # read from another thread while the node changes: next time
+        return []
+    words = []
+    for r in readings:
+        try:
+            numbers = np.atleast_1d(np.asarray(values[r.name], dtype=float))
+        except (KeyError, TypeError, ValueError):  # not given now, or not numbers: not said
+            continue
+        said = (f"{v:.4g}{' ' + u if u else ''}" for v, u in zip(numbers, r.units, strict=False))
+        words.append(f"{r.name.replace('_', ' ')}: {' '.join(said)}")
+    return words
+
+
+def _direction(node: Node, reading: str) -> tuple[float, float, float]:
+    """A node's direction reading now: azimuth, elevation, distance (zeros while it cannot be read)."""
+    try:
+        az, el, dist = (float(v) for v in node.read()[reading][:3])
+    except Exception:  # read from another thread while the node changes, or not given: next time
+        return 0.0, 0.0, 0.0
+    return az, el, dist
 
 
 def _worst_flag(flags: dict[str, dict[str, Any]]) -> str:

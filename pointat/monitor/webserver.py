@@ -2,7 +2,7 @@
 
 One TCP port serves, as the OSCQuery proposal asks, HTTP and WebSocket together:
 
-* ``GET /`` and ``GET /PATH``: the address space as JSON (:mod:`pointat.oscquery`); ``?HOST_INFO``,
+* ``GET /`` and ``GET /PATH``: the address space as JSON (:mod:`pointat.monitor.oscquery`); ``?HOST_INFO``,
   ``?VALUE`` and the other attributes; 404 for an address the patch does not have.
 * ``GET /monitor``: the monitor page (``pointat/monitor/``), and ``/monitor/state``: the observer's last
   reading with the history of the plots, as JSON.
@@ -16,7 +16,7 @@ serves, so ossia score, Chataigne or any OSCQuery browser finds it.
 
 HTTP and WebSocket are the ``websockets`` library's (its threaded server; a plain GET is answered from
 its ``process_request``, and the connection then closed): it parses requests and frames, bounds their
-sizes, pings idle sockets and closes dead ones.  What is ours: who may come in (:mod:`pointat.webaccess`:
+sizes, pings idle sockets and closes dead ones.  What is ours: who may come in (:mod:`pointat.monitor.webaccess`:
 Host, Origin, peers, token, checked before anything is answered), at most :attr:`MonitorServer.
 MAX_CONNECTIONS` connections at once, a request in :attr:`~MonitorServer.OPEN_TIMEOUT` seconds, a
 stuck reader dropped after :attr:`~MonitorServer.SEND_TIMEOUT`, and a log that tells clients gone and
@@ -48,10 +48,10 @@ from websockets.exceptions import ConnectionClosed, ConnectionClosedOK
 from websockets.http11 import Request, Response
 from websockets.sync.server import ServerConnection, serve
 
-from .control import PREFIX, control
-from .devices.osc_wire import decode_packet, encode_message
+from ..control import PREFIX, control
+from ..devices.osc_wire import decode_packet, encode_message
+from ..scheduling import quiet_thread
 from .oscquery import EXTENSIONS, address_space, find, value_of
-from .scheduling import quiet_thread
 from .webaccess import Access, LogLimit, is_loopback
 
 __all__ = ["MonitorServer"]

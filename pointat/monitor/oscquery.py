@@ -1,23 +1,26 @@
 """A running patch's OSC address space as OSCQuery describes it (Vidvox's OSCQuery proposal).
 
 Every node's live parameters (``/pointat/NODE/PARAM``, with TYPE, VALUE, RANGE, UNIT, DESCRIPTION and
-ACCESS read-write) and methods (``/pointat/NODE/METHOD``, write-only); each ``osc_out``'s direction as
-it was last sent (``/pointat/NODE/aed``, read-only); the presets (``/pointat/preset/save`` and
+ACCESS read-write) and methods (``/pointat/NODE/METHOD``, write-only); each node's readings
+(:attr:`pointat.node.Node.readings`: an ``osc_out``'s direction as it was last sent,
+``/pointat/NODE/aed``, read-only, with its units and range); the presets (``/pointat/preset/save`` and
 ``recall``).  The addresses are the ones ``osc_in`` takes for live control, so a value set through
 OSCQuery is set exactly as ``pointat send`` would set it (:func:`pointat.control.control`).
 
-Plain functions of a runtime and an observer; the server (:mod:`pointat.webserver`) serves them.
+Plain functions of a runtime and an observer; the server (:mod:`pointat.monitor.webserver`) serves them.
 """
 
 from __future__ import annotations
 
 import inspect
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from .control import PREFIX
+from ..control import PREFIX
+from ..node import Reading
 
 __all__ = ["EXTENSIONS", "address_space", "find", "value_of"]
 
@@ -95,6 +98,39 @@ def _value(value: Any, tag: str) -> list[Any]:
     return out if len(out) == len(tag) else out[: len(tag)]
 
 
+def _reading_leaf(path: str, r: Reading, value: Any) -> dict[str, Any]:
+    """A node's reading (:class:`~pointat.node.Reading`): read-only numbers, with units and range."""
+    tag = "f" * r.size
+    leaf: dict[str, Any] = {
+        "FULL_PATH": path,
+        "TYPE": tag,
+        "ACCESS": _ACCESS_READ,
+        "DESCRIPTION": r.doc,
+        "VALUE": _numbers(value, r.size),
+        "UNIT": [UNITS.get(u, u) for u in r.units],
+    }
+    if r.minimum is not None or r.maximum is not None:
+        rng = {k: v for k, v in (("MIN", r.minimum), ("MAX", r.maximum)) if v is not None}
+        leaf["RANGE"] = [rng] * r.size
+    return leaf
+
+
+def _read(node: Any) -> Mapping[str, Any]:
+    """What a node's :meth:`~pointat.node.Node.read` says now (nothing when it fails: a reading from
+    another thread can meet the node changing)."""
+    try:
+        return node.read()
+    except Exception:
+        return {}
+
+
+def _numbers(value: Any, size: int) -> list[Any]:
+    """A reading's value as OSCQuery's VALUE: ``size`` numbers, None for one not finite or missing."""
+    given = [] if value is None else _value(value, "f" * size)
+    numbers = [float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None for v in given]
+    return numbers + [None] * (size - len(numbers))
+
+
 def _method_leaf(path: str, fn: Any) -> dict[str, Any]:
     params = [
         p
@@ -156,20 +192,10 @@ def address_space(rt: Any, description: str = "") -> dict[str, Any]:
             if attr.startswith("do_") and callable(getattr(node, attr, None)):
                 fn = getattr(node, attr)
                 _place(root, f"{base}/{attr[3:]}", _method_leaf(f"{base}/{attr[3:]}", fn))
-        if node.type_name == "osc_out":
-            state = [float(v) for v in node.state[:3]]
-            _place(
-                root,
-                f"{base}/aed",
-                {
-                    "FULL_PATH": f"{base}/aed",
-                    "TYPE": "fff",
-                    "ACCESS": _ACCESS_READ,
-                    "VALUE": state,
-                    "UNIT": ["angle.degree", "angle.degree", ""],
-                    "DESCRIPTION": "the direction last sent: azimuth (+ left), elevation (+ up), distance (0 far .. 90 near)",
-                },
-            )
+        if type(node).readings:
+            values = _read(node)
+            for r in type(node).readings:
+                _place(root, f"{base}/{r.name}", _reading_leaf(f"{base}/{r.name}", r, values.get(r.name)))
     presets = getattr(rt, "presets", None)
     if presets is not None and "preset" not in rt.nodes:
         names = presets.names()
@@ -201,15 +227,16 @@ def find(tree: dict[str, Any], path: str) -> dict[str, Any] | None:
 
 
 def value_of(rt: Any, path: str) -> list[Any] | None:
-    """A readable address's value now (a live parameter, an ``osc_out``'s ``aed``), or None."""
+    """A readable address's value now (a live parameter, a node's reading), or None."""
     if not path.startswith(PREFIX):
         return None
     name, _, leaf = path[len(PREFIX) :].rpartition("/")
     node = rt.nodes.get(name)
     if node is None:
         return None
-    if leaf == "aed" and node.type_name == "osc_out":
-        return [float(v) for v in node.state[:3]]
+    for r in type(node).readings:
+        if r.name == leaf:
+            return _numbers(_read(node).get(leaf), r.size)
     p = type(node).param(leaf)
     if p is None or not p.live:
         return None

@@ -1,0 +1,73 @@
+"""pointat.jit: a module compiled with the modules it calls, each function seeing its own module's names,
+the machine code in the user's cache folder and nowhere else."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import textwrap
+
+from pointat import jit
+
+
+def _modules(tmp_path, monkeypatch):
+    (tmp_path / "jit_case_a.py").write_text(
+        textwrap.dedent(
+            """
+            def twice(x):
+                return 2.0 * x
+
+            def run(x):
+                return twice(x)
+            """
+        )
+    )
+    (tmp_path / "jit_case_b.py").write_text(
+        textwrap.dedent(
+            """
+            from jit_case_a import run as run_a
+
+            def twice(x):  # the same name as jit_case_a's, another function
+                return 3.0 * x
+
+            def run(x):
+                return twice(x) + run_a(x)
+            """
+        )
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    modules = []
+    for name in ("jit_case_a", "jit_case_b"):  # this test's files, gone from sys.modules after it
+        monkeypatch.delitem(sys.modules, name, raising=False)
+        modules.append(importlib.import_module(name))
+        monkeypatch.setitem(sys.modules, name, modules[-1])
+    return modules
+
+
+def test_each_module_calls_its_own_functions_compiled(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    a, b = _modules(tmp_path, monkeypatch)
+    compiled = jit.compile_module(b, calls=[a])
+    # b's twice (3x) and a's (2x), each where its own module calls it: 3 + 2, not 3 + 3 or 2 + 2
+    assert compiled.run(1.0) == 5.0 == b.run(1.0)
+    assert compiled.run.signatures  # (numba's: it ran compiled, not the Python function)
+    assert jit.compile_module(b, calls=[a]) is compiled  # once a process
+    assert b.twice is not compiled.twice and b.twice(1.0) == 3.0  # the module keeps its Python functions
+    where = jit.cache_dir(b, calls=[a])
+    assert where.parent == tmp_path / "cache" / "pointat"
+    assert any(p.suffix == ".nbi" for p in where.rglob("*"))  # the cache's index, there
+    assert not [p for p in tmp_path.rglob("*.nb*") if where not in p.parents]  # and nowhere else
+
+
+def test_the_cache_folder_changes_with_any_source_compiled_together(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    a, b = _modules(tmp_path, monkeypatch)
+    before = jit.cache_dir(b, calls=[a])
+    assert jit.cache_dir(b) != before  # (another set of modules)
+    with open(a.__file__, "a") as fh:  # a change to the module called, not to the one asked for
+        fh.write("\n# another version\n")
+    importlib.invalidate_caches()
+    import linecache
+
+    linecache.checkcache(a.__file__)
+    assert jit.cache_dir(b, calls=[a]) != before
