@@ -401,11 +401,16 @@ def report(broad_dir: Path | None, progress: Callable[[str], None]) -> str:
     return "\n".join(parts)
 
 
+def _broad_folder() -> Path:
+    """``shared/data/broad`` beside the checkout, or beside the checkout's folder (a git worktree kept
+    in a folder of worktrees)."""
+    near = [REPO.parent / "shared" / "data" / "broad", REPO.parent.parent / "shared" / "data" / "broad"]
+    return next((p for p in near if p.is_dir()), near[0])
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.gesture_real", description=__doc__.split("\n")[0])
-    ap.add_argument(
-        "--broad", type=Path, default=REPO.parent / "shared" / "data" / "broad", help="BROAD's CSV trials"
-    )
+    ap.add_argument("--broad", type=Path, default=_broad_folder(), help="BROAD's CSV trials")
     ap.add_argument("--out", type=Path, default=REPO / "benchmarks" / "GESTURES_REAL.md")
     args = ap.parse_args(argv)
     t0 = time.monotonic()
@@ -413,6 +418,10 @@ def main(argv: list[str] | None = None) -> int:
     def progress(text: str) -> None:
         print(f"[{time.monotonic() - t0:6.1f} s] {text}", file=sys.stderr, flush=True)
 
+    if not args.broad.is_dir():
+        progress(
+            f"no BROAD trials in {args.broad}: the false triggers and the curves are left out (--broad DIR)"
+        )
     body = report(args.broad, progress)
     args.out.write_text(
         "# Gesture recognition on real recordings\n\n"
