@@ -23,7 +23,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = REPO.parent / "shared" / "data" / "broad"
 QUICK_TRIALS = ("01_", "15_", "32_")
-PARTS = ("latency", "throughput", "accuracy", "memory", "monitor", "gestures")
+PARTS = ("latency", "throughput", "accuracy", "memory", "monitor", "gestures", "reload")
 #: Where the report goes without --out: a quick or partial run never replaces the full run's report.
 FULL_REPORT = REPO / "benchmarks" / "REPORT.md"
 PARTIAL_REPORT = REPO / "benchmarks" / "results" / "REPORT.md"
@@ -56,7 +56,7 @@ def _parser() -> argparse.ArgumentParser:
         "benchmarks/results/REPORT.md for --quick or --only (the full report, which the README quotes, stays)",
     )
     ap.add_argument(
-        "--only", choices=PARTS, action="append", help="run only this part (repeatable); default: all six"
+        "--only", choices=PARTS, action="append", help="run only this part (repeatable); default: all seven"
     )
     ap.add_argument(
         "--uwave", type=Path, default=None, help="uWave's unpacked folders, for the gestures part"
@@ -243,6 +243,10 @@ def main(argv: list[str] | None = None) -> int:
         from . import gestures
 
         run.gestures, run.gesture_goals = gestures.report(args.quick, progress, args.uwave)
+    if "reload" in parts:  # (timed too: before the soak)
+        from . import reload
+
+        run.reload = reload.report(args.quick, progress).split("\n", 2)[2]
     soak = None
     if "memory" in parts:
         seconds = 30.0 if args.quick else 600.0

@@ -256,10 +256,34 @@ def table_main(
     return 0
 
 
+def narrow(items: Sequence[str]) -> None:
+    """Replace :data:`TQT_GRID` by the parameters named in ``items`` (``NAME=V1,V2,...``, degrees for a
+    ``*_dip_tol``), for a run around what one change touches: the grid's whole product is the expensive
+    part."""
+    TQT_GRID.clear()
+    TQT_DEFAULTS.clear()
+    for item in items:
+        name, _, values = item.partition("=")
+        if not hasattr(TQTFilter(), name) or not values:
+            raise SystemExit(f"--grid {item!r}: expected NAME=V1,V2,... with NAME a TQTFilter setting")
+        vals = tuple(float(v) for v in values.split(","))
+        TQT_GRID[name] = tuple(math.radians(v) for v in vals) if name.endswith("dip_tol") else vals
+        TQT_DEFAULTS[name] = getattr(TQTFilter(), name)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = realdata.arguments("benchmarks.loo", __doc__, Path(__file__).with_name("LOO.md"))
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument(
+        "--grid",
+        action="append",
+        default=[],
+        metavar="NAME=V1,V2,...",
+        help="a narrowed grid: only the parameters named (each at the values given), the rest at their defaults",
+    )
     args = ap.parse_args(argv)
+    if args.grid:
+        narrow(args.grid)
     files = realdata.trials(args.data, args.tyrex)
     if len(files) < 3:
         print(

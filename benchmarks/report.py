@@ -56,6 +56,8 @@ class Run:
     #: benchmarks.gestures' tables (Markdown, without its title) and its goals' rows
     gestures: str = ""
     gesture_goals: list[list[str]] = field(default_factory=list)
+    #: benchmarks.reload's table (Markdown, without its title)
+    reload: str = ""
     notes: list[str] = field(default_factory=list)
 
 
@@ -1150,6 +1152,8 @@ def render(run: Run) -> str:
         out += ["## 5. The monitor and OSCQuery (`python -m benchmarks.monitor`)", "", run.monitor, ""]
     if run.gestures:
         out += ["## 6. Gesture recognition (`python -m benchmarks.gestures`)", "", run.gestures, ""]
+    if run.reload:
+        out += ["## 7. Hot reload (`python -m benchmarks.reload`)", "", run.reload, ""]
     out += ["## Commands", ""]
     out += [
         "The benchmark: `"

@@ -26,6 +26,7 @@ from .maths.vbap import parse_layout, read_layout
 from .monitor import MonitorServer, Observer
 from .presets import Presets, presets_path
 from .registry import Registry, default_registry
+from .reload import Reloader
 from .scheduling import CPU_DMA_LATENCY, keep_cpus_awake, quiet_thread, realtime_priority
 from .spec import is_pd_file
 from .terminal import LineHandler, LineWriter
@@ -44,6 +45,7 @@ examples:
   pointat run my.pat --set fuse.k=0.2              override a parameter
   pointat run --rt my.pat                          at real-time priority, as Pd's -rt
   pointat run --spin 2 my.pat                      poll instead of sleeping: lower latency, a busy CPU
+  pointat run glove_tqt --mapper eth0              the patch on the libmapper bus (webmapper maps it)
   pointat check my.pat                              validate without running (files read too)
   pointat nodes                                     list the node types
   pointat help tqt                                  a node's inlets, outlets, parameters, example
@@ -51,6 +53,7 @@ examples:
   pointat convert my.pat my.pd                      to Pure Data (and back: my.pd my.pat)
   pointat gestures evaluate --train A --test B     gesture recognition on labelled recordings (DIR/LABEL/*.csv)
   pointat send 9001 /pointat/press/bang             live control of a running patch (OSC to port 9001)
+  pointat ls --tree                                 the patches running with --monitor, here and on the network
   pointat plot take.csv                             a recorded take as take.png and take.html
 """
 
@@ -128,6 +131,7 @@ def _parser() -> argparse.ArgumentParser:
         _add_conversions,
         _add_gestures,
         _add_send,
+        _add_ls,
     ):
         add(sub)
     return ap
@@ -149,7 +153,9 @@ def _add_run(sub: Any) -> None:
     _add_patch_args(p)
     _add_timing_args(p)
     _add_monitor_args(p)
+    _add_mapper_args(p)
     _add_status_args(p)
+    _add_reload_args(p)
 
 
 def _add_timing_args(p: argparse.ArgumentParser) -> None:
@@ -181,7 +187,7 @@ def _add_timing_args(p: argparse.ArgumentParser) -> None:
         default="auto",
         help="run each glove chain (mote -> offset -> scaling -> tqt -> reference -> azi_ele, "
         "roll_distance -> osc_out) as one compiled function, every glove of a base station in one call, "
-        "the same datagrams to the bit (needs numba).  auto (the default): when the compiled code is "
+        "the same datagrams to the bit.  auto (the default): when the compiled code is "
         "cached, else node by node while it is compiled in the background for the next run; on: compile "
         "now if need be (seconds); off: node by node.  -v says which chains run compiled and why the "
         "others do not",
@@ -222,6 +228,25 @@ def _add_monitor_args(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_mapper_args(p: argparse.ArgumentParser) -> None:
+    """``run``'s libmapper bus: the interface it joins, the device's name."""
+    p.add_argument(
+        "--mapper",
+        metavar="IFACE",
+        help="make the patch a libmapper device on the bus of network interface IFACE (eth0, wlan0; lo: "
+        "this machine alone): its gloves and gestures are signals other machines map, its live "
+        "parameters signals they set (webmapper shows them).  The bus has no access control: a show's "
+        "own network only.  Needs the extra: pip install 'pointat[mapper]'",
+    )
+    p.add_argument(
+        "--mapper-name",
+        metavar="NAME",
+        default="",
+        help="with --mapper: the device's name on the bus (default: pointat_ and the patch's name; the bus "
+        "adds .1, .2...)",
+    )
+
+
 def _add_status_args(p: argparse.ArgumentParser) -> None:
     """``run``'s status lines on the console."""
     p.add_argument(
@@ -230,6 +255,18 @@ def _add_status_args(p: argparse.ArgumentParser) -> None:
         metavar="SECONDS",
         help="a status line per glove every SECONDS (default: 1, redrawn in place, on a terminal; 5 on a "
         "pipe or file; 0: none)",
+    )
+
+
+def _add_reload_args(p: argparse.ArgumentParser) -> None:
+    """``run --watch``: hot reload."""
+    p.add_argument(
+        "--watch",
+        action="store_true",
+        help="reload the patch when its file (or an abstraction it uses) is saved: the nodes whose name, "
+        "type and parameters did not change keep their state (orientation, calibration, trained models, "
+        "open ports), the swap falls between two samples; a file that does not check is refused with its "
+        "file:line and the patch running goes on.  /pointat/patch/reload (OSC) reloads with or without it",
     )
 
 
@@ -381,6 +418,25 @@ def _add_send(sub: Any) -> None:
     )
 
 
+def _add_ls(sub: Any) -> None:
+    """``pointat ls``: the patches running here and on the network."""
+    p = sub.add_parser(
+        "ls",
+        help="list the patches running with --monitor, here and on the network (zeroconf): patch, host, "
+        "OSCQuery and OSC ports, monitor page",
+    )
+    p.add_argument(
+        "--for",
+        dest="duration",
+        type=_seconds,
+        default=2.0,
+        metavar="SECONDS",
+        help="how long to listen for answers (default 2); zeroconf's port is open that long",
+    )
+    p.add_argument("--local", action="store_true", help="this machine's patches only (loopback)")
+    p.add_argument("--tree", action="store_true", help="also each one's OSCQuery address space, over HTTP")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = _parser()
     args = ap.parse_args(argv)
@@ -501,14 +557,49 @@ def _made_ready(args: argparse.Namespace, registry: Registry) -> tuple[Any, Obse
     """The runtime made ready (what check does, no more and no less), with its observer, its presets
     and the monitor's server when ``--monitor`` asks for one (made, not started)."""
     layout = _layout(args.layout) if args.layout else None
-    _, rt = _ready(args, registry)
+    checked, rt = _ready(args, registry)
     rt.spin = args.spin / 1000.0
     rt.compiled = args.compiled
     observer = Observer(rt, layout=layout, patch=Path(args.patch).stem, about=about(args.patch)).attach()
     if os.path.isfile(args.patch):
         rt.presets = Presets(rt, presets_path(args.patch, _out(args)))
+        rt.reloader = _reloader(args, registry, rt, checked)
+        rt.reloader.listen(observer.reattach)
     server = _monitor(rt, observer, args) if args.monitor is not None else None
+    if args.mapper is not None:
+        _mapper(rt, registry, args)
     return rt, observer, server
+
+
+def _mapper(rt: Any, registry: Registry, args: argparse.Namespace) -> None:
+    """``--mapper IFACE``: a ``mapper`` node added to the patch (it joins the bus as the patch starts)."""
+    from . import mapper
+
+    if not args.mapper:
+        raise PointatError("--mapper: name the network interface to join (eth0, wlan0, lo)")
+    mapper.load()  # the extra missing: said now, before anything opens
+    cls = registry.get("mapper")
+    if cls is None:
+        raise PointatError("--mapper: no node type 'mapper' (pointat's osc_bridge.mapper did not load)")
+    name = "mapper"
+    while name in rt.nodes:
+        name += "_"
+    device = args.mapper_name or mapper.device_name(Path(args.patch).stem)
+    rt.add(cls(name, {"interface": args.mapper, "device": device}))
+
+
+def _reloader(args: argparse.Namespace, registry: Registry, rt: Any, checked: Any) -> Reloader:
+    """What reloads the patch from its file (``--watch``, ``/pointat/patch/reload``): the file read and
+    checked as it was for the start (its files read too, the same ``--set``)."""
+    overrides = parse_overrides(args.set)
+
+    def read() -> Any:
+        new = check(_spec(args), registry, overrides, read_files=True)
+        for w in new.warnings:
+            log.warning("%s", w)
+        return new
+
+    return Reloader(rt, checked, read, path=args.patch, watch=args.watch)
 
 
 @contextlib.contextmanager
@@ -597,11 +688,15 @@ def _run_until_done(
     rt.start()
     if server is not None:  # the page's readings; the console takes its own when it writes
         observer.start()
+    if rt.reloader is not None:
+        rt.reloader.start()
     every = args.status if args.status is not None else 1.0 if out.tty else 5.0
     ticker = _Ticker(every, lambda: out.status(observer.status_lines())) if every > 0 else None
     try:
         rt.run(args.duration)
     finally:
+        if rt.reloader is not None:
+            rt.reloader.stop()
         if ticker is not None:
             ticker.stop()
         out.status([])
@@ -895,6 +990,32 @@ def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
     return 0
 
 
+def cmd_ls(args: argparse.Namespace, registry: Registry) -> int:
+    from .discovery import browse, fetch_tree, tree_lines
+
+    try:
+        found = browse(args.duration, local=args.local)
+    except (RuntimeError, OSError) as exc:
+        print(f"error: cannot browse the network: {exc}", file=sys.stderr)
+        return 1
+    if not found:
+        where = "on this machine" if args.local else "here or on the network"
+        print(f"no patch answered {where} in {args.duration:g} s (run one with --monitor)", file=sys.stderr)
+        return 1
+    width = max(len(s.patch) for s in found)
+    for s in found:
+        osc = f"OSC {s.osc_port}/udp" if s.osc_port else "OSC -"
+        print(f"{s.patch:<{width}}  {s.host:<15}  OSCQuery {s.port}/tcp  {osc}  {s.url('/monitor')}")
+        if args.tree:
+            try:
+                lines = tree_lines(fetch_tree(s))
+            except (OSError, ValueError) as exc:
+                lines = [f"(no tree: {exc})"]
+            for line in lines:
+                print(f"    {line}")
+    return 0
+
+
 COMMANDS = {
     "gestures": cmd_gestures,
     "run": cmd_run,
@@ -907,6 +1028,7 @@ COMMANDS = {
     "convert": cmd_convert,
     "stubs": cmd_stubs,
     "send": cmd_send,
+    "ls": cmd_ls,
 }
 
 if __name__ == "__main__":

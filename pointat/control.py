@@ -1,6 +1,6 @@
 """Live control by address: ``/pointat/NODE/PARAM value``, ``/pointat/NODE/METHOD args``, ``/pointat/NODE
-values`` and ``/pointat/preset/save NAME`` / ``recall NAME``.  One function for every way in (``osc_in``,
-the OSCQuery server's OSC port and WebSocket), run on the scheduler thread.  What it did is told on the
+values``, ``/pointat/preset/save NAME`` / ``recall NAME`` and ``/pointat/patch/reload``.  One function for
+every way in (``osc_in``, the OSCQuery server's OSC port and WebSocket), run on the scheduler thread.  What it did is told on the
 console (:class:`Told`): a press acknowledged at once, a fader's stream a line a second.
 """
 
@@ -25,6 +25,8 @@ def control(rt: Any, address: str, args: list[Any], time: float) -> str | None:
     rest = address[len(PREFIX) :]
     if rest.startswith("preset/") and "preset" not in rt.nodes:
         return _preset(rt, rest[len("preset/") :], args)
+    if rest.startswith("patch/") and "patch" not in rt.nodes:
+        return _patch(rt, rest[len("patch/") :], args)
     name, selector = rest, None
     if rest not in rt.nodes:  # not values for a node's left inlet: /pointat/NODE/SELECTOR
         name, _, selector = rest.rpartition("/")
@@ -117,4 +119,16 @@ def _preset(rt: Any, verb: str, args: list[Any]) -> str | None:
         getattr(presets, verb)(str(args[0]))
     except (KeyError, ValueError, OSError) as exc:
         return f"preset {verb} {args[0]}: {exc}"
+    return None
+
+
+def _patch(rt: Any, verb: str, args: list[Any]) -> str | None:
+    """``/pointat/patch/reload``: the patch's file read again and swapped in (:mod:`pointat.reload`), by
+    the reloader's thread: the check and the nodes' preparing never hold the scheduler up."""
+    reloader = getattr(rt, "reloader", None)
+    if verb != "reload" or args:
+        return "expected /pointat/patch/reload (no arguments)"
+    if reloader is None:
+        return "reload is for a patch run from a file (pointat run PATCH)"
+    reloader.request()
     return None

@@ -588,3 +588,22 @@ def test_the_gesture_section_and_its_goals_are_in_the_report():
     text = render(run)
     assert "## 6. Gesture recognition (`python -m benchmarks.gestures`)" in text
     assert "| BasicMotions (UEA) >= 97.5 % | 100.0 % | **met** |" in text
+
+
+def test_a_reload_round_saves_a_running_patch_and_counts_what_the_receiver_got():
+    """Two saves of a patch streaming at 100 Hz: both run, no index lost or twice, and the table says
+    so beside the sample period."""
+    from benchmarks.reload import one_rate
+
+    r = one_rate(100.0, 2, 0.2, lambda s: None)
+    assert r["reloads"] == 2 and len(r["swap"]) == 2 and len(r["save_to_running"]) == 2
+    assert r["samples"] > 100 and r["lost"] == 0 and r["doubled"] == 0 and r["in_order"]
+    assert r["directions"] > 0
+
+
+def test_the_reload_section_is_in_the_report():
+    from benchmarks.report import Run, render
+
+    run = Run("python -m benchmarks --only reload", False, {"CPU": "x"}, "", "now")
+    run.reload = "| rate | save → running |"
+    assert "## 7. Hot reload (`python -m benchmarks.reload`)\n\n| rate | save → running |" in render(run)

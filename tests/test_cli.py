@@ -7,6 +7,7 @@ import shutil
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -19,7 +20,7 @@ from pointat.loader import parse_overrides
 from pointat.maths.calibration import Calibration
 from pointat.node import ParamError
 from pointat.registry import default_registry
-from pointat.testing import beside, sink_port
+from pointat.testing import beside, sink_port, wait_until
 
 ROOT = Path(__file__).resolve().parent.parent
 PATCHES = sorted((ROOT / "patches").glob("*.pat")) + sorted((ROOT / "examples").glob("**/*.pat"))
@@ -612,3 +613,38 @@ def test_send_takes_an_ipv6_address_in_brackets():
         port = sock.getsockname()[1]
         assert main(["send", f"[::1]:{port}", "/x", "1"]) == 0
         assert sock.recv(100).startswith(b"/x\x00")
+
+
+def test_run_watch_reloads_a_saved_patch_and_refuses_a_broken_one(tmp_path):
+    """``pointat run --watch`` as a performer runs it: a save runs (the metro kept, the print made anew);
+    a broken save is said with its file:line on stderr and the patch goes on."""
+    path = tmp_path / "p.pat"
+    path.write_text("node m metro 20\nnode show print prefix=before\nm -> show\nnode lb loadbang\nlb -> m\n")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pointat.cli", "run", str(path), "--watch", "--for", "60", "--status", "0"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    out: list[str] = []
+    err: list[str] = []
+    for stream, into in ((proc.stdout, out), (proc.stderr, err)):
+        threading.Thread(target=lambda s=stream, i=into: i.extend(s), daemon=True).start()
+
+    def said(lines: list[str], text: str, after: int = 0) -> bool:
+        return wait_until(lambda: any(text in line for line in lines[after:]), timeout=30)
+
+    try:
+        assert said(out, "before: bang"), out
+        path.write_text(path.read_text().replace("prefix=before", "prefix=after"))
+        assert said(out, "reloaded p.pat: 2 nodes kept, 1 made anew (show)"), out
+        assert said(out, "after: bang"), out
+        path.write_text(path.read_text() + "m -> nowhere\n")
+        assert said(err, "not reloaded (1 error); the patch running goes on unchanged"), err
+        assert any(line.startswith(f"ERROR pointat.reload:   {path}:6: error: ") for line in err), err
+        shown = len(out)
+        assert said(out, "after: bang", shown), out  # still running
+    finally:
+        proc.terminate()
+        proc.wait(timeout=20)

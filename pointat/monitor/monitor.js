@@ -211,3 +211,23 @@ function frame() {
 }
 
 fetch("/monitor/state").then((r) => r.json()).then((snap) => take(snap, true)).catch(() => {}).finally(() => { connect(); frame(); });
+
+// Another machine's monitor: host:port as pointat ls prints it (or the whole URL a patch printed, with its
+// ?token=), opened in a tab of its own.  Only http: addresses with a port; that page is the other
+// server's, and its own checks (Host, Origin, token) decide what it serves.
+function elsewhereUrl(text) {
+  text = text.trim();
+  if (!/^https?:\/\//.test(text)) text = `http://${text}`;
+  let url;
+  try { url = new URL(text); } catch (e) { return null; }
+  if (url.protocol !== "http:" || !url.port || url.username || url.password) return null;
+  if (url.pathname === "/" || url.pathname === "") url.pathname = "/monitor";
+  return url.href;
+}
+
+$("elsewhere").addEventListener("submit", (ev) => {
+  ev.preventDefault();
+  const url = elsewhereUrl($("elsewhere-host").value);
+  $("elsewhere-why").textContent = url ? "" : "expected host:port, such as 192.168.1.20:9002";
+  if (url) window.open(url, "_blank", "noopener");
+});

@@ -63,7 +63,7 @@ class _Tap(Node):
         super().__init__("(observer)")
         self._fn = fn
         #: ``bulk(n)``: n messages at once, for a sender that has no messages to give (the compiled
-        #: chains, :mod:`pointat.fusion`); None when each message matters.
+        #: chains, :mod:`pointat.compiled`); None when each message matters.
         self.bulk = bulk
 
     def on_in(self, msg: Message) -> None:
@@ -178,6 +178,8 @@ class Observer:
         self.detailed = False
         self.accel: dict[str, list[Any]] = {}  # outlet -> [the last acceleration vector]
         self.accel_history: dict[str, deque] = {}
+        self._attached: dict[str, Node] = {}  # the nodes tapped, by name
+        self._tapped: set[tuple[str, int]] = set()  # (node, outlet) tapped
 
     # -- setting up --------------------------------------------------------------------------------
     def _layout(self, given: Layout | None) -> tuple[Layout, str]:
@@ -193,31 +195,63 @@ class Observer:
     def attach(self) -> Observer:
         """Find the streams, pointers and flags of the runtime and tap them (before it starts)."""
         for node in self.rt.nodes.values():
-            pattern = type(node).sample_outlets
-            for i, spec in enumerate(node.out_specs):
-                if not node._targets[i]:
-                    continue  # not wired: not used by this patch
-                if pattern and re.fullmatch(pattern, spec.name):
-                    nominal = getattr(node.p, "rate", 0.0) if hasattr(node.p, "rate") else 0.0
-                    stream = Stream(node, spec.name, i, nominal=float(nominal or 0.0))
-                    stream.gap = max(self.DROPOUT, 5.0 / stream.nominal if stream.nominal > 0 else 0.0)
-                    self.streams.append(stream)
-                    tap(node, i, stream.hit, stream.hits)
-                elif spec.name == "flags" and spec.kind == "symbol":
-                    self.flags[node.name] = ["ok", time.monotonic(), 0]
-                    tap(node, i, self._flag_tap(node.name))
-                if spec.name == "accel" and spec.kind == "vector" and len(self.accel) < 4:
-                    if node._targets[i] and type(node).sample_outlets == "":
-                        self.accel[f"{node.name}.accel"] = box = [None]
-                        self.accel_history[f"{node.name}.accel"] = deque()
-                        tap(node, i, _keep(box))
+            self._attach(node)
+        self._upstream()
+        return self
+
+    def reattach(self, *_: Any) -> Observer:
+        """After a hot reload (:mod:`pointat.reload`, on the scheduler's thread): forget the nodes that
+        left the patch and tap the new ones, and the outlets of kept nodes wired only now; the nodes kept
+        keep their taps, counts and history."""
+        nodes = self.rt.nodes
+        gone = {name for name, node in self._attached.items() if nodes.get(name) is not node}
+        self.streams = [s for s in self.streams if s.node.name not in gone]
+        self.pointers = [p for p in self.pointers if p.node.name not in gone]
+        self._tapped = {(name, i) for name, i in self._tapped if name not in gone}
+        for name in gone:
+            self._attached.pop(name)
+            self.flags.pop(name, None)
+            for key in [k for k in self.accel if k.startswith(f"{name}.")]:
+                self.accel.pop(key)
+                self.accel_history.pop(key, None)
+        for node in nodes.values():
+            self._attach(node)
+        self._upstream()
+        return self
+
+    def _attach(self, node: Node) -> None:
+        """Tap ``node``'s outlets that are wired and not tapped yet."""
+        known = self._attached.get(node.name) is node
+        self._attached[node.name] = node
+        pattern = type(node).sample_outlets
+        for i, spec in enumerate(node.out_specs):
+            if not node._targets[i] or (node.name, i) in self._tapped:
+                continue  # not wired: not used by this patch (or tapped already)
+            self._tapped.add((node.name, i))
+            if pattern and re.fullmatch(pattern, spec.name):
+                nominal = getattr(node.p, "rate", 0.0) if hasattr(node.p, "rate") else 0.0
+                stream = Stream(node, spec.name, i, nominal=float(nominal or 0.0))
+                stream.gap = max(self.DROPOUT, 5.0 / stream.nominal if stream.nominal > 0 else 0.0)
+                self.streams.append(stream)
+                tap(node, i, stream.hit, stream.hits)
+            elif spec.name == "flags" and spec.kind == "symbol":
+                self.flags[node.name] = ["ok", time.monotonic(), 0]
+                tap(node, i, self._flag_tap(node.name))
+            if spec.name == "accel" and spec.kind == "vector" and len(self.accel) < 4:
+                if node._targets[i] and type(node).sample_outlets == "":
+                    self.accel[f"{node.name}.accel"] = box = [None]
+                    self.accel_history[f"{node.name}.accel"] = deque()
+                    tap(node, i, _keep(box))
+        if not known:
             for reading in type(node).readings:
                 if reading.direction:
                     self.pointers.append(Pointer(node, reading.name))
                     break
-        for name in self.flags:
-            self.fed_by[name] = [s for s in self.streams if name in _downstream(s.node, s.index)]
-        return self
+
+    def _upstream(self) -> None:
+        self.fed_by = {
+            name: [s for s in self.streams if name in _downstream(s.node, s.index)] for name in self.flags
+        }
 
     def _flag_tap(self, name: str) -> Callable[[Message], None]:
         state = self.flags[name]

@@ -4,8 +4,9 @@ Every node's live parameters (``/pointat/NODE/PARAM``, with TYPE, VALUE, RANGE, 
 ACCESS read-write) and methods (``/pointat/NODE/METHOD``, write-only); each node's readings
 (:attr:`pointat.node.Node.readings`: an ``osc_out``'s direction as it was last sent,
 ``/pointat/NODE/aed``, read-only, with its units and range); the presets (``/pointat/preset/save`` and
-``recall``).  The addresses are the ones ``osc_in`` takes for live control, so a value set through
-OSCQuery is set exactly as ``pointat send`` would set it (:func:`pointat.control.control`).
+``recall``); ``/pointat/patch/reload`` when the patch runs from a file.  The addresses are the ones
+``osc_in`` takes for live control, so a value set through OSCQuery is set exactly as ``pointat send``
+would set it (:func:`pointat.control.control`).
 
 Plain functions of a runtime and an observer; the server (:mod:`pointat.monitor.webserver`) serves them.
 """
@@ -213,6 +214,19 @@ def address_space(rt: Any, description: str = "") -> dict[str, Any]:
             if verb != "save" and names:
                 leaf["RANGE"] = [{"VALS": names}]
             _place(root, leaf["FULL_PATH"], leaf)
+    if getattr(rt, "reloader", None) is not None and "patch" not in rt.nodes:
+        path = f"{PREFIX}patch/reload"
+        _place(
+            root,
+            path,
+            {
+                "FULL_PATH": path,
+                "TYPE": "N",
+                "ACCESS": _ACCESS_WRITE,
+                "DESCRIPTION": "read the patch's file again and run it, keeping the state of the nodes "
+                "that did not change",
+            },
+        )
     return root
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from pointat.message import make
-from pointat.node import names_path
 from pointat.testing import patch
 
 
@@ -63,7 +62,7 @@ def test_a_held_node_calls_release_before_what_reaches_it_and_sync_before_its_he
     o.set_params(radius=2.0)
     assert set(calls) == {"release 10.0 1.0"} and o.p.radius == 2.0
     calls.clear()
-    assert o.health() == {"refused": 0, "failed": 0}
+    assert {"refused": 0, "failed": 0}.items() <= o.health().items()
     assert calls == ["sync"]
     o.unhold()
     o.unhold()  # (idempotent)
@@ -75,10 +74,10 @@ def test_a_held_node_calls_release_before_what_reaches_it_and_sync_before_its_he
 
 
 def test_a_held_handler_keeps_its_marks():
-    """Live control refuses a path to a handler marked names_path: the mark must survive hold."""
+    """Live control refuses a path to a handler marked ``names_path`` (the mote's control inlet): the
+    mark must survive hold."""
     rt = patch("node m mote\n")
     m = rt.nodes["m"]
     m.hold(lambda: None, lambda: None)
     assert getattr(m._handlers[0], "names_path", False)  # noqa: SLF001 - what pointat.control reads
-    assert names_path  # (the decorator the mote's handler carries)
     m.unhold()

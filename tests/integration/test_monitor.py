@@ -300,3 +300,29 @@ def _osc(address: str, value: float) -> bytes:
         return b + b"\0" * (4 - len(b) % 4)
 
     return pad(address.encode()) + pad(b",f") + struct.pack(">f", value)
+
+
+def test_another_machines_monitor_opens_from_a_host_and_port(running_patch, browser):
+    """The header's field: host:port (as pointat ls prints it) opens that monitor in a tab of its own; a
+    text that is no host:port is refused on the page and opens nothing.  (Here the other machine is this
+    one: the same page from its own address.)"""
+    url, _rx, _control, _proc = running_patch
+    browser.get(url)
+    host = url.split("/")[2]
+    field = browser.find_element("id", "elsewhere-host")
+    field.send_keys("no port here")
+    browser.find_element("css selector", "#elsewhere button").click()
+    assert "expected host:port" in browser.find_element("id", "elsewhere-why").text
+    assert len(browser.window_handles) == 1
+    field.clear()
+    field.send_keys(host)
+    browser.find_element("css selector", "#elsewhere button").click()
+    deadline = time.monotonic() + 10
+    while len(browser.window_handles) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert len(browser.window_handles) == 2
+    browser.switch_to.window(browser.window_handles[1])
+    assert (
+        _wait(browser, "return location.href", lambda h: h.endswith("/monitor")) == f"http://{host}/monitor"
+    )
+    assert _wait(browser, "return window.pointatMonitor.frames", lambda n: n >= 5) >= 5

@@ -442,6 +442,48 @@ def test_a_glove_that_rested_a_few_seconds_knows_its_bias_and_points_right():
     assert error[int(25 / dt) :].max() < 2.0  # the drift of the rest before the bias was known, gone
 
 
+def test_the_compiled_filter_takes_any_numbers_and_refuses_what_it_cannot_run():
+    """The compiled update has one signature, floats: integers and float32 readings are converted (never
+    compiled for, which would stall a live patch) and give the Python step's very bits."""
+    fast, plain = TQTFilter(), TQTFilter(backend="python")
+    assert (fast.backend, plain.backend, TQTFilter(mode="paper").backend) == ("numba", "python", "python")
+    readings = [((0, 0, 0), (0, 0, 10), (20, 0, -40), 1), ((1, 0, 0), (0, 1, 10), (20, 1, -40), 0.01)]
+    readings.append(tuple(np.array(r, dtype=np.float32) for r in readings[1][:3]) + (np.float32(0.01),))
+    for r in readings * 3:
+        assert fast.update(*r) == plain.update(*r) and fast.flag_bits == plain.flag_bits
+    with pytest.raises(ValueError, match="robust"):
+        TQTFilter(mode="paper", backend="numba")
+    with pytest.raises(ValueError, match="backend"):
+        TQTFilter(backend="cuda")
+
+
+@pytest.mark.parametrize("k_heading_rest", [0.2, 0.0])
+def test_a_pause_takes_back_the_heading_fast_turning_left_behind(k_heading_rest):
+    """A sensor at rest, then a quarter turn the gyro reads 5 % short (a scale error: the heading left
+    about 4.5° behind, the tilt right), then rest again: at rest the field is right, and the heading comes
+    back to it at k_heading_rest (5 s) instead of k_heading (20 s)."""
+    dt, n = 0.01, 3000
+    acc, mag = np.tile([0.0, 0.0, G], (n, 1)), np.tile(FIELD, (n, 1))
+    turn = slice(1500, 1600)  # 1 s at pi/2 rad/s about the vertical
+    q_end = quat_from_axis_angle([0, 0, 1], math.pi / 2)
+    acc[turn.stop :] = quat_inverse_rotate(q_end, [0.0, 0.0, G])
+    mag[turn.stop :] = quat_inverse_rotate(q_end, FIELD)
+    for i in range(turn.start, turn.stop):  # the readings as the turn goes
+        q_i = quat_from_axis_angle([0, 0, 1], math.pi / 2 * (i + 1 - turn.start) / 100)
+        acc[i], mag[i] = quat_inverse_rotate(q_i, [0.0, 0.0, G]), quat_inverse_rotate(q_i, FIELD)
+    gyro = np.zeros((n, 3))
+    gyro[turn, 2] = 0.95 * math.pi / 2
+    f = TQTFilter(k_heading_rest=k_heading_rest)
+    out = np.array(run(f, dt, gyro, acc, mag))
+    error = np.degrees(quat_angle(out, np.tile(q_end, (n, 1))))
+    assert 3.0 < error[turn.stop] < 5.0  # left behind
+    after = error[turn.stop + 1000]  # 10 s later, 8.5 of them at rest
+    if k_heading_rest:
+        assert after < 0.3 * error[turn.stop] and TQTFlags.REST in f.flags
+    else:
+        assert after > 0.5 * error[turn.stop]
+
+
 def test_robust_ignores_a_magnetic_disturbance():
     """A magnet near the sensor (|B| +50%, 30° off) for 10 s: gated, the heading keeps to the gyro.  The flag
     is up within a tenth of a second of the span's start (the field's norm and dip are low-passed over

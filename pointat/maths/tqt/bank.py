@@ -136,9 +136,9 @@ class TQTBank(_TQTParams):
             Orientations ``(w, x, y, z)``, sensor -> NWU; never NaN.
         """
         shape = (self.n, 3)
-        g = np.asarray(gyro, dtype=float)
-        a = np.asarray(acc, dtype=float)
-        m = np.asarray(mag, dtype=float)
+        g = np.ascontiguousarray(gyro, dtype=float)  # (the very array when it is one already)
+        a = np.ascontiguousarray(acc, dtype=float)
+        m = np.ascontiguousarray(mag, dtype=float)
         if g.shape != shape or a.shape != shape or m.shape != shape:
             raise ValueError(
                 f"gyro, acc and mag must have shape {shape}, got {g.shape}, {a.shape}, {m.shape}"
@@ -151,8 +151,6 @@ class TQTBank(_TQTParams):
                 raise ValueError(f"present must have shape ({self.n},), got {here.shape}")
         dt = float(dt)
         if self._kernel is not None:
-            if not (g.flags.c_contiguous and a.flags.c_contiguous and m.flags.c_contiguous):
-                g, a, m = np.ascontiguousarray(g), np.ascontiguousarray(a), np.ascontiguousarray(m)
             self._kernel(g, a, m, dt, here, self._s, self._p, self._flags)
             return self._s[:, :4].copy()
         run, p = self._step, self._p

@@ -87,7 +87,13 @@ class TQTFilter(_TQTParams):
        all (its gyro's bias not known), the heading is corrected at ``k_heading_unrested`` instead of
        ``k_heading`` and the correction's rate is taken into the gyro bias about the vertical
        (``motion_bias_tau``): a bias a sensor that never rests cannot learn would otherwise hold the
-       heading off by bias / gain.
+       heading off by bias / gain.  While the sensor rests (``REST``) the heading is corrected at
+       ``k_heading_rest`` if that is more: the field seen through the estimate is right at rest (the tilt
+       is, and a magnetometer that lags the gyro, BROAD's by ~10 ms, has nothing to lag behind), so the
+       heading error the gyro left behind after fast turning is taken back in a pause, not over the
+       next 20 s of motion.  In fast motion the field is wrong by that lag (the sensor turns several
+       degrees in 10 ms) and by the tilt's error times the dip's tangent: a larger gain while turning
+       made trial 06 of BROAD worse, a smaller one its fast combined trial.
        Gating on the accelerometer norm is not done: it made every variant worse on BROAD.
     5. *Saturation* (when the source gives ``acc_range`` / ``gyro_range``, the sensor's full scale per
        axis; when it gives no ``acc_range``, the accelerometer's is found from the data: the largest
@@ -134,6 +140,9 @@ class TQTFilter(_TQTParams):
     k_heading_unrested : float, keyword-only
         Robust mode: the heading-correction gain (1/s) before that: a gyro whose bias is not known drifts,
         and the heading leans more on the field.  Default 0.1.
+    k_heading_rest : float, keyword-only
+        Robust mode: the heading-correction gain (1/s) while the sensor rests, when it is more than the
+        gain of the moment.  Default 0.2; 0: as in motion.
     acc_tau : float, keyword-only
         Robust mode: time constant (s) of the earth-frame acceleration average.  Default 2.0.
     mag_norm_tol, mag_dip_tol : float, keyword-only
@@ -179,6 +188,10 @@ class TQTFilter(_TQTParams):
       dominated by the field varying over the room, a slow heading correction lets the gyro carry the
       heading through them; ``k_heading_unrested = 0.1`` before (the phones, which never rest: 4.89°
       against 5.13° at 0.05, BROAD the same).
+    * ``k_heading_rest = 0.2`` (a 5 s time constant at rest): what the heading left behind by fast
+      turning needs (``benchmarks/LOO.md``, a grid of it and ``k_heading``): BROAD's slow rotation with
+      breaks 1.58 → 1.43°, the attached magnet 1.88 → 1.44°, the others within 0.01°, the phones (which
+      never rest) unchanged.
     * ``bias_tau = 10`` s: the bias is the mean of every rest until 10 s of rest are in, then a running
       average over 10 s (a glove that rested 3 s knows its bias; one that warms up follows it); chosen on
       BROAD's 81-point grid before the phones.  The rest thresholds are VQF's (Laidig & Seel 2023).
@@ -236,7 +249,7 @@ class TQTFilter(_TQTParams):
         """Copies of what the step runs on: the state vector (:data:`~pointat.maths.tqt.step.STATE_SIZE`),
         the parameter vector (the step keeps per-step coefficients at its end) and the flag bits, for a
         compiled copy of the step to go on from (:mod:`pointat.compiled`)."""
-        return list(self._s), list(self._p), self._flags
+        return [float(x) for x in self._s], [float(x) for x in self._p], int(self._flags)
 
     def import_state(self, s: Sequence[float], p: Sequence[float], flags: int) -> None:
         """Go on from :meth:`export_state`'s values, moved on elsewhere (in place: the vectors keep their

@@ -84,6 +84,7 @@ class _TQTParams:
         motion_bias_tau: float = 30.0,
         mag_tau: float = 0.4,
         k_heading_unrested: float = 0.1,
+        k_heading_rest: float = 0.2,
         rest_time: float = 1.5,
         rest_gyro: float = math.radians(2.0),
         rest_acc: float = 0.05,
@@ -108,6 +109,7 @@ class _TQTParams:
             ("motion_bias_tau", motion_bias_tau),
             ("mag_tau", mag_tau),
             ("k_heading_unrested", k_heading_unrested),
+            ("k_heading_rest", k_heading_rest),
             ("rest_time", rest_time),
             ("rest_gyro", rest_gyro),
             ("rest_acc", rest_acc),
@@ -139,6 +141,7 @@ class _TQTParams:
         self.motion_bias_tau = float(motion_bias_tau)
         self.mag_tau = float(mag_tau)
         self.k_heading_unrested = float(k_heading_unrested)
+        self.k_heading_rest = float(k_heading_rest)
         self.rest_time = float(rest_time)
         self.rest_gyro = float(rest_gyro)
         self.rest_acc = float(rest_acc)
@@ -185,6 +188,7 @@ class _TQTParams:
             self.motion_bias_tau,
             self.mag_tau,
             self.k_heading_unrested,
+            self.k_heading_rest,
         ) + [self.rho, float(self.iterations)]
 
     @property
@@ -224,7 +228,7 @@ class _TQTParams:
 
     _TUNABLE = (
         "k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "mag_new_time", "mag_reject_time",
-        "motion_bias_tau", "mag_tau", "k_heading_unrested", "bias_tau", "acc_range", "gyro_range",
+        "motion_bias_tau", "mag_tau", "k_heading_unrested", "k_heading_rest", "bias_tau", "acc_range", "gyro_range",
     )  # fmt: skip
 
     def retune(self, **gains: float) -> None:

@@ -182,7 +182,8 @@ P_ACC_RANGE, P_GYRO_RANGE = 12, 13  # full scale per axis (0: not known)
 P_MAG_NEW_TIME, P_MAG_REJECT_TIME, P_MOTION_BIAS_TAU, P_MAG_TAU, P_K_HEADING_UNRESTED = 14, 15, 16, 17, 18
 P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_C_SAT = 19, 20, 21, 22, 23, 24, 25, 26
 P_C_MAGLP, P_C_GNORM, P_C_MBIAS, P_ALPHA_MAG_UNRESTED = 27, 28, 29, 30
-PARAM_SIZE = 31
+P_K_HEADING_REST, P_ALPHA_MAG_REST = 31, 32
+PARAM_SIZE = 33
 
 _LONG_AGO = 1e9  # "seconds since" for a saturation never seen
 
@@ -207,6 +208,7 @@ def params(
     motion_bias_tau: float,
     mag_tau: float,
     k_heading_unrested: float,
+    k_heading_rest: float,
 ) -> list[float]:
     """The parameter vector (validated by the caller); its per-``dt`` coefficients are filled on the first
     step."""
@@ -218,6 +220,7 @@ def params(
     p[P_ACC_RANGE], p[P_GYRO_RANGE] = acc_range, gyro_range
     p[P_MAG_NEW_TIME], p[P_MAG_REJECT_TIME] = mag_new_time, mag_reject_time
     p[P_MOTION_BIAS_TAU], p[P_MAG_TAU], p[P_K_HEADING_UNRESTED] = motion_bias_tau, mag_tau, k_heading_unrested
+    p[P_K_HEADING_REST] = k_heading_rest
     p[P_DT] = -1.0
     return p
 
@@ -250,6 +253,7 @@ def _coefficients(p, dt):  # type: ignore[no-untyped-def]
     p[P_C_SAT] = 1.0 - math.exp(-dt / _SHAKE_TAU)
     p[P_C_MAGLP] = 1.0 - math.exp(-dt / p[P_MAG_TAU]) if p[P_MAG_TAU] > 0.0 else 1.0
     p[P_C_GNORM] = 1.0 - math.exp(-dt / _GNORM_TAU)
+    p[P_ALPHA_MAG_REST] = min(p[P_K_HEADING_REST] * dt, 1.0)
     # the heading correction's rate (k_heading psi) integrated into the bias over motion_bias_tau: k_heading / tau
     p[P_C_MBIAS] = p[P_K_HEADING_UNRESTED] / p[P_MOTION_BIAS_TAU] if p[P_MOTION_BIAS_TAU] > 0.0 else 0.0
 
@@ -551,7 +555,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         norm, dip = math.sqrt(bh * bh + bez * bez), math.atan2(-bez, bh)
         if _magnetic_gate(s, p, norm, dip, dt, dip_gate):
             flags |= F_MAG_DISTURBED
-        k = _heading_gain(s, p, dt)
+        k = _heading_gain(s, p, dt, flags & F_REST != 0)
         ref = s[S_MAG_NORM]
         if abs(norm - ref) > _MAG_RAW * p[P_MAG_NORM_TOL] * ref or (
             dip_gate and abs(dip - s[S_DIP]) > _MAG_RAW * p[P_MAG_DIP_TOL]
@@ -654,11 +658,13 @@ def _set_dip(s, d):  # type: ignore[no-untyped-def]
     s[S_DIP] = d
 
 
-def _heading_gain(s, p, dt):  # type: ignore[no-untyped-def]
+def _heading_gain(s, p, dt, rest):  # type: ignore[no-untyped-def]
     """The heading correction's fraction this sample: none while the field is disturbed, until the
     rejection time is used up (then a fraction of it); a plain mean of the accepted field at the start."""
     # the gyro's bias not yet known from rest: its own gain (the heading leans more on the field)
     k = p[P_ALPHA_MAG] if s[S_BIAS_T] >= p[P_BIAS_TAU] else p[P_ALPHA_MAG_UNRESTED]
+    if rest and p[P_ALPHA_MAG_REST] > k:
+        k = p[P_ALPHA_MAG_REST]
     if s[S_MAG_DIST] != 0.0:
         if s[S_MAG_REJ_T] < p[P_MAG_REJECT_TIME]:
             s[S_MAG_REJ_T] += dt

@@ -1,0 +1,79 @@
+"""``pointat ls``: a patch's monitor advertised by zeroconf on loopback is found, with its ports, and its
+OSCQuery tree read over HTTP (real sockets, real multicast on the loopback device)."""
+
+from __future__ import annotations
+
+import os
+import socket
+
+import pytest
+
+from pointat.checking import check
+from pointat.cli import main
+from pointat.discovery import Service, browse, fetch_tree, tree_lines
+from pointat.loader import build
+from pointat.monitor.observe import Observer
+from pointat.monitor.webserver import MonitorServer
+from pointat.patchfile import parse_patch
+from pointat.registry import Registry
+from pointat.testing import wait_until
+
+REG = Registry().load_builtins()
+
+
+@pytest.fixture
+def advertised():
+    """A patch's monitor on a free loopback port, advertised as a running patch's is; its name is this
+    test process's own, so that patches other people run on the machine are told apart."""
+    name = f"lstest{os.getpid()}"
+    rt = build(check(parse_patch("node tick metro 100\nnode fuse tqt rate=100\n", "<ls>"), REG))
+    observer = Observer(rt, patch=name).attach()
+    server = MonitorServer(rt, observer, "127.0.0.1", 0, name=f"pointat {name}")
+    server.start()
+    try:
+        if not wait_until(lambda: server._zeroconf is not None, timeout=20):
+            pytest.skip("zeroconf cannot advertise on loopback here (no multicast on the loopback device)")
+        yield name, server
+    finally:
+        server.close()
+        rt.shutdown()
+
+
+def _find(name: str) -> Service | None:
+    for _ in range(3):  # (a browse is bounded; an answer may miss the first)
+        found = [s for s in browse(1.5, local=True) if s.patch == name]
+        if found:
+            return found[0]
+    return None
+
+
+def test_a_running_patch_is_found_with_its_ports_and_tree(advertised):
+    name, server = advertised
+    service = _find(name)
+    assert service is not None
+    assert service.host == "127.0.0.1"
+    assert service.port == server.port and service.osc_port == server.osc_port
+    assert service.url("/monitor") == f"http://127.0.0.1:{server.port}/monitor"
+    lines = tree_lines(fetch_tree(service))
+    assert "/pointat/tick/interval f = 100  (rw)" in lines
+    assert "/pointat/fuse/reset N  (w)" in lines
+
+
+def test_pointat_ls_prints_it(advertised, capsys):
+    name, server = advertised
+    assert _find(name) is not None  # (answering now)
+    assert main(["ls", "--local", "--tree", "--for", "2"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    mine = [i for i, line in enumerate(out) if line.startswith(name + " ")]
+    assert mine, out
+    line = out[mine[0]]
+    assert f"OSCQuery {server.port}/tcp" in line and f"OSC {server.osc_port}/udp" in line
+    assert "    /pointat/tick/interval f = 100  (rw)" in out[mine[0] + 1 :]
+
+
+def test_a_tree_that_cannot_be_read_says_why():
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with pytest.raises(OSError, match=f"http://127.0.0.1:{port}/: .*refused"):
+        fetch_tree(Service("x", ["127.0.0.1"], port), timeout=2)
