@@ -59,6 +59,7 @@ BROAD_STEP = 5  # BROAD's 286 Hz taken at 57 Hz: a glove's rate, and five times 
 VARIANTS: tuple[tuple[str, dict[str, Any], dict[str, Any]], ...] = (
     ("pointat's defaults, deciding at the end", {}, {}),
     ("warp=each (DTW_I)", {"warp": "each"}, {}),
+    ("warp=together (DTW_D, the default before auto)", {"warp": "together"}, {}),
     ("relative=[acc q] (attitude left out)", {"relative": ("acc", "q")}, {}),
     ("band=0.2", {"band": 0.2}, {}),
     ("band=1 (none)", {"band": 1.0}, {}),
@@ -66,6 +67,7 @@ VARIANTS: tuple[tuple[str, dict[str, Any], dict[str, Any]], ...] = (
     ("reject=0 (no null class)", {"reject": 0.0}, {"early": False}),
 )
 CURVE = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
+BASELINE = "**plain 1-NN DTW (baseline)**"
 
 
 def _pct(x: float) -> str:
@@ -104,7 +106,10 @@ def _mean_min(values: list[float]) -> str:
     return f"{_pct(float(np.mean(values)))} / {_pct(float(np.min(values)))}" if values else "–"
 
 
-def accuracy_table(data: Data, people: Sequence[int], progress: Callable[[str], None], own: bool) -> str:
+def accuracy_table(
+    data: Data, people: Sequence[int], progress: Callable[[str], None], own: bool
+) -> tuple[str, dict[str, dict[str, float]]]:
+    """The variants' accuracy table, and each row's mean accuracy per column (for the goals)."""
     head = "| variant | a new person, acc gyr | 3 examples, acc gyr | a new person, acc | 3 examples, acc |"
     cols = [("new", ("acc", "gyr")), ("three", ("acc", "gyr")), ("new", ("acc",)), ("three", ("acc",))]
     if own:
@@ -121,21 +126,27 @@ def accuracy_table(data: Data, people: Sequence[int], progress: Callable[[str], 
             lambda tr, te, ch: evaluate(tr, te, ch).accuracy,
         ),
     )
-    rows.append(("**plain 1-NN DTW (baseline)**", lambda tr, te, ch: baseline(tr, te, ch).accuracy))
+    rows.append((BASELINE, lambda tr, te, ch: baseline(tr, te, ch).accuracy))
+    names = [h.strip() for h in head.split("|")[2:-1]]
+    values: dict[str, dict[str, float]] = {}
     for name, score in rows:
-        cells = []
+        cells, means = [], []
         for protocol, ch in cols:
-            cells.append(_mean_min([score(tr, te, ch) for tr, te in data.splits(people, protocol)]))
+            got = [score(tr, te, ch) for tr, te in data.splits(people, protocol)]
+            cells.append(_mean_min(got))
+            means.append(float(np.mean(got)) if got else math.nan)
         if own:
-            cells.append(_pct(score(*data.pickup, ("acc",))) if data.pickup else "–")
-            cells.append(_pct(score(*data.basic, ("acc", "gyr"))) if data.basic else "–")
+            for recs, ch in ((data.pickup, ("acc",)), (data.basic, ("acc", "gyr"))):
+                means.append(score(*recs, ch) if recs else math.nan)
+                cells.append(_pct(means[-1]))
+        values[name] = dict(zip(names, means, strict=True))
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
         progress(f"gesture_real: {name}")
     return (
         "\n".join(lines)
         + "\n\nCells: mean over people and arms / the worst of them.  Every row but the first decides at each"
         " movement's end (early decisions off), so that the rows compare like with like.\n"
-    )
+    ), values
 
 
 def _ungated(model: GestureModel, take: sets.Take, step: int, **rec: Any) -> list[Decision]:
@@ -149,7 +160,8 @@ def _accepted(model: GestureModel, d: Decision, k: float) -> bool:
     saved, model.reject = model.reject, k
     try:
         distances = np.array([d.per_class[label] for label in model.labels])
-        return model.decide(distances, duration=d.duration, still=d.still).label is not None
+        gauge = np.array([d.distance if label == d.nearest else math.inf for label in model.labels])
+        return model.decide(distances, duration=d.duration, still=d.still, gauge=gauge).label is not None
     finally:
         model.reject = saved
 
@@ -196,7 +208,9 @@ def _told(model: GestureModel, take: sets.Take) -> int:
     return sum(d.label is not None for d in _ungated(model, take, BROAD_STEP))
 
 
-def false_triggers_table(data: Data, trials: Sequence[str], progress: Callable[[str], None]) -> str:
+def false_triggers_table(
+    data: Data, trials: Sequence[str], progress: Callable[[str], None]
+) -> tuple[str, dict[str, float]]:
     """The defaults as they run (early decisions on), models taught on every set, over BROAD."""
     takes = data.trials(trials)
     minutes = sum(t.minutes for t in takes)
@@ -226,15 +240,17 @@ def false_triggers_table(data: Data, trials: Sequence[str], progress: Callable[[
             ("BasicMotions (acc gyr)", [GestureModel(ch).train([r.example(ch) for r in data.basic[0]])])
         )
     worst = 0.0
+    worst_of: dict[str, float] = {}
     for name, models in groups:
         rates = [sum(_told(m, t) for t in takes) / minutes for m in models]
         worst = max(worst, max(rates))
+        worst_of[name] = max(rates)
         lines.append(f"| {name} | {len(models)} | {np.median(rates):.2f}, {max(rates):.2f} |")
         progress(f"gesture_real: false triggers, {name}")
     return (
         "\n".join(lines)
         + f"\n\n{len(takes)} BROAD trials, {minutes:.1f} min; the worst model: {worst:.2f} a minute.\n"
-    )
+    ), worst_of
 
 
 def adapt_table(data: Data, people: Sequence[int], progress: Callable[[str], None]) -> str:
@@ -254,7 +270,9 @@ def adapt_table(data: Data, people: Sequence[int], progress: Callable[[str], Non
     return "\n".join(lines) + "\n"
 
 
-def ungated_table(data: Data, people: Sequence[int], progress: Callable[[str], None]) -> str:
+def ungated_table(
+    data: Data, people: Sequence[int], progress: Callable[[str], None]
+) -> tuple[str, dict[tuple[str, str], float]]:
     """seglearn's uncut recordings (repetitions with no rest between them), each streamed whole through
     the recognizer: cut from rest to rest (the default) and spotted (``cut=spot``), taught with the
     first three repetitions of each of the person's own recordings (the stream holds them too) or by
@@ -264,6 +282,7 @@ def ungated_table(data: Data, people: Sequence[int], progress: Callable[[str], N
         "| cut | taught by | repetitions found and named | named wrong or extra, a minute |",
         "|---|---|---|---|",
     ]
+    share: dict[tuple[str, str], float] = {}
     for cut in ("rest", "spot"):
         for protocol in ("three", "new"):
             found = wrong = total = 0
@@ -283,24 +302,70 @@ def ungated_table(data: Data, people: Sequence[int], progress: Callable[[str], N
                 wrong += sum(d.label != take.label for d in decisions) + max(0, right - n)
                 total += n
                 minutes += take.minutes
+            share[(cut, protocol)] = found / max(1, total)
             who = "three of the person's own" if protocol == "three" else "the other people (one each)"
             lines.append(
                 f"| {cut} | {who} | {_pct(found / max(1, total))} of {total} | {wrong / max(1e-9, minutes):.1f} |"
             )
             progress(f"gesture_real: ungated, {cut} {protocol}")
+    return "\n".join(lines) + "\n", share
+
+
+def _goal(met: bool, text: str) -> str:
+    return f"* {'**met**' if met else '**missed**'}: {text}"
+
+
+def goals_text(
+    accuracy: dict[str, dict[str, float]], worst: dict[str, float], ungated: dict[tuple[str, str], float]
+) -> str:
+    """Issue 43's goals on the data we have, met or missed and by how much, from the reported tables."""
+    ours, plain = accuracy["pointat's defaults, as they run (early decisions)"], accuracy[BASELINE]
+    lines = []
+    for column, value in ours.items():
+        gap = 100 * (value - plain[column])
+        if math.isfinite(gap):
+            lines.append(
+                _goal(
+                    gap >= -0.05,
+                    f"at least plain 1-NN DTW, {column}: {_pct(value)} against {_pct(plain[column])}"
+                    f" ({gap:+.1f} points)",
+                )
+            )
+    if worst:
+        name = max(worst, key=worst.__getitem__)
+        lines.append(
+            _goal(
+                worst[name] <= 0.5,
+                f"at most 0.5 false triggers a minute on BROAD with a model taught on any set: the worst"
+                f" {worst[name]:.2f} ({name}); over 0.5: "
+                + (", ".join(f"{k} {v:.2f}" for k, v in worst.items() if v > 0.5) or "none"),
+            )
+        )
+    if ungated:
+        found = ungated[("spot", "new")]
+        lines.append(
+            _goal(
+                found >= 0.9,
+                f"ungated streams across people (cut=spot, taught by the others): {_pct(found)} found and"
+                f" named, goal 90 % ({100 * (found - 0.9):+.1f} points)",
+            )
+        )
+    lines.append(
+        "* not measured here: uWave (kept back; the 95 % goals); the simulated performer, strokes and"
+        " latency are in GESTURES.md"
+    )
     return "\n".join(lines) + "\n"
 
 
-def report(broad_dir: Path | None, progress: Callable[[str], None]) -> tuple[str, list[list[str]]]:
+def report(broad_dir: Path | None, progress: Callable[[str], None]) -> str:
     t0 = time.monotonic()
     data = Data(broad_dir)
-    goals: list[list[str]] = []
     if not data.watch:
-        return "Not measured: seglearn's wheel could not be had.\n", goals
+        return "Not measured: seglearn's wheel could not be had.\n"
     parts = [
         "### Chosen on: seglearn people 1-5",
         "",
-        accuracy_table(data, CHOOSE_PEOPLE, progress, own=False),
+        accuracy_table(data, CHOOSE_PEOPLE, progress, own=False)[0],
     ]
     if data.broad:
         text, _ = curve_table(data, CHOOSE_PEOPLE, CHOOSE_BROAD, progress)
@@ -309,18 +374,17 @@ def report(broad_dir: Path | None, progress: Callable[[str], None]) -> tuple[str
             "",
             text,
         ]
-    parts += [
-        "### Reported on: seglearn people 6-10, PickupGestureWiimoteZ, BasicMotions",
-        "",
-        accuracy_table(data, REPORT_PEOPLE, progress, own=True),
-    ]
+    text, accuracy = accuracy_table(data, REPORT_PEOPLE, progress, own=True)
+    parts += ["### Reported on: seglearn people 6-10, PickupGestureWiimoteZ, BasicMotions", "", text]
+    worst: dict[str, float] = {}
     if data.broad:
+        text, worst = false_triggers_table(data, REPORT_BROAD, progress)
         parts += [
             "### Reported on: false triggers on BROAD "
             + ", ".join(REPORT_BROAD)
             + " (the defaults as they run)",
             "",
-            false_triggers_table(data, REPORT_BROAD, progress),
+            text,
             "### The curve on the reported sets: seglearn people 6-10, BROAD " + ", ".join(REPORT_BROAD),
             "",
             curve_table(data, REPORT_PEOPLE, REPORT_BROAD, progress)[0],
@@ -330,20 +394,23 @@ def report(broad_dir: Path | None, progress: Callable[[str], None]) -> tuple[str
         "",
         adapt_table(data, REPORT_PEOPLE, progress),
     ]
-    parts += [
-        "### Ungated streams: seglearn people 6-10, taught by the other people",
-        "",
-        ungated_table(data, REPORT_PEOPLE, progress),
-    ]
+    text, ungated = ungated_table(data, REPORT_PEOPLE, progress)
+    parts += ["### Ungated streams: seglearn people 6-10, taught by the other people", "", text]
+    parts += ["### Issue 43's goals on the reported sets", "", goals_text(accuracy, worst, ungated)]
     parts.append(f"Measured in {time.monotonic() - t0:.0f} s.\n")
-    return "\n".join(parts), goals
+    return "\n".join(parts)
+
+
+def _broad_folder() -> Path:
+    """``shared/data/broad`` beside the checkout, or beside the checkout's folder (a git worktree kept
+    in a folder of worktrees)."""
+    near = [REPO.parent / "shared" / "data" / "broad", REPO.parent.parent / "shared" / "data" / "broad"]
+    return next((p for p in near if p.is_dir()), near[0])
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.gesture_real", description=__doc__.split("\n")[0])
-    ap.add_argument(
-        "--broad", type=Path, default=REPO.parent / "shared" / "data" / "broad", help="BROAD's CSV trials"
-    )
+    ap.add_argument("--broad", type=Path, default=_broad_folder(), help="BROAD's CSV trials")
     ap.add_argument("--out", type=Path, default=REPO / "benchmarks" / "GESTURES_REAL.md")
     args = ap.parse_args(argv)
     t0 = time.monotonic()
@@ -351,7 +418,11 @@ def main(argv: list[str] | None = None) -> int:
     def progress(text: str) -> None:
         print(f"[{time.monotonic() - t0:6.1f} s] {text}", file=sys.stderr, flush=True)
 
-    body, _ = report(args.broad, progress)
+    if not args.broad.is_dir():
+        progress(
+            f"no BROAD trials in {args.broad}: the false triggers and the curves are left out (--broad DIR)"
+        )
+    body = report(args.broad, progress)
     args.out.write_text(
         "# Gesture recognition on real recordings\n\n"
         f"Generated by `python -m benchmarks.gesture_real`.\n\n{__doc__.split(chr(10), 2)[2]}\n{body}",

@@ -66,6 +66,7 @@ from pointat.maths.gestures import Example, GestureModel, Recognizer
 VARIANTS: tuple[tuple[str, dict, dict], ...] = (
     ("pointat's defaults", {}, {}),
     ("warp=each (DTW_I)", {"warp": "each"}, {}),
+    ("warp=together (DTW_D)", {"warp": "together"}, {}),
     ("reject=0 (no null class)", {"reject": 0.0}, {}),
     ("early=false", {}, {"early": False}),
     ("reject=1", {"reject": 1.0}, {}),

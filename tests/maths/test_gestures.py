@@ -198,6 +198,14 @@ def test_warp_auto_takes_the_warp_that_names_more_of_the_examples_left_out():
     assert model.warped == "together"
     fixed = GestureModel(("x",), size=3, warp="each").train(examples)
     assert fixed.warped == "each"
+    # DTW_I names, the null class is judged with DTW_D: the decision's distance is DTW_D's to the class
+    probe = Example("probe", t, np.column_stack([bump(0.5), bump(1.0), 0 * t]))
+    d = fixed.classify(probe.t, probe.frames)
+    x = fixed.features(probe.t, probe.frames)
+    own = [tpl for tpl, label in zip(fixed.templates, fixed.labels, strict=True) if label == d.nearest]
+    assert d.distance == pytest.approx(float(np.min(dtw_many(x, own, fixed.band))))
+    assert d.per_class[d.nearest] == pytest.approx(float(np.min(dtw_many(x, own, fixed.band, each=True))))
+    assert d.per_class[d.nearest] < d.distance  # (each warped on its own comes nearer: why it only names)
 
 
 def test_segmenter_cuts_from_rest_to_rest():

@@ -35,7 +35,7 @@ class Follower:
             d = np.array([[0.0 if i == j else 1.0 for j in examples] for i in examples])
             for a, i in enumerate(examples):
                 others = [tpl[j] for j in examples if j != i]
-                d[a, [b for b in range(len(examples)) if b != a]] = model._dtw(tpl[i], others)
+                d[a, [b for b in range(len(examples)) if b != a]] = model._gauge(tpl[i], others)
             medoid = examples[int(np.argmin(d.sum(axis=1)))]
             self.sigma = max(0.1, float(np.sqrt(np.median(d[d > 0]) / max(1, tpl[0].shape[1]))))
         else:

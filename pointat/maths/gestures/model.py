@@ -200,10 +200,17 @@ class GestureModel:
         for name, g in zip(self.channels, feature_groups(self.channels, self.size), strict=True):
             if name == "gyr":
                 rest[:, g] = 0.0
-        return float(self._dtw(x, [rest])[0])
+        return float(self._gauge(x, [rest])[0])
 
     def _dtw(self, x: np.ndarray, templates: Sequence[np.ndarray]) -> np.ndarray:
+        """The distances that name a movement: with the warp in use (:attr:`warped`)."""
         return dtw_many(x, templates, self.band, each=self.warped == "each")
+
+    def _gauge(self, x: np.ndarray, templates: Sequence[np.ndarray]) -> np.ndarray:
+        """The distances the null class is judged by: all features warped together, whatever the warp
+        that names (each warped on its own, ordinary motion comes nearer every gesture: on BROAD a model
+        of DTW_I told three times as many false triggers)."""
+        return dtw_many(x, templates, self.band, each=False)
 
     def named_left_out(self, warp: str) -> int:
         """How many of the templates 1-NN DTW with ``warp`` names right from the others (each left out in
@@ -269,15 +276,19 @@ class GestureModel:
         duration: float = math.nan,
         still: float = math.inf,
         strength: np.ndarray | None = None,
+        gauge: np.ndarray | None = None,
     ) -> Decision:
-        """The decision from the distances to each template (and the movement's duration, s, and its
-        distance from keeping still, told with the decision)."""
+        """The decision from the distances to each template that name it (and the movement's duration,
+        s, and its distance from keeping still, told with the decision); ``gauge``: the distances the
+        null class is judged by (:meth:`_gauge`), when they are not those."""
         per_class: dict[str, float] = {}
         for label, d in zip(self.labels, distances, strict=True):
             if d < per_class.get(label, math.inf):
                 per_class[label] = float(d)
         nearest = min(per_class, key=per_class.__getitem__)
         d = per_class[nearest]
+        if gauge is not None:
+            d = float(min(g for label, g in zip(self.labels, gauge, strict=True) if label == nearest))
         if nearest == NULL:
             return Decision(None, d, nearest, 0.0, per_class, early, still, duration)
         limit = self.threshold(nearest)
@@ -298,11 +309,13 @@ class GestureModel:
         x = self.features(np.asarray(t, dtype=float), np.asarray(frames, dtype=float))
         t = np.asarray(t, dtype=float)
         frames = np.asarray(frames, dtype=float)
+        names = self._dtw(x, self.templates)
         return self.decide(
-            self._dtw(x, self.templates),
+            names,
             duration=float(t[-1] - t[0]),
             still=self.still(x),
             strength=self.strength(frames),
+            gauge=None if self.warped == "together" else self._gauge(x, self.templates),
         )
 
     def early(self, t: np.ndarray, frames: np.ndarray, *, share: float, margin: float) -> Decision | None:
@@ -319,7 +332,7 @@ class GestureModel:
             return None  # (the accelerometer alone: early decisions doubled false triggers on real motion)
         x = self.features(t, frames)
         per_class: dict[str, tuple[float, float]] = {}
-        rows = dtw_prefix_many(x, self.templates, self.band, each=self.warped == "each")
+        rows = dtw_prefix_many(x, self.templates, self.band)  # (warped together: judged as the null class is)
         for label, (cost, through) in zip(self.labels, rows, strict=True):
             if cost < per_class.get(label, (math.inf, 0.0))[0]:
                 per_class[label] = (float(cost), float(through))
@@ -361,9 +374,10 @@ class GestureModel:
         class at least twice as far."""
         if decision.label is None or self.reject <= 0:
             return False
+        own = decision.per_class[decision.label]
         others = [v for c, v in decision.per_class.items() if c != decision.label]
         return decision.distance <= 0.5 * self.threshold(decision.label) and all(
-            v >= 2.0 * decision.distance for v in others
+            v >= 2.0 * own for v in others
         )
 
     def motion_level(self, start: float) -> float:

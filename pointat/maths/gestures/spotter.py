@@ -132,10 +132,12 @@ class Spotter:
         x = np.array([self.feats[k - first] for k in range(start, end + 1)])
         ts = [self.times[k - first] for k in range(start, end + 1)]
         raw = np.array([f for ti, f in self.raw if ts[0] <= ti <= ts[-1]] or [self.raw[-1][1]])
+        gauge = dtw_many(x, self.templates, 1.0)
         decision = m.decide(
-            dtw_many(x, self.templates, 1.0),
+            gauge if m.warped == "together" else dtw_many(x, self.templates, 1.0, each=True),
             duration=ts[-1] - ts[0],
             still=m.still(x),
             strength=m.strength(raw),
+            gauge=gauge,
         )
         return decision if decision.label is not None else None
