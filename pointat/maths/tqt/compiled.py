@@ -27,7 +27,7 @@ from typing import Any
 from pointat import jit
 from pointat.maths.tqt import step
 
-__all__ = ["bank_kernel", "compiled", "robust_bank", "robust_update", "update_kernel"]
+__all__ = ["bank_kernel", "batch_kernel", "compiled", "robust_bank", "robust_update", "update_kernel"]
 
 #: numba's options for the step (see the module head).
 OPTIONS = {"_nrt": False}
@@ -67,6 +67,12 @@ def bank_kernel() -> Callable[..., Any]:
     """:func:`pointat.maths.tqt.step.robust_bank` compiled (typed at its first call): what a
     :class:`~pointat.maths.tqt.TQTBank` holds and calls an update."""
     return _kernels().robust_bank  # type: ignore[no-any-return]
+
+
+def batch_kernel() -> Callable[..., Any]:
+    """:func:`pointat.maths.tqt.step.robust_batch` compiled (typed at its first call): what
+    :meth:`~pointat.maths.tqt.TQTBank.update_batch` calls once for a block of samples."""
+    return _kernels().robust_batch  # type: ignore[no-any-return]
 
 
 def robust_update(*args: Any) -> tuple[int, float, float, float, float]:
