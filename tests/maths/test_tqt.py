@@ -487,7 +487,7 @@ def test_a_pause_takes_back_the_heading_fast_turning_left_behind(k_heading_rest)
 def test_robust_ignores_a_magnetic_disturbance():
     """A magnet near the sensor (|B| +50%, 30° off) for 10 s: gated, the heading keeps to the gyro.  The flag
     is up within a tenth of a second of the span's start (the field's norm and dip are low-passed over
-    mag_tau, 0.4 s), until the low-passed field is back and half a second more (its hysteresis), and down
+    mag_tau, 0.2 s), until the low-passed field is back and half a second more (its hysteresis), and down
     again after."""
     dt, q, gyro, acc, mag = synthetic(seed=4, seconds=40.0)
     disturbed = mag.copy()
