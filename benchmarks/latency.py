@@ -102,7 +102,7 @@ class LatencyResult:
     #: pointat ``--spin MS``: the scheduler polls for this many ms after each input instead of sleeping
     #: (a floor with ``--poll MS``: the relay does the same, the floor of the ``--spin`` rows)
     spin: float = 0.0
-    #: pointat ``--compiled on``: the glove chains run as one compiled function (:mod:`pointat.fusion`)
+    #: pointat ``--compiled on``: the glove chains run as one compiled function (:mod:`pointat.compiled`)
     compiled: bool = False
     #: (p50, p99) of each round (:func:`pool`) in the order they ran; ``None`` for a round that failed
     rounds: list[tuple[float, float] | None] = field(default_factory=list)
@@ -1360,7 +1360,7 @@ def run_all(
                     partial(run_pointat_mote, "tqt_bank", rate, 16, ph, sample, workdir),
                 )
             )
-            # many performers, at 1 kHz: the tqt chains compiled (pointat.fusion), 1, 16 and 64 gloves on
+            # many performers, at 1 kHz: the tqt chains compiled (pointat.compiled), 1, 16 and 64 gloves on
             # one base station, one glove polling, and 64 node by node (more than one core's work)
             if rate >= 1000:
                 for motes in (1, 16, 64):

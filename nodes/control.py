@@ -352,6 +352,7 @@ class Send(Node):
     """Send every message to all ``receive`` nodes of the same bus name, anywhere in the patch."""
 
     needs_input = True
+    bus_end = "sends"
     inlets = (
         Inlet("in", ("any",), "the message to send"),
         Inlet("bus", ("symbol",), "set the bus name", param="bus"),
@@ -369,6 +370,7 @@ class Send(Node):
 class Receive(Node):
     """Output every message sent to its bus name by ``send`` nodes (or by ``msg`` boxes with ``; bus``)."""
 
+    bus_end = "hears"
     outlets = (Outlet("out", "any", "what was sent"),)
     params = (Param("bus", "symbol", doc="the bus name"),)
 

@@ -38,6 +38,7 @@ class Reference(Node):
     """
 
     pure = True
+    fusable = True
 
     inlets = (
         Inlet("quat", ORIENTATION, "orientation (quaternion or matrix)"),
@@ -81,6 +82,15 @@ class Reference(Node):
     def do_clear(self) -> None:
         self.offset = (1.0, 0.0, 0.0, 0.0)
 
+    def fused_state(self) -> dict[str, Any] | None:
+        """The offset quaternion, when no capture is pending (:mod:`pointat.compiled`)."""
+        if self._capture:
+            return None
+        return {"offset": self.offset}
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        self.offset = tuple(state["offset"])
+
     def on_quat(self, msg: Message) -> None:
         q = as_quat(msg)
         if self._capture:
@@ -115,6 +125,7 @@ class AziEle(Node):
     """
 
     pure = True
+    fusable = True
 
     inlets = (Inlet("quat", ORIENTATION, "orientation, quaternion or matrix"),)
     outlets = (Outlet("azimuth", "float", "degrees, + left"), Outlet("elevation", "float", "degrees, + up"))
@@ -129,6 +140,13 @@ class AziEle(Node):
 
     def setup(self) -> None:
         self._az: float | None = None
+
+    def fused_state(self) -> dict[str, Any]:
+        """The azimuth last given (None: none yet), held at the poles (:mod:`pointat.compiled`)."""
+        return {"azimuth": self._az}
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        self._az = state["azimuth"]
 
     def on_quat(self, msg: Message) -> None:
         self._az, el = _pointing(as_quat(msg), self.p.axis, self._az, self.p.pole)
@@ -149,6 +167,7 @@ class RollDistanceNode(Node):
     """
 
     pure = True
+    fusable = True
 
     inlets = (Inlet("quat", ORIENTATION, "orientation, quaternion or matrix"),)
     outlets = (
@@ -189,6 +208,26 @@ class RollDistanceNode(Node):
         self.state.enter_deg, self.state.leave_deg, self.state.gain = self.p.enter, self.p.leave, self.p.gain
         self.state.max_elevation_deg = self.p.max_elevation
 
+    def fused_state(self) -> dict[str, Any]:
+        """The gesture's state vector (:class:`~pointat.maths.fusion.RollDistance`'s ``s``) and settings,
+        the pointing azimuth last found (None: none yet) and the mode last told (:mod:`pointat.compiled`)."""
+        rd = self.state
+        return {
+            "roll": list(rd.s),
+            "enter": rd.enter_deg,
+            "leave": rd.leave_deg,
+            "gain": rd.gain,
+            "max_elevation": rd.max_elevation_deg,
+            "azimuth": self._az,
+            "mode": self._mode,
+        }
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        """The state vector and azimuth moved on; the mode is the vector's (the chain told each change)."""
+        self.state.s[:] = state["roll"]
+        self._mode = self.state.mode
+        self._az = state["azimuth"]
+
     def on_quat(self, msg: Message) -> None:
         q = as_quat(msg)
         self._az, el = _pointing(q, _HAND_X, self._az, self.p.pole)
@@ -198,7 +237,7 @@ class RollDistanceNode(Node):
         self.out(0, az_out)
 
     def tell_mode(self, mode: str) -> None:
-        """The gesture's mode of this sample, told when it changes (:mod:`pointat.fusion` tells it too)."""
+        """The gesture's mode of this sample, told when it changes (:mod:`pointat.compiled` tells it too)."""
         if mode != self._mode:
             self._mode = mode
             self.out(2, mode)

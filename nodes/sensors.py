@@ -81,7 +81,7 @@ class _MoteClock:
 
     Its state is a column of the ``mote`` node's clock array (rows: t0, NaN until the first frame; the
     count of periods since; the last counter), which the compiled chains' scan of plain frames
-    (:func:`pointat.fusion.kernel.scan_plain`) moves on too."""
+    (:func:`pointat.compiled.kernel.scan_plain`) moves on too."""
 
     def __init__(self, clock: np.ndarray, mote: int, rate: float):
         self.clock, self.mote, self.rate = clock, mote, rate
@@ -209,8 +209,20 @@ base.1 -> nulls2 -> right
     #: middle of a frame, or losing it, leaves a partial one).
     NOISE_BYTES = 64
 
-    #: The compiled chains behind the outlets (:class:`pointat.fusion.Group`), set by the runtime.
-    _fused: Any = None
+    _fused: Any = None  # the compiled chains behind the outlets (see fuse)
+
+    def fuse(self, chains: Any) -> None:
+        """Hand the frames of the outlets whose chains run compiled to ``chains`` (a
+        :class:`pointat.compiled.Group`: its ``take`` queues a frame, or says no and the frame goes the
+        node's way; ``scan`` takes a run of plain frames from the reader's buffer; ``flush`` runs what a
+        read queued; ``silences_changed`` hears that a mote fell silent or spoke again), or, given None,
+        send every frame the node's way again."""
+        self._fused = chains
+
+    def silent(self, mote: int) -> bool:
+        """Whether mote ``mote`` (an id) has sent nothing for :attr:`SILENT` seconds since the device
+        opened."""
+        return mote in self._silent
 
     def describe(self) -> str:
         device = self.p.device or "the simulated glove's pseudo-terminal"
@@ -323,7 +335,7 @@ base.1 -> nulls2 -> right
         reader = self._reader
         if reader is not None and not reader.poll():
             self._reopen_later()
-        if self._fused is not None:  # the read's frames of the compiled chains (pointat.fusion)
+        if self._fused is not None:  # the read's frames of the compiled chains (pointat.compiled)
             self._fused.flush()
 
     def _check(self) -> None:
@@ -351,7 +363,7 @@ base.1 -> nulls2 -> right
             if mote not in self._silent and now - last > self.SILENT:
                 self._silent.add(mote)
                 if self._fused is not None:  # (a silent mote's frames go the node's way: it says so)
-                    self._fused.stale = True
+                    self._fused.silences_changed()
                 n = self._silences[mote] = self._silences.get(mote, 0) + 1
                 if worth_reporting(n):  # a glove at the edge of the radio's range comes and goes
                     log.warning(
@@ -426,7 +438,7 @@ base.1 -> nulls2 -> right
         if frame.mote in self._silent:
             self._silent.discard(frame.mote)
             if self._fused is not None:
-                self._fused.stale = True
+                self._fused.silences_changed()
             if worth_reporting(self._silences[frame.mote]):
                 log.warning("mote '%s': frames again from mote %d", self.name, frame.mote)
         self._last_frame[frame.mote] = seen

@@ -7,7 +7,6 @@ flags: :mod:`pointat.nodes.orientation`).
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import logging
 import math
 from collections.abc import Mapping
@@ -58,6 +57,7 @@ class TQT(SampleClock, Flagged, Node):
     """
 
     pure = True
+    fusable = True
 
     inlets = (
         Inlet("gyro", ("vector", "list"), "angular rate, rad/s, sensor frame"),
@@ -166,10 +166,6 @@ fuse.flags -> state
             raise ValueError(f"dip must be -90..90 deg (or nan: learned), got {values['dip']}")
         if values["backend"] == "numba" and values["mode"] != "robust":
             raise ValueError("backend=numba runs mode=robust only (paper: backend=python or auto)")
-        # find_spec, not an import: numba costs a quarter of a second and ~50 MB to import, which a patch
-        # pays only when it builds a filter or a bank that runs it
-        if values["backend"] == "numba" and importlib.util.find_spec("numba") is None:
-            raise ValueError('backend=numba needs numba: pip install "pointat[fast]" (or backend=auto)')
 
     def setup(self) -> None:
         self.filter = TQTFilter(self.p.k or None, backend=self.p.backend, **_settings(self.p))
@@ -210,9 +206,22 @@ fuse.flags -> state
         if self.filter.initialised:
             self.out(0, floats(q, msg.time))
 
+    def fused_state(self) -> dict[str, Any] | None:
+        """The filter's vectors and flags (:meth:`~pointat.maths.tqt.TQTFilter.export_state`), the last
+        time stamp (None: none) and the flags last reported, in robust mode (:mod:`pointat.compiled`
+        compiles robust mode only)."""
+        if self.filter.mode != "robust":
+            return None
+        return {"filter": self.filter.export_state(), "last_t": self._last_t, "bits": self._bits}
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        self.filter.import_state(*state["filter"])
+        self._last_t = state["last_t"]
+        self._bits = state["bits"]
+
     def tell_flags(self, bits: int) -> None:
         """The filter's flag bits (rest apart) of this sample: the status text only when they change
-        (:mod:`pointat.fusion` tells them too)."""
+        (:mod:`pointat.compiled` tells them too)."""
         if bits != self._bits:
             self._bits = bits
             self.report("ok" if not bits else _status(bits))
@@ -278,10 +287,9 @@ class TQTBankNode(Node):
     ``sensors=N`` gives sensor ``I`` (1..N) the inlets ``gyroI``, ``accelI`` and ``magI`` (as ``tqt``'s:
     send the gyro last, it is the hot one) and the outlet ``quatI``, after the two outlets every bank has:
     ``quats`` and ``flags``.  When every sensor has sent its gyro, all of them are updated together by
-    :class:`pointat.maths.tqt.TQTBank`, one compiled loop over the sensors with numba (``pip install
-    "pointat[fast]"``, robust mode); each ``quatI`` sends its sensor's orientation, right to left, then
-    ``quats`` all of them as one vector (4N numbers, sensor 1 first, a sensor not yet initialised as the
-    identity).  Each sensor follows the filter of its own ``tqt`` node with the same settings, to the
+    :class:`pointat.maths.tqt.TQTBank`, one compiled loop over the sensors with numba (robust mode);
+    each ``quatI`` sends its sensor's orientation, right to left, then ``quats`` all of them as one
+    vector (4N numbers, sensor 1 first, a sensor not yet initialised as the identity).  Each sensor follows the filter of its own ``tqt`` node with the same settings, to the
     bit (``tests/maths/test_tqt_implementations.py``), at a fraction of the cost per sample.
 
     A tick is one sample from every sensor; it starts with the lowest-numbered sensor that is heard (as

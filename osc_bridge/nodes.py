@@ -65,6 +65,7 @@ class OscOut(UdpSender):
     """
 
     needs_input = True
+    fusable = True
     role = "output"
     readings = (
         Reading(
@@ -361,6 +362,45 @@ dir.azimuth -> out.azimuth
     def _compile(self) -> None:
         """The encoder of one update for the current source number (addresses and tags encoded once)."""
         self._encoder = UpdateEncoder(self.profile, self.p.source or self.profile.first, self.messages)
+
+    # the compiled chain (pointat.compiled) -------------------------------------
+    def fused_state(self) -> dict[str, Any]:
+        """For :mod:`pointat.compiled`: the direction last taken (azimuth, elevation, distance), the
+        spread, and the first message of an update for the current source number, encoded with every
+        value 0 (``datagram``), its arguments from byte ``arguments_at`` on, 4 bytes each."""
+        (head, _, _) = self._encoder.parts[0]
+        (data, *_) = self._encoder.encode(Source(self.p.source or self.profile.first, 0.0))
+        return {
+            "direction": tuple(self.state[:3]),
+            "spread": self.state[3],
+            "datagram": data,
+            "arguments_at": len(head),
+        }
+
+    def restore_fused(self, state: Mapping[str, Any]) -> None:
+        """The direction the chain sent last (the spread is the inlet's: the chain reads it as it goes)."""
+        self.state[:3] = state["direction"]
+        self._last = tuple(self.state)
+
+    def send_updates(self, datagrams: list[bytes]) -> None:
+        """Send the datagrams of updates a compiled chain encoded, now, to every destination, each counted
+        as an update heard and sent (what :meth:`on_azimuth` and :meth:`_release` count)."""
+        k = len(datagrams)
+        self.heard += k
+        self.updates += k
+        sent = 0
+        for dgram in datagrams:
+            for d in self.dests:
+                if d.connected and not d.outage:
+                    try:
+                        d.sock.send(dgram)
+                    except OSError as exc:
+                        self._send_one(d, dgram, exc)
+                    else:
+                        sent += 1
+                else:
+                    self._send_one(d, dgram)
+        self.sent += sent
 
     # sending -------------------------------------------------------------------
 

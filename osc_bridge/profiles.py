@@ -62,6 +62,10 @@ __all__ = [
     "Rule",
     "Source",
     "check_fields",
+    "field_dist",
+    "field_dist01",
+    "field_el",
+    "field_spread",
     "fold_front",
     "parse_rule",
     "wrap180",
@@ -107,28 +111,32 @@ def wrap180(a: float) -> float:
 
 # The clamps are comparisons, not min(max()): these run for every update osc_out sends.  (NaN passes
 # through them as it does through min and max.)
-def _dist(s: Source) -> float:
+def field_dist(s: Source) -> float:
+    """Field ``dist``: the roll distance clamped to 0..90."""
     d = s.dist
     return 90.0 if d > 90.0 else 0.0 if d < 0.0 else d
 
 
-def _dist01(s: Source) -> float:
-    return 1.0 - _dist(s) / 90.0
+def field_dist01(s: Source) -> float:
+    """Field ``dist01``: ADM-OSC's distance, 1 far .. 0 near."""
+    return 1.0 - field_dist(s) / 90.0
 
 
-def _el(s: Source) -> float:
+def field_el(s: Source) -> float:
+    """Field ``el``: the elevation clamped to -90..90."""
     e = s.el
     return 90.0 if e > 90.0 else -90.0 if e < -90.0 else e
 
 
-def _spread(s: Source) -> float:
+def field_spread(s: Source) -> float:
+    """Field ``spread``: the spread clamped to 0..100."""
     v = s.spread
     return 100.0 if v > 100.0 else 0.0 if v < 0.0 else v
 
 
 def _xyz(s: Source) -> tuple[float, float, float]:
-    r = _dist01(s)
-    a, e = math.radians(s.az), math.radians(_el(s))
+    r = field_dist01(s)
+    a, e = math.radians(s.az), math.radians(field_el(s))
     return -r * math.cos(e) * math.sin(a), r * math.cos(e) * math.cos(a), r * math.sin(e)
 
 
@@ -147,11 +155,11 @@ FIELDS: dict[str, Field] = {
     "az": Field(lambda s: wrap180(s.az), "f", "azimuth, deg, + left, -180..180"),
     "az_right": Field(lambda s: wrap180(-s.az), "f", "azimuth, deg, + right, -180..180"),
     "az360": Field(lambda s: s.az % 360.0, "f", "azimuth, deg, + left, 0..360"),
-    "el": Field(_el, "f", "elevation, deg, + up"),
-    "dist": Field(_dist, "f", "roll distance, 0 far .. 90 near"),
-    "dist01": Field(_dist01, "f", "ADM-OSC distance, 1 far (loudspeakers) .. 0 centre"),
-    "dist_m": Field(lambda s: s.radius * _dist01(s), "f", "distance in metres (radius x dist01)"),
-    "spread": Field(_spread, "f", "VBAP spread, 0..100"),
+    "el": Field(field_el, "f", "elevation, deg, + up"),
+    "dist": Field(field_dist, "f", "roll distance, 0 far .. 90 near"),
+    "dist01": Field(field_dist01, "f", "ADM-OSC distance, 1 far (loudspeakers) .. 0 centre"),
+    "dist_m": Field(lambda s: s.radius * field_dist01(s), "f", "distance in metres (radius x dist01)"),
+    "spread": Field(field_spread, "f", "VBAP spread, 0..100"),
     "x": Field(lambda s: _xyz(s)[0], "f", "x, + right, radius dist01"),
     "y": Field(lambda s: _xyz(s)[1], "f", "y, + front, radius dist01"),
     "z": Field(lambda s: _xyz(s)[2], "f", "z, + up, radius dist01"),

@@ -170,7 +170,7 @@ class UdpSender(Node):
 
     def _send_one(self, d: Destination, dgram: bytes, first: OSError | None = None) -> None:
         """Send one datagram, refusals and failures counted; ``first``: what a first send the caller tried
-        itself raised (the compiled chains send the usual case themselves, :mod:`pointat.fusion`)."""
+        itself raised (the compiled chains send the usual case themselves, :mod:`pointat.compiled`)."""
         if d.sock is None:
             raise RuntimeError(f"{self.type_name} is not running")
         if not d.connected:  # not resolved (yet): never look a name up on the scheduler thread

@@ -441,7 +441,7 @@ def _never_triggered(result: Checked) -> list[Problem]:
     for name, r in result.nodes.items():
         if not _needs_input(r.cls) or not r.inlets:
             continue
-        if name not in fed and not r.cls.type_name == "send":  # (a send may be fed by a msg's "; bus")
+        if name not in fed and r.cls.bus_end != "sends":  # (a send may be fed by a msg's "; bus")
             if live and {"any", "bang"} & set(r.inlets[0].accepts):
                 continue  # a button for live control (/pointat/press/bang): that is what it is there for
             found.append(
@@ -624,15 +624,15 @@ def _hot_edges(result: Checked) -> dict[str, list[str]]:
 
 
 def _bus_links(result: Checked) -> dict[str, list[str]]:
-    """Each ``send`` node -> the ``receive`` nodes of its bus."""
+    """Each node that sends on a bus (``send``) -> the nodes that hear it (``receive``)."""
     buses: dict[str, list[str]] = {}
     for name, r in result.nodes.items():
-        if r.cls.type_name == "receive":
+        if r.cls.bus_end == "hears":
             buses.setdefault(str(r.values.get("bus")), []).append(name)
     return {
         name: buses.get(str(r.values.get("bus")), [])
         for name, r in result.nodes.items()
-        if r.cls.type_name == "send"
+        if r.cls.bus_end == "sends"
     }
 
 

@@ -45,6 +45,7 @@ examples:
   pointat run my.pat --set fuse.k=0.2              override a parameter
   pointat run --rt my.pat                          at real-time priority, as Pd's -rt
   pointat run --spin 2 my.pat                      poll instead of sleeping: lower latency, a busy CPU
+  pointat run glove_tqt --mapper eth0              the patch on the libmapper bus (webmapper maps it)
   pointat check my.pat                              validate without running (files read too)
   pointat nodes                                     list the node types
   pointat help tqt                                  a node's inlets, outlets, parameters, example
@@ -152,6 +153,7 @@ def _add_run(sub: Any) -> None:
     _add_patch_args(p)
     _add_timing_args(p)
     _add_monitor_args(p)
+    _add_mapper_args(p)
     _add_status_args(p)
     _add_reload_args(p)
 
@@ -185,7 +187,7 @@ def _add_timing_args(p: argparse.ArgumentParser) -> None:
         default="auto",
         help="run each glove chain (mote -> offset -> scaling -> tqt -> reference -> azi_ele, "
         "roll_distance -> osc_out) as one compiled function, every glove of a base station in one call, "
-        "the same datagrams to the bit (needs numba).  auto (the default): when the compiled code is "
+        "the same datagrams to the bit.  auto (the default): when the compiled code is "
         "cached, else node by node while it is compiled in the background for the next run; on: compile "
         "now if need be (seconds); off: node by node.  -v says which chains run compiled and why the "
         "others do not",
@@ -223,6 +225,25 @@ def _add_monitor_args(p: argparse.ArgumentParser) -> None:
         metavar="AZIMUTHS|FILE",
         help="the loudspeakers the monitor shows when the patch has no vbap node: azimuths (0,45,90,...), "
         "az:el pairs (0:0,90:0,0:90) or a layout file as vbap reads it (default: a ring of eight)",
+    )
+
+
+def _add_mapper_args(p: argparse.ArgumentParser) -> None:
+    """``run``'s libmapper bus: the interface it joins, the device's name."""
+    p.add_argument(
+        "--mapper",
+        metavar="IFACE",
+        help="make the patch a libmapper device on the bus of network interface IFACE (eth0, wlan0; lo: "
+        "this machine alone): its gloves and gestures are signals other machines map, its live "
+        "parameters signals they set (webmapper shows them).  The bus has no access control: a show's "
+        "own network only.  Needs the extra: pip install 'pointat[mapper]'",
+    )
+    p.add_argument(
+        "--mapper-name",
+        metavar="NAME",
+        default="",
+        help="with --mapper: the device's name on the bus (default: pointat_ and the patch's name; the bus "
+        "adds .1, .2...)",
     )
 
 
@@ -545,7 +566,26 @@ def _made_ready(args: argparse.Namespace, registry: Registry) -> tuple[Any, Obse
         rt.reloader = _reloader(args, registry, rt, checked)
         rt.reloader.listen(observer.reattach)
     server = _monitor(rt, observer, args) if args.monitor is not None else None
+    if args.mapper is not None:
+        _mapper(rt, registry, args)
     return rt, observer, server
+
+
+def _mapper(rt: Any, registry: Registry, args: argparse.Namespace) -> None:
+    """``--mapper IFACE``: a ``mapper`` node added to the patch (it joins the bus as the patch starts)."""
+    from . import mapper
+
+    if not args.mapper:
+        raise PointatError("--mapper: name the network interface to join (eth0, wlan0, lo)")
+    mapper.load()  # the extra missing: said now, before anything opens
+    cls = registry.get("mapper")
+    if cls is None:
+        raise PointatError("--mapper: no node type 'mapper' (pointat's osc_bridge.mapper did not load)")
+    name = "mapper"
+    while name in rt.nodes:
+        name += "_"
+    device = args.mapper_name or mapper.device_name(Path(args.patch).stem)
+    rt.add(cls(name, {"interface": args.mapper, "device": device}))
 
 
 def _reloader(args: argparse.Namespace, registry: Registry, rt: Any, checked: Any) -> Reloader:

@@ -381,6 +381,10 @@ class Node:
     folder: Path | None = None
 
     # ----------------------------------------------------------------- what people see of it
+    #: Whether the node is an end of a named bus (its ``bus`` parameter), as Pd's ``[send]`` and
+    #: ``[receive]`` are: ``"sends"`` (what reaches it goes to every node of the bus that ``"hears"``),
+    #: ``"hears"``, or None.  The runtime orders and the checker follows the links a bus makes from this.
+    bus_end: ClassVar[str | None] = None
     #: What the node is to a performer: ``input`` (where the patch's data comes from: a glove, a file, a
     #: port), ``output`` (where it goes: a receiver, a file, a port) or ``process`` (the work between).
     #: The console's banner lists the inputs and outputs, each with what :meth:`describe` says.
@@ -589,6 +593,11 @@ class Node:
     def connected(self, outlet: int) -> bool:
         """Whether ``outlet`` sends anywhere (what :meth:`targets` says, with no copy made)."""
         return bool(self._targets[outlet])
+
+    def unwire(self, keep: Callable[[Node], bool] | None = None) -> None:
+        """Send nowhere any more but to the targets ``keep`` says yes to (by their node): a reload rewires
+        a patch and keeps, on a node that stays, the listeners that are not the patch's (the observer's)."""
+        self._targets = [[t for t in targets if keep is not None and keep(t[0])] for targets in self._targets]
 
     def detach(self, outlet: int, target: Node, inlet: int) -> None:
         """Stop sending from ``outlet`` to ``target``'s inlet ``inlet`` until :meth:`reattach` (a compiled

@@ -226,7 +226,7 @@ class Reloader:
         self._wanted.set()
 
     def _run(self) -> None:
-        while self.rt.realtime and self.rt._scheduler is None and not self._stop.is_set():
+        while self.rt.realtime and self.rt.scheduler_thread is None and not self._stop.is_set():
             self._stop.wait(self.POLL)  # (the swap is the scheduler's: wait for it to run)
         seen = self._seen
         settling = False
@@ -324,30 +324,9 @@ class Reloader:
         return made
 
     def _on_scheduler(self, fn: Callable[[], None]) -> bool:
-        """Run ``fn`` on the scheduler's thread when its pass is done, and wait for it; at once when there
-        is no scheduler thread (a manual clock) or this is it.  False when the runtime stopped first."""
-        rt = self.rt
-        scheduler = getattr(rt, "_scheduler", None)
-        if scheduler is None or scheduler is threading.current_thread() or not scheduler.is_alive():
-            if rt.stopping.is_set():
-                return False
-            rt.at_pass_end(None, fn)
-            return True
-        done = threading.Event()
-
-        def at_end() -> None:
-            try:
-                fn()
-            finally:
-                done.set()
-
-        if not rt.post(None, lambda: rt.at_pass_end(None, at_end)):
-            return False
-        deadline = time.monotonic() + self.SWAP_WAIT
-        while not done.wait(0.05):
-            if rt.stopping.is_set() or time.monotonic() > deadline:
-                return False
-        return True
+        """Run ``fn`` on the scheduler's thread when its pass is done, and wait for it (at most
+        :attr:`SWAP_WAIT`).  False when the runtime stopped first."""
+        return self.rt.between_passes(fn, self.SWAP_WAIT)
 
     # -- the swap, on the scheduler's thread -----------------------------------------------------------
     def _swap(self, new: Checked, steps: Plan, made: dict[str, Any]) -> None:
@@ -360,79 +339,14 @@ class Reloader:
 
     def _swap_nodes(self, new: Checked, steps: Plan, made: dict[str, Any]) -> None:
         rt = self.rt
-        fused = rt.fusion is not None
-        if fused:  # the compiled chains' state written back into their nodes
-            rt._guard(None, rt.fusion.close)
-            rt.fusion = None
-        old = rt.nodes
-        patch_nodes = {id(n) for n in old.values()}
-        staying = [*steps.keep, *steps.retune]
-        # listeners on the outlets that are not the patch's (the observer's taps) stay with their node
-        taps = {
-            name: [[t for t in targets if id(t[0]) not in patch_nodes] for targets in old[name]._targets]
-            for name in staying
-        }
-        self._close(old[name] for name in steps.drop)
-        for name, values in steps.retune.items():
-            node = old[name]
-            if not rt._guard(node, lambda node=node, values=values: node.set_params(**values)):
-                log.error("node '%s': the new values were refused; it keeps its old ones", name)
         nodes = {}
         for name, r in new.nodes.items():
-            node = made.get(name) or old[name]
+            node = made.get(name) or rt.nodes[name]
             node.where = r.decl.where
             nodes[name] = node
-        for node in nodes.values():
-            node._targets = [[] for _ in node.out_specs]
-        rt.nodes = nodes  # (one assignment: the observer's and the monitor's threads read it)
-        for src, o, dst, i in new.wires:
-            rt.connect(src, o, dst, i)
-        rt.prune()
-        for name, per_outlet in taps.items():
-            for o, extra in enumerate(per_outlet):
-                nodes[name]._targets[o] += extra
-        started = self._start([n for n in rt._downstream_first() if n.name in made])
-        for node in started:
-            rt._guard(node, node.loadbang)
-        kept_sources = [n for n in rt._sources if rt.nodes.get(n.name) is n]
-        rt._sources = kept_sources + [n for n in started if n.active and not rt._listens_only(n)]
-        rt._over_told = False
-        if rt.compiled != "off" and fused:
-            rt._fuse()
+        rt.swap(nodes, new.wires, retune=steps.retune)
         for fn in list(self._listeners):
-            rt._guard(None, lambda fn=fn: fn(steps))
-
-    def _close(self, nodes: Any) -> None:
-        """Close nodes leaving the patch: nothing they still send reaches anyone, their timers dropped."""
-        rt = self.rt
-        gone = list(nodes)
-        ids = {id(n) for n in gone}
-        for node in gone:
-            node._targets = [[] for _ in node.out_specs]
-            rt._guard(node, node.close)
-        for t in rt._timers:
-            if t.node is not None and id(t.node) in ids:
-                t.cancel()
-
-    def _start(self, nodes: list[Any]) -> list[Any]:
-        """Start the new nodes, each after those it sends to; one that cannot start is said (file:line,
-        why), closed and left out, and the rest of the patch runs."""
-        rt = self.rt
-        started = []
-        for node in nodes:
             try:
-                node.start()
-                started.append(node)
-            except Exception as exc:
-                log.error(
-                    "%s: error: node '%s' (%s): cannot start: %s; the patch runs without it",
-                    node.where,
-                    node.name,
-                    node.type_name,
-                    exc,
-                )
-                self._close([node])
-                rt.nodes = {k: n for k, n in rt.nodes.items() if n is not node}
-                for other in rt.nodes.values():
-                    other._targets = [[t for t in targets if t[0] is not node] for targets in other._targets]
-        return started
+                fn(steps)
+            except Exception:  # what watches the patch never stops it
+                log.exception("after the reload, a listener failed")

@@ -48,7 +48,7 @@ import re
 import socket
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any
 
 from .errors import FeedbackError, PatchError, Problem, Repeats, worth_reporting
@@ -126,11 +126,11 @@ class Runtime:
         self._at_end: list[tuple[Node | None, Callable[[], Any]]] = []
         self._late_warned = -math.inf  # when the log last said that timers run late (time.monotonic)
         self.spin = spin
-        #: ``pointat run --compiled``: whether the glove chains run compiled (:mod:`pointat.fusion`);
+        #: ``pointat run --compiled``: whether the glove chains run compiled (:mod:`pointat.compiled`);
         #: off unless asked, so that a runtime built by hand never starts a compile.
         self.compiled = "off"
-        #: The compiled chains, once started (:class:`pointat.fusion.Fusion`), or None.
-        self.fusion: Any = None
+        #: The compiled chains, once started (:class:`pointat.compiled.Chains`), or None.
+        self.compiled_chains: Any = None
         self._input_at = -math.inf  # when a pass last served input (time.monotonic)
         #: The patch's presets (:class:`pointat.presets.Presets`), when it runs from a file.
         self.presets: Any = None
@@ -391,18 +391,134 @@ class Runtime:
             self.shutdown()
             raise StartError(failures)
 
+    def swap(
+        self,
+        nodes: Mapping[str, Node],
+        wires: Iterable[tuple[str, int, str, int]],
+        retune: Mapping[str, Mapping[str, Any]] | None = None,
+    ) -> list[Node]:
+        """Put the patch ``nodes`` (by name, wired by ``wires``) in place of the one running: a reload
+        (:mod:`pointat.reload`), on the scheduler's thread between two passes (:meth:`between_passes`).
+
+        A node object in both patches stays as it is, its state, ports, timers and the listeners on its
+        outlets that are not the patch's (the observer's taps) with it; ``retune`` gives some of them new
+        live values, as live control would.  The old patch's other nodes are closed and their timers
+        cancelled; the new patch's new nodes start, each after those it sends to (one that cannot start is
+        logged with its file:line, closed and left out: the rest plays), then get their loadbang.  Compiled
+        glove chains are handed back to their nodes first and compiled again after.  Returns the new nodes
+        that started.
+        """
+        fused = self.compiled_chains is not None
+        if fused:  # the compiled chains' state written back into their nodes
+            self._guard(None, self.compiled_chains.close)
+            self.compiled_chains = None
+        old = self.nodes
+        in_patch = {id(n) for n in old.values()}
+        staying = [n for name, n in old.items() if nodes.get(name) is n]
+        taps = {n.name: [n.targets(o) for o in range(len(n.out_specs))] for n in staying}
+        self._close_nodes([n for name, n in old.items() if nodes.get(name) is not n])
+        for name, values in (retune or {}).items():
+            node = nodes[name]
+            if not self._guard(node, lambda node=node, values=values: node.set_params(**values)):
+                log.error("node '%s': the new values were refused; it keeps its old ones", name)
+        new = [n for n in nodes.values() if id(n) not in in_patch]
+        for node in nodes.values():
+            node.unwire()
+            node.rt = self
+        self.nodes = dict(nodes)  # (one assignment: the observer's and the monitor's threads read it)
+        for wire in wires:
+            self.connect(*wire)
+        self.prune()
+        for name, per_outlet in taps.items():
+            for o, targets in enumerate(per_outlet):
+                for dst, inlet in targets:
+                    if id(dst) not in in_patch:
+                        self.connect(self.nodes[name], o, dst, inlet)
+        started = self._start_new([n for n in self._downstream_first() if n in new])
+        for node in started:
+            self._guard(node, node.loadbang)
+        kept = [n for n in self._sources if self.nodes.get(n.name) is n]
+        self._sources = kept + [n for n in started if n.active and not self._listens_only(n)]
+        self._over_told = False
+        if fused and self.compiled != "off":
+            self._fuse()
+        return started
+
+    def _close_nodes(self, nodes: list[Node]) -> None:
+        """Close nodes leaving the patch: nothing they still send reaches anyone, their timers dropped."""
+        ids = {id(n) for n in nodes}
+        for node in nodes:
+            node.unwire()
+            self._guard(node, node.close)
+        for t in self._timers:
+            if t.node is not None and id(t.node) in ids:
+                t.cancel()
+
+    def _start_new(self, nodes: list[Node]) -> list[Node]:
+        """Start nodes new to a running patch; one that cannot start is said (file:line, why), closed and
+        left out."""
+        started = []
+        for node in nodes:
+            try:
+                node.start()
+                started.append(node)
+            except Exception as exc:
+                log.error(
+                    "%s: error: node '%s' (%s): cannot start: %s; the patch runs without it",
+                    node.where,
+                    node.name,
+                    node.type_name,
+                    exc,
+                )
+                self._close_nodes([node])
+                self.nodes = {k: n for k, n in self.nodes.items() if n is not node}
+                for other in self.nodes.values():
+                    other.unwire(keep=lambda dst, node=node: dst is not node)
+        return started
+
+    @property
+    def scheduler_thread(self) -> threading.Thread | None:
+        """The thread that runs the patch (:meth:`run`) once it runs; None before, and with a manual clock."""
+        return self._scheduler
+
+    def between_passes(self, fn: Callable[[], Any], wait: float) -> bool:
+        """Run ``fn`` on the scheduler's thread when the pass it is in is done, and wait for it, at most
+        ``wait`` seconds; at once when there is no scheduler thread (a manual clock) or this is it.  False
+        when the runtime stopped first or the wait ran out."""
+        scheduler = self._scheduler
+        if scheduler is None or scheduler is threading.current_thread() or not scheduler.is_alive():
+            if self.stopping.is_set():
+                return False
+            self.at_pass_end(None, fn)
+            return True
+        done = threading.Event()
+
+        def at_end() -> None:
+            try:
+                fn()
+            finally:
+                done.set()
+
+        if not self.post(None, lambda: self.at_pass_end(None, at_end)):
+            return False
+        deadline = time.monotonic() + wait
+        while not done.wait(0.05):
+            if self.stopping.is_set() or time.monotonic() > deadline:
+                return False
+        return True
+
     def _fuse(self) -> None:
-        """Run the glove chains compiled where the patch has them (:mod:`pointat.fusion`); the patch runs
+        """Run the glove chains compiled where the patch has them (:mod:`pointat.compiled`); the patch runs
         node by node whatever goes wrong there."""
-        from pointat import fusion
+        from pointat import compiled
 
         try:
-            self.fusion = fusion.install(self, self.compiled)
-            if self.fusion is not None:
-                self.console(self.fusion.describe())
+            self.compiled_chains = compiled.install(self, self.compiled)
+            if self.compiled_chains is not None:
+                self.console(self.compiled_chains.describe())
         except Exception:  # never a reason not to play
             log.exception("the compiled glove chain failed to start; running node by node")
-            self.fusion = None
+            self.compiled_chains = None
 
     def _downstream_first(self) -> list[Node]:
         """Every node, each after the nodes it sends to (a loop's in declaration order): a sink is ready
@@ -410,13 +526,13 @@ class Runtime:
         says anything.  Iterative: a chain of thousands of nodes is no recursion."""
         receivers: dict[str, list[Node]] = {}
         for node in self.nodes.values():
-            if node.type_name == "receive":
+            if type(node).bus_end == "hears":
                 receivers.setdefault(node.p.bus, []).append(node)
 
         def after(node: Node) -> Iterator[Node]:
             for targets in node._targets:
                 yield from (t for t, _ in targets)
-            if node.type_name == "send":
+            if type(node).bus_end == "sends":
                 yield from receivers.get(node.p.bus, ())
 
         order: list[Node] = []
@@ -485,8 +601,8 @@ class Runtime:
         self._closed = True
         self.stopping.set()
         self.running = False
-        if self.fusion is not None:  # the nodes' state, counters and health as if never fused
-            self._guard(None, self.fusion.close)
+        if self.compiled_chains is not None:  # the nodes' state, counters and health as if never fused
+            self._guard(None, self.compiled_chains.close)
         for node in reversed(list(self.nodes.values())):
             self._guard(node, node.close)
         if self.presets is not None:  # a save still waiting is written

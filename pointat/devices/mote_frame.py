@@ -620,7 +620,7 @@ class FrameParser:
         self.last = np.full(256, -1, np.int64)
         #: A consumer's taker of plain frames, or None: ``plain(buf, pos, end, last, held, now)`` takes the
         #: run of plain binary frames at ``buf[pos:end]`` itself (compiled:
-        #: :func:`pointat.fusion.kernel.scan_plain`) and returns ``(frames, position after them, {mote:
+        #: :func:`pointat.compiled.kernel.scan_plain`) and returns ``(frames, position after them, {mote:
         #: frames})``, or None for none.  The parser counts them as it counts its own (:meth:`_took`); they
         #: are not in :meth:`feed`'s list.  ``held[m]`` is 1 for a mote with a frame in that list already:
         #: its later frames go there too, so that the consumer, which handles the list's frames first,

@@ -721,7 +721,7 @@ class RollDistance:
         """Back to azimuth mode; distance set to ``distance`` (clipped to 0..90) or the initial value."""
         d = self._initial_distance if distance is None else float(np.clip(distance, 0.0, 90.0))
         #: The state :func:`roll_distance_step` carries (``R_*``): a list here, a row of an array in the
-        #: compiled chain (:mod:`pointat.fusion.kernel`).
+        #: compiled chain (:mod:`pointat.compiled.kernel`).
         self.s = [0.0, d, math.nan, 0.0, d, 0.0]
 
     @property
@@ -786,7 +786,7 @@ R_SIZE = 6
 def roll_distance_step(s, az, roll, elevation, enter, leave, gain, max_elevation):  # type: ignore[no-untyped-def]
     """One sample of :class:`RollDistance` on its state ``s`` (``R_*``), in place: finite ``az`` and
     ``roll``, degrees.  Plain arithmetic on floats, so that numba compiles it into the fused chain
-    (:mod:`pointat.fusion.kernel`) and the class runs the same source."""
+    (:mod:`pointat.compiled.kernel`) and the class runs the same source."""
     steep = abs(elevation) > max_elevation  # no roll of its own to read: the mode holds
     if s[R_MODE] == 0.0:
         if abs(roll) >= enter and not steep:

@@ -63,7 +63,7 @@ class _Tap(Node):
         super().__init__("(observer)")
         self._fn = fn
         #: ``bulk(n)``: n messages at once, for a sender that has no messages to give (the compiled
-        #: chains, :mod:`pointat.fusion`); None when each message matters.
+        #: chains, :mod:`pointat.compiled`); None when each message matters.
         self.bulk = bulk
 
     def on_in(self, msg: Message) -> None:

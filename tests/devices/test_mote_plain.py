@@ -1,5 +1,5 @@
 """The compiled chains take plain mote frames straight from the parser's buffer (``FrameParser.plain``,
-:func:`pointat.fusion.kernel.scan_plain`): nothing about the stream may change by it.
+:func:`pointat.compiled.kernel.scan_plain`): nothing about the stream may change by it.
 
 Property: for any stream of a few motes' frames (counters in order, with losses, restarts, damaged frames,
 text frames and noise between them), cut into reads anywhere, a parser whose consumer takes the plain
@@ -16,8 +16,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from pointat.compiled.kernel import scan_plain
 from pointat.devices.mote_frame import ADC_MAX, Frame, FrameParser, encode_frame, encode_text
-from pointat.fusion.kernel import scan_plain
 from pointat.nodes.sensors import _clocks
 
 SETTINGS = settings(
@@ -159,13 +159,11 @@ def test_the_property_took_frames_in_most_of_its_streams():
 
 
 @pytest.mark.slow
-def test_the_compiled_scan_takes_the_same_frames_as_its_source(require_tool):
+def test_the_compiled_scan_takes_the_same_frames_as_its_source():
     """numba's scan against the Python one (the property's) on a long stream of three motes, clean and
     with a few losses: the same frames, times and counters, most of them taken."""
-    from pointat.fusion import compiled
+    from pointat.compiled import build
 
-    if not compiled.available():
-        require_tool("numba")
     rng = np.random.default_rng(5)
     parts, n_pack = [], dict.fromkeys(MOTES, 100)
     for _tick in range(3000):
@@ -174,7 +172,7 @@ def test_the_compiled_scan_takes_the_same_frames_as_its_source(require_tool):
             parts.append(encode_frame(Frame(m, n_pack[m], tuple(int(c) for c in rng.integers(0, 4096, 9)))))
     stream = b"".join(parts)
     cuts = sorted(rng.integers(0, len(stream), 400).tolist())
-    fast = Taker(set(MOTES), compiled.scan_plain())
+    fast = Taker(set(MOTES), build.scan_plain())
     slow = Taker(set(MOTES))
     a, b = run(stream, cuts, fast), run(stream, cuts, slow)
     assert a[0] == b[0] and a[1] == b[1] and a[2] == b[2]

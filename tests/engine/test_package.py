@@ -31,7 +31,10 @@ def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path)
     import zipfile
     from pathlib import Path
 
+    from tests.test_wheel import _sources
+
     root = Path(__file__).resolve().parents[2]
+    source = _sources(tmp_path / "source")  # built from a copy: setuptools writes build/ beside the sources
     out = subprocess.run(
         [
             sys.executable,
@@ -42,7 +45,7 @@ def test_the_wheel_is_one_package_and_carries_the_patches_and_examples(tmp_path)
             "-q",
             "-w",
             str(tmp_path),
-            str(root),
+            str(source),
         ],
         capture_output=True,
         text=True,

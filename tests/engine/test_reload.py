@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 
 from pointat.checking import check
+from pointat.compiled import build
 from pointat.control import control
 from pointat.devices.mote_frame import Frame
 from pointat.devices.osc_wire import decode_packet, encode_message
 from pointat.errors import Where
 from pointat.expansion import read_spec
-from pointat.fusion import compiled
 from pointat.loader import ready
 from pointat.monitor.observe import Observer
 from pointat.monitor.oscquery import address_space, find
@@ -327,7 +327,9 @@ def _compiled_run(path: Path, rx: Receiver, mode: str, edits: dict[int, str], co
     try:
         for k, c in enumerate(counts):
             if k in edits:
-                fused_before = sum(g.fused_frames for g in rt.fusion.groups) if rt.fusion else 0
+                fused_before = (
+                    sum(g.fused_frames for g in rt.compiled_chains.groups) if rt.compiled_chains else 0
+                )
                 path.write_text(edits[k])
                 assert reloader.reload(), reloader.problems
             mote = rt.nodes["base"]
@@ -335,16 +337,15 @@ def _compiled_run(path: Path, rx: Receiver, mode: str, edits: dict[int, str], co
             if mote._fused is not None:
                 mote._fused.flush()
             rx.read()
-        fused_after = sum(g.fused_frames for g in rt.fusion.groups) if rt.fusion else 0
+        fused_after = sum(g.fused_frames for g in rt.compiled_chains.groups) if rt.compiled_chains else 0
     finally:
         rt.shutdown()
     rx.read()
     return rx.directions(), fused_before, fused_after
 
 
-@pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
 def test_a_compiled_chain_is_handed_back_and_fused_again_across_a_reload(tmp_path, receivers):
-    compiled.chain_frames()  # (compiled once: seconds when the cache is cold)
+    build.chain_frames()  # (compiled once: seconds when the cache is cold)
     counts = _glove_take(900)
     plain_rx, fused_rx = receivers(), receivers()
     plain = tmp_path / "plain.pat"
@@ -358,7 +359,7 @@ def test_a_compiled_chain_is_handed_back_and_fused_again_across_a_reload(tmp_pat
     edited = text.replace("source=1\n", "source=1 status=0\n") + "node note msg hello\n"
     have, before, after = _compiled_run(path, fused_rx, "on", {400: edited}, counts)
     assert before > 300  # fused before the reload ...
-    assert after > 450  # ... and again after it (a new Fusion: counted from the reload on)
+    assert after > 450  # ... and again after it (new Chains: counted from the reload on)
     assert have == want  # every direction, bit for bit, as node by node without a reload
 
 

@@ -220,6 +220,7 @@ def test_live_channel_change_releases_held_notes_and_bad_values_are_refused(capt
     assert g.p.channel == 2 and g.sender.channel == 2
     g.receive(0, method("off"))
     assert hexes(port.sent) == ["90 3C 64", "80 3C 00", "91 3C 64", "81 3C 00"]
+    rt.shutdown()  # (its port's watch thread ends with it, not at the end of the test session)
 
 
 # --------------------------------------------------------------------------- .mid files

@@ -250,7 +250,7 @@ class TQTFilter(_TQTParams):
         """Copies of what the step runs on: the state vector (:data:`~pointat.maths.tqt.step.STATE_SIZE`),
         the parameter vector (the step keeps per-step coefficients at its end) and the flag bits, for a
         compiled copy of the step to go on from (:mod:`pointat.compiled`)."""
-        return list(self._s), list(self._p), self._flags
+        return [float(x) for x in self._s], [float(x) for x in self._p], int(self._flags)
 
     def import_state(self, s: Sequence[float], p: Sequence[float], flags: int) -> None:
         """Go on from :meth:`export_state`'s values, moved on elsewhere (in place: the vectors keep their

@@ -17,10 +17,10 @@ osc_out        the profile's fields (:mod:`pointat.osc_bridge.profiles`) as big-
                message's template (address and type tags encoded once)
 ============== =======================================================================================
 
-numba compiles it, with every function it calls, into one loop (:mod:`pointat.fusion.compiled`); run as
+numba compiles it, with every function it calls, into one loop (:mod:`pointat.compiled.build`); run as
 plain Python it is the same arithmetic, which the tests use.  The layouts of the arrays are the ``G_*``
 (a glove's constants), ``C_*`` (its state beside the filter's) and ``O_*`` (one frame's values, for nodes
-outside the chain that listen to it) indices below; :mod:`pointat.fusion` fills and reads them.
+outside the chain that listen to it) indices below; :mod:`pointat.compiled` fills and reads them.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import numpy as np
 from pointat.maths.fusion import R_AZ, R_DIST, R_MODE, R_SIZE, roll_distance_step
 from pointat.maths.scalar import azimuth_elevation, multiply, roll, time_step
 from pointat.maths.tqt.step import F_REST, S_INIT, robust_step
-from pointat.osc_bridge.profiles import Source, _dist, _dist01, _el, _spread, wrap180
+from pointat.osc_bridge.profiles import Source, field_dist, field_dist01, field_el, field_spread, wrap180
 
 __all__ = ["FIELD_CODES", "chain_frames", "field_value"]
 
@@ -92,14 +92,14 @@ def field_value(code, s):  # type: ignore[no-untyped-def]
     if code == 3:
         return s.az % 360.0
     if code == 4:
-        return _el(s)
+        return field_el(s)
     if code == 5:
-        return _dist(s)
+        return field_dist(s)
     if code == 6:
-        return _dist01(s)
+        return field_dist01(s)
     if code == 7:
-        return s.radius * _dist01(s)
-    return _spread(s)
+        return s.radius * field_dist01(s)
+    return field_spread(s)
 
 
 def _matrix(v, p, at, x, y, z):  # type: ignore[no-untyped-def]

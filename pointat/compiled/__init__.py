@@ -1,10 +1,10 @@
-r"""Fused glove chains: a patch's per-sample work compiled into one function, as Max's gen~ or Heavy do.
+r"""Compiled glove chains: a patch's per-sample work compiled into one function, as Max's gen~ or Heavy do.
 
 The glove chain of ``patches/glove_tqt.pat``, ``mote -> offset -> scaling -> tqt -> reference ->
 azi_ele, roll_distance -> osc_out``, costs about 30 µs a sample node by node, most of it in the hops
 between the nodes and the messages they pass.  When the runtime starts, :func:`install` looks for that
 chain behind each outlet of each ``mote``; the chains it finds run as one compiled function
-(:func:`pointat.fusion.kernel.chain_frames`) over all the frames of a read, every glove of a base
+(:func:`pointat.compiled.kernel.chain_frames`) over all the frames of a read, every glove of a base
 station in one call, from the nine counts to the OSC datagram.
 
 Nothing about the patch changes for its user.  The nodes stay where they are, with their parameters,
@@ -14,14 +14,22 @@ the nodes (:meth:`Group.release`: the compiled state written into them), and the
 node by node, as ever.  The chain is taken up again with the next frame when it is in its steady state:
 the gyro nulls averaged, no capture pending, ``osc_out`` with no pacing, deadband or bundles.  Nodes
 outside the chain that listen to one of its outlets (a ``print``, the monitor) hear every value they
-would have heard.  ``tests/integration/test_fusion.py`` holds both ways to the same datagrams, bit for
+would have heard.  ``tests/integration/test_compiled.py`` holds both ways to the same datagrams, bit for
 bit, on recorded takes.
+
+The chain goes through the nodes' door only (:mod:`pointat.node`): each node type of the chain says it
+can be fused (``fusable``) and hands its state over and takes it back with its own ``fused_state`` and
+``restore_fused``; the wiring is read with ``targets``, the chain's links left out with ``detach`` and
+put back with ``reattach``, and ``hold`` has a node hand the chain back before it handles anything from
+outside.  The ``mote`` hands its frames over through its ``fuse``.  Nothing here reads a private field of
+a node, so that a node's author may change those freely (``tests/engine/test_compiled_chains.py``
+checks it).
 
 Where the chain is not there (another filter, a ``tqt_bank``, a profile with more than one message, a
 node fed per sample from outside the chain), the patch runs node by node, and ``pointat run -v`` says
 why.  ``pointat run --compiled off`` turns it off; ``on`` compiles at start when the cache is cold
 (seconds); ``auto``, the default, fuses when the compiled code is cached and otherwise runs node by node
-while a process of its own compiles it for the next run (:mod:`pointat.fusion.compiled`).
+while a process of its own compiles it for the next run (:mod:`pointat.compiled.build`).
 """
 
 from __future__ import annotations
@@ -33,13 +41,13 @@ from typing import Any
 
 import numpy as np
 
-from pointat.fusion import kernel as K
+from pointat.compiled import kernel as K
 from pointat.message import floats, make, vector
 from pointat.node import Node
 
-__all__ = ["MODES", "Fusion", "Group", "install"]
+__all__ = ["MODES", "Chains", "Group", "install"]
 
-log = logging.getLogger("pointat.fusion")
+log = logging.getLogger("pointat.compiled")
 
 #: ``pointat run --compiled``: ``auto`` (fused when cached; compiled meanwhile for the next run),
 #: ``on`` (fused, compiling now when it must), ``off`` (node by node).
@@ -85,7 +93,7 @@ def _port(specs: Any, name: str) -> int:
 
 
 class Chain:
-    """One glove's chain: its nodes, by role, and what hands it back when it is fused."""
+    """One glove's chain: its nodes, by role, and while it is fused the state it took from them."""
 
     def __init__(self, mote: Node, outlet: int, nodes: dict[str, Node]) -> None:
         self.mote, self.outlet, self.nodes = mote, outlet, nodes
@@ -102,8 +110,10 @@ class Chain:
             s, d = nodes[src], nodes[dst]
             self.links.append((s, _port(s.out_specs, o), d, _port(d.in_specs, i)))
         self.fused = False
-        self._saved: list[tuple[Node, str, Any]] = []
-        self._mote_targets: list[tuple[Node, int]] = []
+        #: While fused: each node's :meth:`~pointat.node.Node.fused_state`, by role.
+        self.states: dict[str, dict[str, Any]] = {}
+        #: While fused: roll_distance's mode as the chain last told it.
+        self.mode = ""
         # (node, outlet) with listeners outside the chain while it is fused: they hear every value
         self.taps: set[tuple[str, int]] = set()
 
@@ -117,14 +127,14 @@ def _find(rt: Any, mote: Node, outlet: int, feeders: dict[int, list[tuple[Node, 
 
     def follow(src: Node, out_name: str, kind: str, in_name: str) -> Node | str:
         o = _port(src.out_specs, out_name)
-        found = [d for d, i in src._targets[o] if d.type_name == kind and d.in_specs[i].name == in_name]
+        found = [d for d, i in src.targets(o) if d.type_name == kind and d.in_specs[i].name == in_name]
         if len(found) != 1:
             return f"'{src.name}'.{out_name} goes to {len(found)} {kind} nodes, not one"
         return found[0]
 
-    if not mote._targets[outlet]:
+    if not mote.targets(outlet):
         return ""  # (wired to nothing)
-    first = [d for d, i in mote._targets[outlet] if d.type_name == "offset" and i == 0]
+    first = [d for d, i in mote.targets(outlet) if d.type_name == "offset" and i == 0]
     if len(first) != 1:
         return "not into one offset"
     nodes["offset"] = first[0]
@@ -135,8 +145,11 @@ def _find(rt: Any, mote: Node, outlet: int, feeders: dict[int, list[tuple[Node, 
         if dst in nodes and nodes[dst] is not d:
             return f"'{src}'.{o} and another link reach two {dst} nodes"
         nodes[dst] = d
+    for role, node in nodes.items():
+        if not type(node).fusable:  # (a type registered anew under a built-in's name)
+            return f"{role} '{node.name}' ({type(node).__name__}) cannot be fused"
     ref, dir_, roll = nodes["reference"], nodes["azi_ele"], nodes["roll_distance"]
-    order = [d for d, _ in ref._targets[0]]
+    order = [d for d, _ in ref.targets(0)]
     if order.index(dir_) > order.index(roll):
         return f"'{ref.name}' feeds roll_distance before azi_ele (the elevation would be a sample late)"
     tqt, out = nodes["tqt"], nodes["osc_out"]
@@ -169,9 +182,10 @@ def _fields(out: Node) -> list[Any] | None:
 _MAX_FIELDS = 8  # (arguments a message may have in the compiled chain: the templates' slots)
 
 
-def install(rt: Any, mode: str = "auto") -> Fusion | None:
-    """Fuse the glove chains of a started runtime ``rt``; ``None`` when there are none, numba is missing
-    or ``mode`` is ``off``."""
+def install(rt: Any, mode: str = "auto") -> Chains | None:
+    """Compile the glove chains of a started runtime ``rt``; ``None`` when there are none, when the
+    compiled code is not cached yet and ``mode`` is ``auto`` (it is compiled meanwhile), or when ``mode``
+    is ``off``."""
     if mode == "off":
         return None
     motes = [n for n in rt.nodes.values() if n.type_name == "mote" and not n.READ_IN_THREAD]
@@ -179,8 +193,8 @@ def install(rt: Any, mode: str = "auto") -> Fusion | None:
         return None
     feeders: dict[int, list[tuple[Node, int, int]]] = {}
     for node in rt.nodes.values():
-        for o, targets in enumerate(node._targets):
-            for d, i in targets:
+        for o in range(len(node.out_specs)):
+            for d, i in node.targets(o):
                 feeders.setdefault(id(d), []).append((node, o, i))
     found: dict[Node, list[Chain]] = {}
     taken: set[int] = set()
@@ -199,29 +213,25 @@ def install(rt: Any, mode: str = "auto") -> Fusion | None:
             found.setdefault(mote, []).append(chain)
     if not found:
         return None
-    from pointat.fusion import compiled
+    from pointat.compiled import build
 
-    if not compiled.available():
-        chains = sum(len(c) for c in found.values())
-        log.info("%d glove chains run node by node: numba is not installed (pip install numba)", chains)
-        return None
-    if mode == "auto" and not compiled.ready():
-        compiled.warm_in_background()
+    if mode == "auto" and not build.ready():
+        build.warm_in_background()
         rt.console(
             "compiling the glove chain for the next runs (a few seconds, in the background); "
             "this run goes node by node"
         )
         return None
-    return Fusion([Group(rt, mote, chains) for mote, chains in found.items()])
+    return Chains([Group(rt, mote, chains) for mote, chains in found.items()])
 
 
-class Fusion:
-    """The fused groups of a runtime: one per ``mote``."""
+class Chains:
+    """The compiled chains of a runtime, in groups: one per ``mote``."""
 
     def __init__(self, groups: list[Group]) -> None:
         self.groups = groups
         for g in groups:
-            g.mote._fused = g
+            g.mote.fuse(g)
 
     @property
     def chains(self) -> list[Chain]:
@@ -236,7 +246,7 @@ class Fusion:
         """Hand every chain back to its nodes (their state, counters and health as if never fused)."""
         for g in self.groups:
             g.release_all()
-            g.mote._fused = None
+            g.mote.fuse(None)
 
 
 class Group:
@@ -244,11 +254,11 @@ class Group:
     :meth:`flush`."""
 
     def __init__(self, rt: Any, mote: Node, chains: list[Chain]) -> None:
-        from pointat.fusion import compiled
+        from pointat.compiled import build
         from pointat.maths.tqt import step
 
         self.rt, self.mote, self.chains = rt, mote, chains
-        self.fn, self.scan_fn = compiled.chain_frames(), compiled.scan_plain()
+        self.fn, self.scan_fn = build.chain_frames(), build.scan_plain()
         self.by_outlet: dict[int, int] = {c.outlet: g for g, c in enumerate(chains)}
         n = len(chains)
         # a datagram's room: the longest address (a source number of up to 10 digits), tags, arguments
@@ -303,7 +313,7 @@ class Group:
         chain = self.chains[g]
         if not chain.fused and not self.adopt(g):
             return False
-        if self.mote._targets[outlet]:
+        if self.mote.connected(outlet):
             self.mote.out(outlet, vector(counts, t))
         n = self.n
         if n == self.cap:
@@ -325,7 +335,7 @@ class Group:
         clock: np.ndarray,
         rate: float,
     ) -> tuple[int, int, dict[int, int]] | None:
-        """Take the run of plain frames at ``buf[pos:end]`` (:func:`pointat.fusion.kernel.scan_plain`):
+        """Take the run of plain frames at ``buf[pos:end]`` (:func:`pointat.compiled.kernel.scan_plain`):
         the parser's hook, :attr:`pointat.devices.mote_frame.FrameParser.plain`."""
         if self.stale:
             self._refresh()
@@ -369,6 +379,11 @@ class Group:
                 bulk(count)
         return k, int(stop), taken
 
+    def silences_changed(self) -> None:
+        """A mote fell silent or spoke again (the ``mote`` says so): its frames go the node's way while
+        it is silent, so which the scan may take is worked out again."""
+        self.stale = True
+
     def _refresh(self) -> None:
         """Which motes' frames the scan may take: a fused chain's, not silent, heard by nothing outside
         the chain but counters."""
@@ -378,9 +393,9 @@ class Group:
         mote = self.mote
         for g, c in enumerate(self.chains):
             m = int(mote.p.ids[c.outlet])
-            if not c.fused or m in mote._silent:
+            if not c.fused or mote.silent(m):
                 continue
-            counters = [getattr(node, "bulk", None) for node, _ in mote._targets[c.outlet]]
+            counters = [getattr(node, "bulk", None) for node, _ in mote.targets(c.outlet)]
             if all(counters):
                 self.plain_of[m] = g
                 self._bulk[m] = counters  # type: ignore[assignment]
@@ -408,38 +423,25 @@ class Group:
             self.release(g)
 
     def _after(self, n: int) -> None:
-        """Per frame: the listeners and events (:meth:`_tell`) where there are any, then the datagram,
-        sent at once (the usual case in a few operations; anything else osc_out's own way)."""
+        """Per frame: the listeners and events (:meth:`_tell`) where there are any; then each chain's
+        datagrams, sent at once by its ``osc_out`` (as its node sends what a pass encoded, at the pass's
+        end)."""
         width = self.width
         data = self.buf[:n].tobytes()
         tlen = self.tlen.tolist()
         chains = self.chains
         times = self.times[:n].tolist()
-        sent = [0] * len(chains)
+        sends: list[list[bytes]] = [[] for _ in chains]
         for f, (g, e) in enumerate(zip(self.idx[:n].tolist(), self.ev[:n].tolist(), strict=True)):
             c = chains[g]
             if e != K.EV_OUT or c.taps:
                 self._tell(f, g, e, c, times[f])
                 if not e & K.EV_OUT or e & K.EV_BAD:
                     continue
-            sent[g] += 1
-            out = c.out
-            dgram = data[f * width : f * width + tlen[g]]
-            for d in out.dests:
-                if d.connected and not d.outage:
-                    try:
-                        d.sock.send(dgram)
-                    except OSError as exc:
-                        out._send_one(d, dgram, exc)
-                    else:
-                        out.sent += 1
-                else:
-                    out._send_one(d, dgram)
-        for g, k in enumerate(sent):
-            if k:
-                out = chains[g].out
-                out.heard += k  # (what on_azimuth and _release count, one each)
-                out.updates += k
+            sends[g].append(data[f * width : f * width + tlen[g]])
+        for g, datagrams in enumerate(sends):
+            if datagrams:
+                chains[g].out.send_updates(datagrams)
 
     def _tell(self, f: int, g: int, e: int, c: Chain, t: float) -> None:
         """A frame's events and the values for the listeners outside the chain, in the nodes' order."""
@@ -474,76 +476,74 @@ class Group:
             tap(c.ref, 0, floats(tuple(r[K.O_REL : K.O_REL + 4]), t))
             tap(c.dir, 1, r[K.O_DIR_EL])
             tap(c.dir, 0, r[K.O_DIR_AZ])
-        if e & K.EV_MODE:
+        if e & K.EV_MODE:  # (changed at this frame)
+            c.mode = "azimuth" if c.mode == "distance" else "distance"
             c.roll.time = t
-            c.roll.tell_mode(
-                "azimuth" if c.roll._mode == "distance" else "distance"
-            )  # (changed at this frame)
+            c.roll.tell_mode(c.mode)
         if taps:
             tap(c.roll, 1, r[K.O_ROLL_DIST])
             tap(c.roll, 0, r[K.O_ROLL_AZ])
 
     # -- handing over ----------------------------------------------------------------------------------
     def adopt(self, g: int) -> bool:
-        """Take chain ``g`` from its nodes when it is in its steady state; False when it is not."""
+        """Take chain ``g`` from its nodes when they are in their steady state; False when they are not."""
         c = self.chains[g]
-        off, out, tqt = c.offset, c.out, c.tqt
-        if off._n < off.p.samples or not off._flowing or c.ref._capture:
-            return False
+        out = c.out
         if out.p.rate > 0 or out.p.change or out.p.deadband > 0:
             return False
-        from pointat.maths.tqt import step
-
-        f = tqt.filter
-        if f._step is not step.robust_step or not self._template(g, c):
+        states = {}
+        for role in _ROLES:  # (offset first: the one that is not steady for a while, at the start)
+            state = c.nodes[role].fused_state()
+            if state is None:
+                return False
+            states[role] = state
+        if not self._template(g, c, states["osc_out"]):
             return False
         P, S = self.P[g], self.S[g]
-        P[K.G_NULLS : K.G_NULLS + 9] = off.nulls
-        sc = c.scaling
-        P[K.G_FACTOR : K.G_FACTOR + 9] = sc.factor
+        P[K.G_NULLS : K.G_NULLS + 9] = states["offset"]["nulls"]
+        sc = states["scaling"]
+        P[K.G_FACTOR : K.G_FACTOR + 9] = sc["factor"]
         for at, has, m in (
-            (K.G_SOFT, K.G_HAS_SOFT, sc.soft_iron),
-            (K.G_ACCM, K.G_HAS_ACCM, sc.acc_misalignment),
-            (K.G_GYROM, K.G_HAS_GYROM, sc.gyro_misalignment),
+            (K.G_SOFT, K.G_HAS_SOFT, sc["soft_iron"]),
+            (K.G_ACCM, K.G_HAS_ACCM, sc["acc_misalignment"]),
+            (K.G_GYROM, K.G_HAS_GYROM, sc["gyro_misalignment"]),
         ):
             P[has] = 0.0 if m is None else 1.0
             if m is not None:
                 P[at : at + 9] = m
-        P[K.G_NOMINAL] = 1.0 / tqt.p.rate
-        P[K.G_MAX_GAP] = tqt.MAX_GAP
-        P[K.G_REF : K.G_REF + 4] = c.ref.offset
+        tqt = states["tqt"]
+        P[K.G_NOMINAL] = 1.0 / c.tqt.p.rate
+        P[K.G_MAX_GAP] = c.tqt.MAX_GAP
+        P[K.G_REF : K.G_REF + 4] = states["reference"]["offset"]
         P[K.G_AXIS : K.G_AXIS + 3] = c.dir.p.axis
         P[K.G_DIR_POLE] = c.dir.p.pole
-        rd = c.roll.state
-        P[K.G_ENTER], P[K.G_LEAVE], P[K.G_GAIN] = rd.enter_deg, rd.leave_deg, rd.gain
-        P[K.G_MAX_EL], P[K.G_ROLL_POLE] = rd.max_elevation_deg, c.roll.p.pole
+        rd = states["roll_distance"]
+        P[K.G_ENTER], P[K.G_LEAVE], P[K.G_GAIN] = rd["enter"], rd["leave"], rd["gain"]
+        P[K.G_MAX_EL], P[K.G_ROLL_POLE] = rd["max_elevation"], c.roll.p.pole
         P[K.G_RADIUS] = out.p.radius
-        self.TS[g] = f._s
-        self.TP[g] = f._p
-        S[K.C_LAST_T] = math.nan if tqt._last_t is None else tqt._last_t
-        S[K.C_BITS] = tqt._bits
-        S[K.C_FLAGS] = f._flags
-        S[K.C_DIR_AZ] = math.nan if c.dir._az is None else c.dir._az
-        S[K.C_ROLL_AZ] = math.nan if c.roll._az is None else c.roll._az
-        S[K.C_ROLL : K.C_ROLL + len(rd.s)] = rd.s
-        S[K.C_OUT : K.C_OUT + 4] = out.state
+        s, p, flags = tqt["filter"]
+        self.TS[g] = s
+        self.TP[g] = p
+        S[K.C_LAST_T] = _nan(tqt["last_t"])
+        S[K.C_BITS] = tqt["bits"]
+        S[K.C_FLAGS] = flags
+        S[K.C_DIR_AZ] = _nan(states["azi_ele"]["azimuth"])
+        S[K.C_ROLL_AZ] = _nan(rd["azimuth"])
+        S[K.C_ROLL : K.C_ROLL + len(rd["roll"])] = rd["roll"]
+        S[K.C_OUT : K.C_OUT + 3] = states["osc_out"]["direction"]
+        S[K.C_OUT + 3] = states["osc_out"]["spread"]
+        c.states, c.mode = states, rd["mode"]
         self._hold(g, c)
         c.fused = True
         self.stale = True
         return True
 
-    def _template(self, g: int, c: Chain) -> bool:
+    def _template(self, g: int, c: Chain, state: dict[str, Any]) -> bool:
         """osc_out's message for its current source number (its own encoder's bytes, the fields the
         kernel writes left as they come), the fields' places in it."""
-        from pointat.osc_bridge.profiles import Source
-
-        out = c.out
-        fields = _fields(out)
-        if fields is None:
-            return False
-        ((head, _, _),) = out._encoder.parts  # address and type tags, padded
-        (data,) = out._encoder.encode(Source(out.p.source or out.profile.first, 0.0))
-        if len(data) > self.width:
+        fields = _fields(c.out)
+        data = state["datagram"]
+        if fields is None or len(data) > self.width:
             return False
         self.tmpl[g, : len(data)] = np.frombuffer(data, np.uint8)
         self.tlen[g] = len(data)
@@ -551,53 +551,23 @@ class Group:
         k = 0
         for j, f in enumerate(fields):
             if isinstance(f, str) and f != "n":
-                self.slot[g, k] = len(head) + 4 * j
+                self.slot[g, k] = state["arguments_at"] + 4 * j
                 self.code[g, k] = K.FIELD_CODES[f]
                 k += 1
         return True
 
     def _hold(self, g: int, c: Chain) -> None:
-        """Take the chain's links out of its nodes and watch what reaches them from outside."""
-        saved = c._saved
-        for node in c.nodes.values():
-            saved.append((node, "_targets", node._targets))
-            node._targets = [list(t) for t in node._targets]
-        c._mote_targets = self.mote._targets[c.outlet]  # (the mote's other outlets are other chains')
-        self.mote._targets[c.outlet] = list(c._mote_targets)
+        """Take the chain's links out of its nodes and have them hand it back before they handle
+        anything from outside it."""
         for s, o, d, i in c.links:
-            s._targets[o] = [(n, j) for n, j in s._targets[o] if not (n is d and j == i)]
-        c.taps = {(c.nodes[r].name, o) for r, o in _PER_SAMPLE if c.nodes[r]._targets[o]}
-        role = {id(n): r for r, n in c.nodes.items()}
-
-        def handing_back(fn: Callable[..., Any]) -> Callable[..., Any]:
-            def wrapper(*args: Any, **kwargs: Any) -> Any:
-                self.release(g)
-                return fn(*args, **kwargs)
-
-            return wrapper
-
-        def synced(fn: Callable[..., Any]) -> Callable[..., Any]:
-            def wrapper(*args: Any, **kwargs: Any) -> Any:
-                self.sync(g)  # (the monitor's thread reads health too: no flush from here)
-                return fn(*args, **kwargs)
-
-            return wrapper
-
-        for node in c.nodes.values():
-            r = role[id(node)]
-            handlers = list(node._handlers)
-            deliver = handlers if node._deliver is node._handlers else list(node._deliver)
-            for i, spec in enumerate(node.in_specs):
-                if (r, spec.name) in _READ_INLETS:
-                    continue
-                handlers[i] = handing_back(node._handlers[i])
-                if deliver is not handlers:
-                    deliver[i] = handing_back(node._deliver[i])
-            saved += [(node, "_handlers", node._handlers), (node, "_deliver", node._deliver)]
-            node._handlers, node._deliver = handlers, deliver
-            for name, wrap in (("receive", handing_back), ("set_params", handing_back), ("health", synced)):
-                saved.append((node, name, None))
-                setattr(node, name, wrap(getattr(node, name)))
+            s.detach(o, d, i)
+        c.taps = {(c.nodes[r].name, o) for r, o in _PER_SAMPLE if c.nodes[r].connected(o)}
+        for role, node in c.nodes.items():
+            node.hold(
+                lambda: self.release(g),
+                lambda: self.sync(g),  # (the monitor's thread reads health too: no flush from there)
+                open_inlets=[name for r, name in _READ_INLETS if r == role],
+            )
 
     def sync(self, g: int) -> None:
         """Write chain ``g``'s compiled state into its nodes (it stays fused)."""
@@ -605,23 +575,19 @@ class Group:
         if not c.fused:
             return
         S = self.S[g]
-        f = c.tqt.filter
-        f._s[:] = self.TS[g].tolist()
-        f._p[:] = self.TP[g].tolist()  # (the step keeps its per-step coefficients there)
-        f._flags = int(S[K.C_FLAGS])
-        c.tqt._bits = int(S[K.C_BITS])
-        last = float(S[K.C_LAST_T])
-        c.tqt._last_t = None if last != last else last
-        az = float(S[K.C_DIR_AZ])
-        c.dir._az = None if az != az else az
-        az = float(S[K.C_ROLL_AZ])
-        c.roll._az = None if az != az else az
-        rd = c.roll.state
-        rd.s[:] = S[K.C_ROLL : K.C_ROLL + len(rd.s)].tolist()
-        c.roll._mode = rd.mode
-        out = c.out
-        out.state[:3] = S[K.C_OUT : K.C_OUT + 3].tolist()
-        out._last = tuple(out.state)
+        st = c.states
+        st["tqt"].update(
+            filter=(self.TS[g].tolist(), self.TP[g].tolist(), int(S[K.C_FLAGS])),
+            last_t=_none(float(S[K.C_LAST_T])),
+            bits=int(S[K.C_BITS]),
+        )
+        st["azi_ele"]["azimuth"] = _none(float(S[K.C_DIR_AZ]))
+        rd = st["roll_distance"]
+        rd["azimuth"] = _none(float(S[K.C_ROLL_AZ]))
+        rd["roll"] = S[K.C_ROLL : K.C_ROLL + len(rd["roll"])].tolist()
+        st["osc_out"]["direction"] = tuple(S[K.C_OUT : K.C_OUT + 3].tolist())
+        for role, node in c.nodes.items():
+            node.restore_fused(st[role])
 
     def release(self, g: int) -> None:
         """Hand chain ``g`` back to its nodes: the frames waiting go first, then its state."""
@@ -633,18 +599,11 @@ class Group:
             return
         self.flush()
         self.sync(g)
-        for node, name, value in reversed(c._saved):
-            if value is None:
-                node.__dict__.pop(name, None)
-            elif name == "_targets":  # listeners added meanwhile (the monitor's) stay
-                _merge(value, node._targets)
-                node._targets = value
-            else:
-                setattr(node, name, value)
-        mine = self.mote._targets[c.outlet]
-        _merge([c._mote_targets], [mine])
-        self.mote._targets[c.outlet] = c._mote_targets
-        c._saved = []
+        for node in c.nodes.values():
+            node.unhold()
+            node.reattach()  # (listeners connected meanwhile, the monitor's, stay)
+        self.mote.reattach(c.outlet)  # (the mote's other outlets are other chains')
+        c.states = {}
         c.taps = set()
         c.fused = False
         self.stale = True
@@ -654,7 +613,9 @@ class Group:
             self.release(g)
 
 
-def _merge(into: list[list[Any]], now: list[list[Any]]) -> None:
-    """Add to the saved targets ``into`` those of ``now`` they lack (connected while the chain was fused)."""
-    for saved, current in zip(into, now, strict=True):
-        saved += [t for t in current if t not in saved]
+def _nan(x: float | None) -> float:
+    return math.nan if x is None else x
+
+
+def _none(x: float) -> float | None:
+    return None if x != x else x
