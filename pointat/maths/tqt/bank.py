@@ -22,7 +22,8 @@ class TQTBank(_TQTParams):
     same results.
 
     State is one row per sensor; :meth:`update` takes ``(n, 3)`` arrays and one ``dt`` and returns ``(n, 4)``
-    quaternions (sensor -> NWU).  Every sensor runs the very step of :class:`~pointat.maths.tqt.TQTFilter`
+    quaternions (sensor -> NWU); :meth:`update_batch` takes a block of samples, ``(t, n, 3)``, in one call
+    (a recording replayed), with the very results of ``t`` calls of :meth:`update`.  Every sensor runs the very step of :class:`~pointat.maths.tqt.TQTFilter`
     (:mod:`pointat.maths.tqt.step`), so a bank agrees with ``n`` independent filters to the last bit.
 
     Two ways to run it (``backend``): ``numba`` runs the robust step compiled, as one loop over the sensors
@@ -171,7 +172,8 @@ class TQTBank(_TQTParams):
     ) -> tuple[np.ndarray, np.ndarray]:
         """Advance all sensors by a block of ``t`` samples (a recording replayed): exactly what ``t`` calls
         of :meth:`update` give, to the bit, in one compiled call with numba (see
-        :func:`pointat.maths.tqt.step.robust_batch`).
+        :func:`pointat.maths.tqt.step.robust_batch`; compiled, or loaded from the cache, at the first call of a
+        process: meant for replaying, not for a live patch's first sample).
 
         Parameters
         ----------

@@ -1,7 +1,8 @@
 r"""The robust step compiled by numba: :class:`~pointat.maths.tqt.TQTFilter`'s update and
 :class:`~pointat.maths.tqt.TQTBank`'s loop over the sensors.
 
-Not a second copy of the filter: :func:`robust_update` and :func:`robust_bank` run
+Not a second copy of the filter: :func:`robust_update`, :func:`robust_bank` and
+:func:`~pointat.maths.tqt.step.robust_batch` (a bank over a block of samples, :func:`batch_kernel`) run
 :func:`pointat.maths.tqt.step.robust_step` itself, the very source the plain Python form runs, compiled
 with its helpers by :func:`pointat.jit.compile_module` (which is why the entries live in
 :mod:`pointat.maths.tqt.step` and not here).  A filter or a bank in robust mode takes this path (one call
