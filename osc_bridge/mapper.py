@@ -20,8 +20,7 @@ from pointat import mapper as bus
 from pointat.control import PREFIX, control
 from pointat.errors import worth_reporting
 from pointat.message import Message, make
-from pointat.monitor.observe import _Tap
-from pointat.node import Node, Outlet, Param
+from pointat.node import Node, Outlet, Param, Tap
 from pointat.registry import register
 
 __all__ = ["Mapper", "MapperIn"]
@@ -141,14 +140,12 @@ node bus  mapper interface=lo device=anna
         if rt.nodes.get(self.name) is not self:  # type: ignore[attr-defined]
             rt.nodes = {**rt.nodes, self.name: self}  # type: ignore[attr-defined]
         for node, outlet, t in self._taps:
-            node._targets[outlet] = [x for x in node._targets[outlet] if x[0] is not t]
+            node.untap(outlet, t)
         self._taps = []
         self._attach()
 
     def _tap(self, node: Node, outlet: int, fn: Callable[[Message], None]) -> None:
-        t = _Tap(fn)
-        node._targets[outlet].append((t, 0))
-        self._taps.append((node, outlet, t))
+        self._taps.append((node, outlet, node.tap(outlet, fn)))
 
     def _attach(self) -> None:
         """Signals for what the patch's nodes declare, and taps on their outlets."""
@@ -199,9 +196,9 @@ node bus  mapper interface=lo device=anna
         ]
         feeders: dict[Node, list[Node]] = {}
         for src in nodes:
-            for o, targets in enumerate(src._targets):
-                for dst, inlet in list(targets):
-                    if isinstance(dst, _Tap):
+            for o in range(len(src.out_specs)):
+                for dst, inlet in src.targets(o):
+                    if isinstance(dst, Tap):
                         continue
                     feeders.setdefault(dst, []).append(src)
                     if dst is node and inlet in where:

@@ -3,8 +3,8 @@
 #   glove I -> offset -> scaling -\
 #                                  tqt_bank (sensors=3) -> quatI -> reference -> azi_ele, roll_distance -> osc_out source=I
 #
-# The bank runs McGhee and Bachmann's filter for every glove at once (one compiled loop with numba,
-# pip install ".[fast]"; the same orientations as a tqt node per glove).  A glove that drops a packet
+# The bank runs McGhee and Bachmann's filter for every glove at once (one compiled loop, numba; the
+# same orientations as a tqt node per glove).  A glove that drops a packet
 # stays where it was for that tick; one switched off is not waited for after 5 ticks.
 # The sources are the built-in simulated gloves (output=direct: frames straight in, no port).  For one
 # real base station with three motes, replace the three simulate nodes by

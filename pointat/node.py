@@ -61,7 +61,7 @@ if TYPE_CHECKING:
     from .errors import Where
     from .scheduling import Scheduler, Timer
 
-__all__ = ["REQUIRED", "ROLES", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError", "Reading"]
+__all__ = ["REQUIRED", "ROLES", "SKIP", "Inlet", "Node", "Outlet", "Param", "ParamError", "Reading", "Tap"]
 
 log = logging.getLogger("pointat.node")
 
@@ -594,6 +594,21 @@ class Node:
         """Whether ``outlet`` sends anywhere (what :meth:`targets` says, with no copy made)."""
         return bool(self._targets[outlet])
 
+    def tap(
+        self, outlet: int, fn: Callable[[Message], None], bulk: Callable[[int], None] | None = None
+    ) -> Tap:
+        """Also call ``fn(msg)`` for every message ``outlet`` sends, after its wired targets: a listener
+        that is no node of the patch (the monitor's observer, the libmapper bus).  A sender with no
+        messages to give (a compiled chain) calls ``bulk(n)`` for n of them, where there is one.  Returns
+        the tap, for :meth:`untap`; a reload keeps it on a node that stays."""
+        listener = Tap(fn, bulk)
+        self._targets[outlet].append((listener, 0))
+        return listener
+
+    def untap(self, outlet: int, listener: Tap) -> None:
+        """Stop calling what :meth:`tap` gave (idempotent)."""
+        self._targets[outlet] = [t for t in self._targets[outlet] if t[0] is not listener]
+
     def unwire(self, keep: Callable[[Node], bool] | None = None) -> None:
         """Send nowhere any more but to the targets ``keep`` says yes to (by their node): a reload rewires
         a patch and keeps, on a node that stays, the listeners that are not the patch's (the observer's)."""
@@ -619,7 +634,7 @@ class Node:
     ) -> None:
         """Until :meth:`unhold`, call ``release()`` before this node handles anything that reaches it (a
         message at any inlet but those named in ``open_inlets``, a method, a parameter set), and
-        ``sync()`` before its :meth:`health` is read: a compiled chain doing this node's work hands it
+        ``sync()`` before its :meth:`health` or :meth:`read` is read: a compiled chain doing this node's work hands it
         back first, or writes its state into the node (:mod:`pointat.compiled`).  ``release`` may be
         called more than once for one message (by :meth:`receive`, then by the inlet's handler)."""
         if self._held is not None:
@@ -654,6 +669,7 @@ class Node:
         self.receive = receive_held  # type: ignore[method-assign]
         self.set_params = first(release, self.set_params)  # type: ignore[method-assign]
         self.health = first(sync, self.health)  # type: ignore[method-assign]
+        self.read = first(sync, self.read)  # type: ignore[method-assign]
 
     def unhold(self) -> None:
         """End :meth:`hold` (idempotent)."""
@@ -661,7 +677,7 @@ class Node:
             return
         self._handlers, self._deliver = self._held
         self._held = None
-        for method in (Node.receive, Node.set_params, Node.health):
+        for method in (Node.receive, Node.set_params, Node.health, Node.read):
             self.__dict__.pop(method.__name__, None)
 
     # receiving --------------------------------------------------------------
@@ -892,6 +908,23 @@ _LITERAL = re.compile(r"``(.+?)``", re.S)
 _LINK = re.compile(r"`([^`<]+?)\s*(?:<[^`>]*>)?`__?")
 _TICKS = re.compile(r"`([^`]+)`")
 _DIRECTIVE = re.compile(r"^(\s*)\.\. [\w:-]+::[ \t]*", re.M)
+
+
+class Tap(Node):
+    """A listener on an outlet (:meth:`Node.tap`): no node of the patch (not in the runtime's nodes), only
+    a call per message."""
+
+    inlets = (Inlet("in", ("any",), "any message"),)
+
+    def __init__(self, fn: Callable[[Message], None], bulk: Callable[[int], None] | None = None):
+        super().__init__("(tap)")
+        self._fn = fn
+        #: ``bulk(n)``: n messages at once, for a sender that has no messages to give (the compiled
+        #: chains, :mod:`pointat.compiled`); None when each message matters.
+        self.bulk = bulk
+
+    def on_in(self, msg: Message) -> None:
+        self._fn(msg)
 
 
 def _role_text(match: re.Match[str]) -> str:

@@ -344,6 +344,9 @@ class Reloader:
             node = made.get(name) or rt.nodes[name]
             node.where = r.decl.where
             nodes[name] = node
+        for name, node in rt.nodes.items():  # what the file did not make stays (pointat run --mapper's)
+            if name not in self.checked.nodes and name not in nodes:
+                nodes[name] = node
         rt.swap(nodes, new.wires, retune=steps.retune)
         for fn in list(self._listeners):
             try:

@@ -37,7 +37,7 @@ import re
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -45,37 +45,12 @@ import numpy as np
 
 from ..maths.vbap import Layout, make_layout, vbap_gains
 from ..message import Message
-from ..node import Inlet, Node
+from ..node import Node, Tap
 from ..scheduling import quiet_thread
 
 __all__ = ["Observer", "fmt_direction"]
 
 log = logging.getLogger("pointat.monitor.observe")
-
-
-class _Tap(Node):
-    """A listener on an outlet: not a node of the patch (not in ``rt.nodes``), only a call per message."""
-
-    type_name = "tap"
-    inlets = (Inlet("in", ("any",), "any message"),)
-
-    def __init__(self, fn: Callable[[Message], None], bulk: Callable[[int], None] | None = None):
-        super().__init__("(observer)")
-        self._fn = fn
-        #: ``bulk(n)``: n messages at once, for a sender that has no messages to give (the compiled
-        #: chains, :mod:`pointat.compiled`); None when each message matters.
-        self.bulk = bulk
-
-    def on_in(self, msg: Message) -> None:
-        self._fn(msg)
-
-
-def tap(
-    node: Node, outlet: int, fn: Callable[[Message], None], bulk: Callable[[int], None] | None = None
-) -> None:
-    """Call ``fn(msg)`` for every message ``node`` sends from ``outlet`` (after its wired targets); a
-    sender with no messages to give calls ``bulk(n)`` for n of them, when there is one."""
-    node._targets[outlet].append((_Tap(fn, bulk), 0))
 
 
 @dataclass
@@ -225,7 +200,7 @@ class Observer:
         self._attached[node.name] = node
         pattern = type(node).sample_outlets
         for i, spec in enumerate(node.out_specs):
-            if not node._targets[i] or (node.name, i) in self._tapped:
+            if not node.connected(i) or (node.name, i) in self._tapped:
                 continue  # not wired: not used by this patch (or tapped already)
             self._tapped.add((node.name, i))
             if pattern and re.fullmatch(pattern, spec.name):
@@ -233,15 +208,15 @@ class Observer:
                 stream = Stream(node, spec.name, i, nominal=float(nominal or 0.0))
                 stream.gap = max(self.DROPOUT, 5.0 / stream.nominal if stream.nominal > 0 else 0.0)
                 self.streams.append(stream)
-                tap(node, i, stream.hit, stream.hits)
+                node.tap(i, stream.hit, stream.hits)
             elif spec.name == "flags" and spec.kind == "symbol":
                 self.flags[node.name] = ["ok", time.monotonic(), 0]
-                tap(node, i, self._flag_tap(node.name))
+                node.tap(i, self._flag_tap(node.name))
             if spec.name == "accel" and spec.kind == "vector" and len(self.accel) < 4:
-                if node._targets[i] and type(node).sample_outlets == "":
+                if node.connected(i) and type(node).sample_outlets == "":
                     self.accel[f"{node.name}.accel"] = box = [None]
                     self.accel_history[f"{node.name}.accel"] = deque()
-                    tap(node, i, _keep(box))
+                    node.tap(i, _keep(box))
         if not known:
             for reading in type(node).readings:
                 if reading.direction:
@@ -554,25 +529,20 @@ def _health(node: Node) -> dict[str, Any]:
 def _downstream(node: Node, outlet: int) -> set[str]:
     """The names of the nodes an outlet reaches, through any number of wires (taps left out)."""
     seen: set[str] = set()
-    todo = [target for target, _inlet in node._targets[outlet]]
+    todo = [target for target, _inlet in node.targets(outlet)]
     while todo:
         n = todo.pop()
-        if isinstance(n, _Tap) or n.name in seen:
+        if isinstance(n, Tap) or n.name in seen:
             continue
         seen.add(n.name)
-        todo += [target for targets in n._targets for target, _inlet in targets]
+        todo += [target for o in range(len(n.out_specs)) for target, _inlet in n.targets(o)]
     return seen
 
 
 def _reading_words(node: Node) -> list[str]:
     """A node's readings in words, each number with its unit (``level: -6 dB``)."""
     readings = type(node).readings
-    if not readings:
-        return []
-    try:
-        values = node.read()
-    except Exception:  # read from another thread while the node changes: next time
-        return []
+    values = _read(node) if readings else {}
     words = []
     for r in readings:
         try:
@@ -587,10 +557,20 @@ def _reading_words(node: Node) -> list[str]:
 def _direction(node: Node, reading: str) -> tuple[float, float, float]:
     """A node's direction reading now: azimuth, elevation, distance (zeros while it cannot be read)."""
     try:
-        az, el, dist = (float(v) for v in node.read()[reading][:3])
-    except Exception:  # read from another thread while the node changes, or not given: next time
+        az, el, dist = (float(v) for v in _read(node)[reading][:3])
+    except (KeyError, TypeError, ValueError):  # not given now, or not three numbers
         return 0.0, 0.0, 0.0
     return az, el, dist
+
+
+def _read(node: Node) -> Mapping[str, Any]:
+    """What a node's :meth:`~pointat.node.Node.read` says now; nothing when it fails (read from another
+    thread while the node changes: the next reading tries again; the debug log says why)."""
+    try:
+        return node.read()
+    except Exception:
+        log.debug("node '%s' (%s): read() failed", node.name, node.type_name, exc_info=True)
+        return {}
 
 
 def _worst_flag(flags: dict[str, dict[str, Any]]) -> str:

@@ -14,6 +14,7 @@ Plain functions of a runtime and an observer; the server (:mod:`pointat.monitor.
 from __future__ import annotations
 
 import inspect
+import logging
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -24,6 +25,8 @@ from ..control import PREFIX
 from ..node import Reading
 
 __all__ = ["EXTENSIONS", "address_space", "find", "value_of"]
+
+log = logging.getLogger("pointat.monitor.oscquery")
 
 #: What the server implements of the proposal's optional parts (HOST_INFO's EXTENSIONS).
 EXTENSIONS = {
@@ -122,6 +125,7 @@ def _read(node: Any) -> Mapping[str, Any]:
     try:
         return node.read()
     except Exception:
+        log.debug("node '%s' (%s): read() failed", node.name, node.type_name, exc_info=True)
         return {}
 
 

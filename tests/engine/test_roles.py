@@ -17,13 +17,17 @@ from pointat.registry import Registry, RegistryError
 from pointat.testing import patch, test_registry
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The engine's modules that tell people about nodes, and the node model itself.
+#: The engine's modules that tell people about nodes, the node model itself, and what loads, checks, runs
+#: and reloads a patch (Pd's scheduler never asks what an object is).
 ENGINE = [
-    ROOT / "pointat" / "console.py",
-    ROOT / "pointat" / "node.py",
+    *(
+        ROOT / "pointat" / f"{name}.py"
+        for name in ("console", "node", "registry", "checking", "loader", "runtime", "scheduling", "reload")
+    ),
     *sorted((ROOT / "pointat" / "monitor").glob("*.py")),
 ]
-TYPE_NAMES = {cls.type_name for cls in Registry().load_builtins()}
+#: The built-in types' names, but those that name a part of every node too (``receive``: a method).
+TYPE_NAMES = {cls.type_name for cls in Registry().load_builtins()} - set(dir(Node))
 
 
 def _named_types(source: str) -> list[tuple[int, str]]:
@@ -181,5 +185,46 @@ def test_what_a_node_declares_is_what_the_console_the_observer_and_oscquery_show
         assert value_of(rt, "/pointat/m/span") == [-6.0, -6.0]
         assert value_of(rt, "/pointat/l/aim") == [-6.0, 0.0, 0.0]
         assert value_of(rt, "/pointat/m/nothing") is None
+    finally:
+        rt.shutdown()
+
+
+def test_a_node_a_compiled_chain_holds_is_synced_before_its_readings_are_read():
+    rt = patch("node o osc_out port=9\n")
+    o = rt.nodes["o"]
+    calls: list[str] = []
+    o.hold(lambda: calls.append("release"), lambda: calls.append("sync"))
+    try:
+        assert o.read() == {"aed": [0.0, 0.0, 0.0]} and calls == ["sync"]  # (OSCQuery reads no health)
+        o.unhold()
+        o.read()
+        assert calls == ["sync"]
+    finally:
+        rt.shutdown()
+
+
+class Broken(Node):
+    """A node whose read() raises: the observer and OSCQuery go on without its values."""
+
+    role = "output"
+    inlets = (Inlet("in", ("float",), "anything"),)
+    readings = (Reading("aim", "where it points", units=("deg", "deg", ""), direction=True),)
+
+    def read(self):
+        raise RuntimeError("not now")
+
+
+def test_a_reading_that_fails_leaves_the_observer_and_oscquery_going(caplog):
+    reg = test_registry()
+    Broken.type_name = "broken"
+    reg.add(Broken)
+    rt = patch("node b broken\n", registry=reg)
+    try:
+        with caplog.at_level("DEBUG", logger="pointat"):
+            (pointer,) = Observer(rt).attach().read()["pointers"]
+            assert (pointer["azimuth"], pointer["state"]) == (0.0, "waiting")
+            assert find(address_space(rt), "/pointat/b/aim")["VALUE"] == [None, None, None]
+            assert value_of(rt, "/pointat/b/aim") == [None, None, None]
+        assert sum("node 'b' (broken): read() failed" in r.getMessage() for r in caplog.records) == 3
     finally:
         rt.shutdown()

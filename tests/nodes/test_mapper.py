@@ -350,7 +350,7 @@ def test_after_a_reload_the_bus_has_the_new_nodes_signals_and_each_outlet_one_ta
     from pointat.checking import check
     from pointat.expansion import read_spec
     from pointat.loader import ready
-    from pointat.monitor.observe import _Tap
+    from pointat.node import Tap
     from pointat.reload import Reloader
 
     path = tmp_path / "p.pat"
@@ -371,7 +371,7 @@ def test_after_a_reload_the_bus_has_the_new_nodes_signals_and_each_outlet_one_ta
         assert rt.nodes["mapper"] is bus_node
         sigs: dict = {}
         until(rt, lambda: all([_found(sigs, c, name, s) for s in ("aim/azimuth", "p/decimals")]), c, "new")
-        taps = [d for d, _ in rt.nodes["t"]._targets[0] if isinstance(d, _Tap)]
+        taps = [d for d, _ in rt.nodes["t"].targets(0) if isinstance(d, Tap)]
         assert len(taps) == 1
         got = c.incoming("aim")
         m = mpr.Map(sigs["aim/azimuth"], got)
