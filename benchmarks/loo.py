@@ -35,8 +35,9 @@ from pointat.maths.tqt import TQTFilter
 #: once the gyro's bias is known from rest and before, the gate's dip tolerance, the bias learned from the
 #: heading in motion), each at its default and either side.  Held: bias_tau (10 s, chosen on BROAD's
 #: 81-point grid before: this file's history), mag_new_time (VQF's 20 s; 10 s scored the same within
-#: 0.01°) and mag_tau (0.4 s, chosen on the first round of this grid: 0.05 / 0.2 / 0.4 s, LOO.md of
-#: commit 4e6629d).
+#: 0.01°) and mag_tau (0.2 s: 0.05 / 0.2 / 0.4 s on the first round of this grid, LOO.md of commit
+#: 4e6629d, took 0.4; 0.1 / 0.2 / 0.3 / 0.4 s with the phones' error found in the gate, issue 46 point 4,
+#: took 0.2 in all 52 folds).
 TQT_GRID: dict[str, Sequence[float]] = {
     "k": (0.5, 1.0),
     "acc_tau": (2.0, 4.0),

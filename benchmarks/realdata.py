@@ -2,25 +2,22 @@
 
 Both sets come as BROAD's CSV (:func:`pointat.maths.evaluation.load_broad`); each trial's sample time is
 read from its ``t`` column (BROAD 285.7 Hz, the phones 95-199 Hz).  :func:`run_tqt` runs
-:func:`pointat.maths.tqt.step.robust_step` itself over a whole trial, compiled by numba with a loop over
-the samples (the step's every helper compiled as :mod:`pointat.maths.tqt.compiled` does, so that the
-figures are those of :class:`~pointat.maths.tqt.TQTFilter` to the bit, a few hundred times sooner);
+a whole trial through :meth:`pointat.maths.tqt.TQTBank.update_batch` (one sensor: the compiled step in
+one loop over the samples, equal to :class:`~pointat.maths.tqt.TQTFilter`'s updates to the bit, a few
+hundred times sooner than calling it a sample);
 :func:`run_vqf` runs VQF with the trial's sample time.
 """
 
 from __future__ import annotations
 
 import argparse
-import types
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from pointat.maths.evaluation import broad_rmse, load_broad
 from pointat.maths.quaternion import nwu_to_enu
-from pointat.maths.tqt import TQTFilter, step
+from pointat.maths.tqt import TQTBank
 
 __all__ = ["dt_of", "run_tqt", "run_vqf", "score", "trial_set", "trials"]
 
@@ -69,39 +66,12 @@ def dt_of(d: dict[str, np.ndarray]) -> float:
     return float((t[-1] - t[0]) / (len(t) - 1))
 
 
-def _run(g, a, m, dt, s, p, q, flags):  # type: ignore[no-untyped-def]
-    for i in range(g.shape[0]):
-        flags[i] = robust_step(s, p, g[i, 0], g[i, 1], g[i, 2], a[i, 0], a[i, 1], a[i, 2],  # noqa: F821
-                               m[i, 0], m[i, 1], m[i, 2], dt)  # fmt: skip
-        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = s[0], s[1], s[2], s[3]
-
-
-_compiled: Callable[..., Any] | None = None
-
-
-def _kernel() -> Callable[..., Any]:
-    global _compiled
-    if _compiled is None:
-        from numba import njit
-
-        jit = njit(nogil=True)
-        space = dict(vars(step))
-        for name, value in vars(step).items():
-            if isinstance(value, types.FunctionType) and value.__module__ == step.__name__:
-                space[name] = jit(types.FunctionType(value.__code__, space, name, value.__defaults__))
-        _compiled = jit(types.FunctionType(_run.__code__, space, "_run"))
-    return _compiled
-
-
 def run_tqt(d: dict[str, np.ndarray], **settings: float) -> tuple[np.ndarray, np.ndarray]:
     """Robust ``tqt`` with ``settings`` over trial ``d``: (sensor -> ENU quaternions (N, 4), flag bits (N,))."""
-    f = TQTFilter(**settings)  # type: ignore[arg-type]
-    s, p = np.array(f._s), np.array(f._p)
-    n = len(d["t"])
-    q, flags = np.empty((n, 4)), np.empty(n, np.int64)
-    g, a, m = (np.ascontiguousarray(d[k]) for k in ("gyr", "acc", "mag"))
-    _kernel()(g, a, m, dt_of(d), s, p, q, flags)
-    return nwu_to_enu(q), flags
+    bank = TQTBank(1, backend="numba", **settings)  # type: ignore[arg-type]
+    g, a, m = (np.asarray(d[k], dtype=float)[:, None, :] for k in ("gyr", "acc", "mag"))
+    q, flags = bank.update_batch(g, a, m, dt_of(d))
+    return nwu_to_enu(q[:, 0]), flags[:, 0]
 
 
 def run_vqf(d: dict[str, np.ndarray], **params: float) -> np.ndarray:

@@ -13,8 +13,8 @@ rounds with their interquartile range.
 * **Many sensors** (the goal: ``TQTBank`` at most BasicVQF's ``updateBatch`` per sensor-sample):
   ``TQTBank.update`` over 15 sensors a call (a batch across sensors, one call a sample), beside VQF's and
   BasicVQF's ``updateBatch`` (one call for the whole stretch, run 15 times over: a batch across time, its
-  loop in C++), and the bank's compiled loop called directly (what the bank costs without its Python
-  shell).
+  loop in C++), the bank's compiled loop called directly (what the bank costs without its Python
+  shell), and ``TQTBank.update_batch`` (the whole stretch of 15 sensors in one call: like with like).
 """
 
 from __future__ import annotations
@@ -87,6 +87,9 @@ def contestants(d: dict[str, np.ndarray]) -> list[tuple[str, str, Callable[[], N
         for i in range(n):
             upd(G[i], A[i], M[i], dt)
 
+    def bank_batch() -> None:
+        TQTBank(SENSORS, backend="numba").update_batch(G, A, M, dt)
+
     kernel = tqt_compiled.bank_kernel()
 
     def bank_kernel() -> None:
@@ -107,6 +110,7 @@ def contestants(d: dict[str, np.ndarray]) -> list[tuple[str, str, Callable[[], N
     out += [
         (many, f"TQTBank.update, {SENSORS} sensors a call", bank, n * SENSORS),
         (many, "  its compiled loop alone (no Python shell)", bank_kernel, n * SENSORS),
+        (many, f"TQTBank.update_batch, {SENSORS} sensors, the whole stretch a call", bank_batch, n * SENSORS),
         (many, "VQF updateBatch (the whole stretch a call)", batch(vqf.VQF), n * SENSORS),
         (many, "BasicVQF updateBatch (the whole stretch a call)", batch(vqf.BasicVQF), n * SENSORS),
     ]

@@ -44,7 +44,7 @@ from pointat.maths import scalar as sq
 from pointat.maths.calibration import STANDARD_GRAVITY, gyro_null
 from pointat.maths.evaluation import broad_errors
 from pointat.maths.quaternion import enu_to_nwu
-from pointat.maths.tqt import TQTFilter, TQTFlags
+from pointat.maths.tqt import TQTBank, TQTFlags
 
 __all__ = [
     "ADC_COLUMNS",
@@ -315,16 +315,21 @@ def run_filter(
     """Run a :class:`~pointat.maths.tqt.TQTFilter` (robust mode, the ``tqt`` node's defaults) over the
     samples from ``start``: the orientations (N, 4) sensor -> NWU, NaN where the filter gave none (before
     ``start``, or not yet initialised, where the ``tqt`` node outputs nothing), and its flag bits (N,)."""
-    f = TQTFilter(acc_range=acc_range, gyro_range=gyro_range)
     n = len(dt)
     q = np.full((n, 4), math.nan)
     flags = np.zeros(n, dtype=np.int64)
-    g, a, m, steps = gyro.tolist(), accel.tolist(), mag.tolist(), dt.tolist()  # (floats: faster per sample)
-    for i in range(start, n):
-        qi = f.update(g[i], a[i], m[i], steps[i])
-        flags[i] = f.flag_bits
-        if f.initialised:
-            q[i] = qi
+    if start >= n:
+        return q, flags
+    # the filter's very updates, the whole take in one call (TQTBank.update_batch: equal to the bit)
+    bank = TQTBank(1, acc_range=acc_range, gyro_range=gyro_range)
+    qs, fs = bank.update_batch(
+        *(np.asarray(x, dtype=float)[start:, None, :] for x in (gyro, accel, mag)), np.asarray(dt)[start:]
+    )
+    flags[start:] = fs[:, 0]
+    # the filter is initialised from the first sample that neither waits for it nor has no valid dt
+    done = np.flatnonzero((fs[:, 0] & (TQTFlags.UNINITIALISED | TQTFlags.DT_INVALID)) == 0)
+    if done.size:
+        q[start + done[0] :] = qs[done[0] :, 0]
     return q, flags
 
 

@@ -1,7 +1,7 @@
 """Every implementation of the TQT update gives the quaternions and flags of Python's TQTFilter, to the bit.
 
 The step is written once (:mod:`pointat.maths.tqt.step`; paper mode's in :mod:`pointat.maths.tqt.paper`)
-and runs in six implementations, each held here to the reference, one ``TQTFilter(backend="python")`` per
+and runs in eight implementations, each held here to the reference, one ``TQTFilter(backend="python")`` per
 sensor fed lists of floats (the step in plain Python):
 
 * ``TQTFilter-python`` -- the same class again, fed numpy rows (its other input path), sharing nothing
@@ -11,6 +11,8 @@ sensor fed lists of floats (the step in plain Python):
 * ``TQTBank-python`` -- the same step on the rows of a state array, a Python loop over the sensors;
 * ``TQTBank-numba`` -- the robust step compiled by numba into one loop (:mod:`pointat.maths.tqt.compiled`;
   robust mode only);
+* ``TQTBank-batch-python`` / ``TQTBank-batch-numba`` -- the bank's ``update_batch``, a whole case in
+  one call (numba: one compiled loop over the samples and the sensors, robust mode only);
 * ``tqt-node`` / ``tqt_bank-node`` -- the nodes that wrap a filter and a bank in a patch (readings as
   messages, the time step from their stamps, settings in the nodes' units: dip in degrees, full scales
   in g and deg/s); both run the compiled step in robust mode, as a patch's ``backend=auto`` does.
@@ -222,6 +224,21 @@ def run_bank(case: Case, mode: str, backend: str) -> Run:
     return Run(q, flags, bank.bias)
 
 
+def run_bank_batch(case: Case, mode: str, backend: str) -> Run:
+    """The bank's :meth:`~pointat.maths.tqt.TQTBank.update_batch`: the whole case in one call, its time
+    steps as an array (one per sample), after a first block of one sample (a recording replayed in
+    pieces continues where the last piece stopped)."""
+    bank = TQTBank(case.n, mode=mode, backend=backend, **case.settings)
+    assert bank.backend == backend
+    if case.start is not None:
+        bank.reset(case.start)
+    dt = np.full(len(case.gyro), 1.0 / case.rate)
+    q0, f0 = bank.update_batch(case.gyro[:1], case.acc[:1], case.mag[:1], dt[0])
+    q, flags = bank.update_batch(case.gyro[1:], case.acc[1:], case.mag[1:], dt[1:])
+    np.testing.assert_array_equal(bank.flags, flags[-1])
+    return Run(np.concatenate([q0, q]), np.concatenate([f0, flags]), bank.bias)
+
+
 def node_settings(case: Case, mode: str) -> str:
     """The case's settings as a ``tqt`` / ``tqt_bank`` node's parameters, in the node's units; each must
     come back to the very float the filter gets (or the comparison would be of different filters)."""
@@ -304,6 +321,8 @@ IMPLEMENTATIONS: dict[str, Callable[[Case, str, object], Run]] = {
     "TQTFilter-numba": lambda case, mode, started: run_filters(case, mode, backend="numba"),
     "TQTBank-python": lambda case, mode, started: run_bank(case, mode, "python"),
     "TQTBank-numba": lambda case, mode, started: run_bank(case, mode, "numba"),
+    "TQTBank-batch-python": lambda case, mode, started: run_bank_batch(case, mode, "python"),
+    "TQTBank-batch-numba": lambda case, mode, started: run_bank_batch(case, mode, "numba"),
     "tqt-node": run_tqt_nodes,
     "tqt_bank-node": run_tqt_bank_node,
 }

@@ -22,7 +22,8 @@ class TQTBank(_TQTParams):
     same results.
 
     State is one row per sensor; :meth:`update` takes ``(n, 3)`` arrays and one ``dt`` and returns ``(n, 4)``
-    quaternions (sensor -> NWU).  Every sensor runs the very step of :class:`~pointat.maths.tqt.TQTFilter`
+    quaternions (sensor -> NWU); :meth:`update_batch` takes a block of samples, ``(t, n, 3)``, in one call
+    (a recording replayed), with the very results of ``t`` calls of :meth:`update`.  Every sensor runs the very step of :class:`~pointat.maths.tqt.TQTFilter`
     (:mod:`pointat.maths.tqt.step`), so a bank agrees with ``n`` independent filters to the last bit.
 
     Two ways to run it (``backend``): ``numba`` runs the robust step compiled, as one loop over the sensors
@@ -160,3 +161,62 @@ class TQTBank(_TQTParams):
                 self._flags[i] = run(s, p, *gi, *ai, *mi, dt)
                 self._s[i] = s
         return self._s[:, :4].copy()
+
+    def update_batch(
+        self,
+        gyro: ArrayLike,
+        acc: ArrayLike,
+        mag: ArrayLike,
+        dt: ArrayLike,
+        present: ArrayLike | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Advance all sensors by a block of ``t`` samples (a recording replayed): exactly what ``t`` calls
+        of :meth:`update` give, to the bit, in one compiled call with numba (see
+        :func:`pointat.maths.tqt.step.robust_batch`; compiled, or loaded from the cache, at the first call of a
+        process: meant for replaying, not for a live patch's first sample).
+
+        Parameters
+        ----------
+        gyro, acc, mag : array_like, shape (t, n, 3)
+            As :meth:`update`, one row a sample.
+        dt : float or array_like of shape (t,)
+            Seconds since the previous sample: one for all, or each sample's own.
+        present : array_like of bool, shape (t, n), optional
+            As :meth:`update`'s, one row a sample (default: all).
+
+        Returns
+        -------
+        q : numpy.ndarray, shape (t, n, 4)
+            Every sample's orientations, as :meth:`update` returns them.
+        flags : numpy.ndarray of int, shape (t, n)
+            Every sample's :attr:`flags`.
+        """
+        g = np.ascontiguousarray(gyro, dtype=float)
+        a = np.ascontiguousarray(acc, dtype=float)
+        m = np.ascontiguousarray(mag, dtype=float)
+        if g.ndim != 3 or g.shape[1:] != (self.n, 3) or a.shape != g.shape or m.shape != g.shape:
+            raise ValueError(
+                f"gyro, acc and mag must have one shape (t, {self.n}, 3), got {g.shape}, {a.shape}, {m.shape}"
+            )
+        t = g.shape[0]
+        dts = np.asarray(dt, dtype=float)
+        dts = np.full(t, float(dts)) if dts.ndim == 0 else np.ascontiguousarray(dts)
+        if dts.shape != (t,):
+            raise ValueError(f"dt must be a number or have shape ({t},), got {dts.shape}")
+        if present is None:
+            here = np.ones((t, self.n), dtype=bool)
+        else:
+            here = np.ascontiguousarray(present, dtype=bool)
+            if here.shape != (t, self.n):
+                raise ValueError(f"present must have shape ({t}, {self.n}), got {here.shape}")
+        q = np.empty((t, self.n, 4))
+        flags = np.empty((t, self.n), dtype=np.int64)
+        if self._kernel is not None:
+            from pointat.maths.tqt import compiled
+
+            compiled.batch_kernel()(g, a, m, dts, here, self._s, self._p, self._flags, q, flags)
+            return q, flags
+        for i in range(t):
+            q[i] = self.update(g[i], a[i], m[i], dts[i], here[i])
+            flags[i] = self._flags
+        return q, flags

@@ -1,7 +1,8 @@
 r"""The robust step compiled by numba: :class:`~pointat.maths.tqt.TQTFilter`'s update and
 :class:`~pointat.maths.tqt.TQTBank`'s loop over the sensors.
 
-Not a second copy of the filter: :func:`robust_update` and :func:`robust_bank` run
+Not a second copy of the filter: :func:`robust_update`, :func:`robust_bank` and
+:func:`~pointat.maths.tqt.step.robust_batch` (a bank over a block of samples, :func:`batch_kernel`) run
 :func:`pointat.maths.tqt.step.robust_step` itself, the very source the plain Python form runs, compiled
 with its helpers by :func:`pointat.jit.compile_module` (which is why the entries live in
 :mod:`pointat.maths.tqt.step` and not here).  A filter or a bank in robust mode takes this path (one call
@@ -27,7 +28,7 @@ from typing import Any
 from pointat import jit
 from pointat.maths.tqt import step
 
-__all__ = ["bank_kernel", "compiled", "robust_bank", "robust_update", "update_kernel"]
+__all__ = ["bank_kernel", "batch_kernel", "compiled", "robust_bank", "robust_update", "update_kernel"]
 
 #: numba's options for the step (see the module head).
 OPTIONS = {"_nrt": False}
@@ -67,6 +68,12 @@ def bank_kernel() -> Callable[..., Any]:
     """:func:`pointat.maths.tqt.step.robust_bank` compiled (typed at its first call): what a
     :class:`~pointat.maths.tqt.TQTBank` holds and calls an update."""
     return _kernels().robust_bank  # type: ignore[no-any-return]
+
+
+def batch_kernel() -> Callable[..., Any]:
+    """:func:`pointat.maths.tqt.step.robust_batch` compiled (typed at its first call): what
+    :meth:`~pointat.maths.tqt.TQTBank.update_batch` calls once for a block of samples."""
+    return _kernels().robust_batch  # type: ignore[no-any-return]
 
 
 def robust_update(*args: Any) -> tuple[int, float, float, float, float]:

@@ -153,7 +153,8 @@ class TQTFilter(_TQTParams):
         at half its gain all the same (60).
     mag_tau : float, keyword-only
         Robust mode: time constant (s) of the low-pass of the field's norm and dip that the gate judges
-        (0.4; VQF's is 0.05): a moment's tilt error or noise does not flip the flag.
+        (0.2, chosen leave-one-trial-out on BROAD and the phones; VQF's is 0.05): a moment's tilt error or
+        noise does not flip the flag.
     motion_bias_tau : float, keyword-only
         Robust mode: time constant (s, 30) with which the heading correction's rate is learned as gyro
         bias about the vertical, while the sensor has rested less than ``bias_tau`` in all (a phone in the
@@ -195,7 +196,7 @@ class TQTFilter(_TQTParams):
     * ``bias_tau = 10`` s: the bias is the mean of every rest until 10 s of rest are in, then a running
       average over 10 s (a glove that rested 3 s knows its bias; one that warms up follows it); chosen on
       BROAD's 81-point grid before the phones.  The rest thresholds are VQF's (Laidig & Seel 2023).
-    * The magnetic settings: ``mag_dip_tol = 10°`` and ``mag_norm_tol = 0.1`` (VQF's), ``mag_tau = 0.4``
+    * The magnetic settings: ``mag_dip_tol = 10°`` and ``mag_norm_tol = 0.1`` (VQF's), ``mag_tau = 0.2``
       s, ``motion_bias_tau = 30`` s chosen leave-one-trial-out; ``mag_new_time = 20`` s is VQF's (10 s
       scored the same).  The structure's constants (the reference's 20 s, the candidate's 20°/s and 5 s,
       the flag's 0.5 s hysteresis, the 60 s rejection time and half gain after it) are VQF's.

@@ -82,7 +82,7 @@ class _TQTParams:
         mag_new_time: float = 20.0,
         mag_reject_time: float = 60.0,
         motion_bias_tau: float = 30.0,
-        mag_tau: float = 0.4,
+        mag_tau: float = 0.2,
         k_heading_unrested: float = 0.1,
         k_heading_rest: float = 0.2,
         rest_time: float = 1.5,

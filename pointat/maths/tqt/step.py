@@ -52,6 +52,7 @@ __all__ = [
     "params",
     "new_state",
     "robust_bank",
+    "robust_batch",
     "robust_step",
     "robust_update",
 ]
@@ -693,3 +694,22 @@ def robust_bank(g, a, m, dt, here, state, p, flags):  # type: ignore[no-untyped-
         if here[i]:
             flags[i] = robust_step(state[i], p, g[i, 0], g[i, 1], g[i, 2], a[i, 0], a[i, 1], a[i, 2],
                                    m[i, 0], m[i, 1], m[i, 2], dt)  # fmt: skip
+
+
+def robust_batch(g, a, m, dt, here, state, p, flags, q_out, flags_out):  # type: ignore[no-untyped-def]
+    """:func:`robust_bank` over a block of samples in one call: ``g``, ``a``, ``m`` of shape (t, n, 3),
+    ``dt`` (t,), ``here`` (t, n) bool; ``state`` and ``flags`` change in place as ``t`` calls of
+    :func:`robust_bank` would change them, and every sample's quaternions and flags go to ``q_out``
+    (t, n, 4) and ``flags_out`` (t, n).  What :meth:`~pointat.maths.tqt.TQTBank.update_batch` runs to
+    replay a recording: numba's dispatch and the copies out paid once for the block, not a sample."""
+    for t in range(g.shape[0]):
+        d = dt[t]
+        for i in range(g.shape[1]):
+            if here[t, i]:
+                flags[i] = robust_step(state[i], p, g[t, i, 0], g[t, i, 1], g[t, i, 2], a[t, i, 0],
+                                       a[t, i, 1], a[t, i, 2], m[t, i, 0], m[t, i, 1], m[t, i, 2], d)  # fmt: skip
+            flags_out[t, i] = flags[i]
+            q_out[t, i, 0] = state[i, S_QW]
+            q_out[t, i, 1] = state[i, S_QX]
+            q_out[t, i, 2] = state[i, S_QY]
+            q_out[t, i, 3] = state[i, S_QZ]
