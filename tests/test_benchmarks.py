@@ -607,3 +607,32 @@ def test_the_reload_section_is_in_the_report():
     run = Run("python -m benchmarks --only reload", False, {"CPU": "x"}, "", "now")
     run.reload = "| rate | save → running |"
     assert "## 7. Hot reload (`python -m benchmarks.reload`)\n\n| rate | save → running |" in render(run)
+
+
+def test_the_mapper_soak_finds_a_loss_at_the_socket_that_had_it():
+    """A socket left unread with a small buffer drops what does not fit: its own counter says so (by its
+    inode, among this process's sockets), and a buffer asked for that socket alone is given to it."""
+    import os
+    import socket
+
+    from benchmarks.mapper import _enlarge, socket_inodes, udp_drops
+
+    with (
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as full,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as other,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as out,
+    ):
+        full.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        full.bind(("127.0.0.1", 0))
+        other.bind(("127.0.0.1", 0))
+        inode, other_inode = os.fstat(full.fileno()).st_ino, os.fstat(other.fileno()).st_ino
+        assert {inode, other_inode} <= socket_inodes(os.getpid())
+        before = udp_drops()
+        for _ in range(200):
+            out.sendto(b"x" * 64, full.getsockname())
+        after = udp_drops()
+        assert after[inode] - before[inode] > 100
+        assert after[other_inode] == before[other_inode]
+        default = other.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF)
+        assert _enlarge({inode}, 65536) >= 65536
+        assert other.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF) == default
