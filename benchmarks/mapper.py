@@ -162,6 +162,15 @@ class Client:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
+        # What is still on its way (a busy client's backlog) is taken before the devices go: freeing a
+        # device with values waiting crashed libmapper 2.6.1's binding (a signal's callback called as
+        # its signal was freed).
+        quiet, seen = 0, -1
+        while quiet < 3:
+            for d in self.devs:
+                d.poll(20)
+            now = sum(len(b) for b in self.got.values())
+            quiet, seen = (quiet + 1, seen) if now == seen else (0, now)
         for d in self.devs:
             d.free()
         self.graph.free()
