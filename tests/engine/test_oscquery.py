@@ -266,7 +266,7 @@ def test_the_observer_and_the_server_leave_a_spinning_scheduler_polling_without_
 
 
 def test_a_dome_given_on_the_command_line_is_the_monitors_layout():
-    from pointat.cli import _layout
+    from pointat.cli.run import _layout
 
     dome = _layout("0:0,90:0,180:0,-90:0,45:45,-135:45,0:90")
     assert dome.dim == 3 and dome.n == 7
