@@ -87,9 +87,9 @@ def relay_one(
     (``time.monotonic()``; ``last_input`` again when none did).
 
     For ``poll`` seconds after the last input it asks ``select`` with no timeout, in a busy loop, instead
-    of sleeping in it (``pointat run --spin``'s policy, ``Runtime._spin``): the next datagram finds the
-    process awake.  Either way the same python-osc code relays it: ``handle_request()`` is a ``select``
-    and then ``_handle_request_noblock()``.
+    of sleeping in it (``pointat run --spin``'s policy, ``pointat.waiting.Waiter``): the next datagram
+    finds the process awake.  Either way the same python-osc code relays it: ``handle_request()`` is a
+    ``select`` and then ``_handle_request_noblock()``.
     """
     now = time.monotonic()
     if now - last_input < poll:

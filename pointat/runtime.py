@@ -30,9 +30,9 @@
 * **Spinning.**  With ``spin`` seconds (``pointat run --spin MS``) the scheduler polls its descriptors
   instead of sleeping for that long after each input: the next sample finds it awake, with its caches
   warm, and the system's wake-up no longer adds to its latency; a CPU is busy while input flows.  With
-  other Python threads in the process it waits :attr:`Runtime.SPIN_GRAIN` in select between polls, so
-  that they still get the interpreter (threads marked with :func:`quiet_thread`, such as the console's
-  writer, do not count).
+  other Python threads in the process it waits :attr:`Waiter.SPIN_GRAIN <pointat.waiting.Waiter.SPIN_GRAIN>`
+  in select between polls, so that they still get the interpreter (threads marked with
+  :func:`quiet_thread`, such as the console's writer, do not count).
 * **Live control.**  :meth:`set_param` and :meth:`send` may be called from any thread (the OSC bridge
   uses them); they are carried out on the scheduler thread.
 """
@@ -45,7 +45,6 @@ import logging
 import math
 import queue
 import re
-import socket
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -56,17 +55,16 @@ from .graphs import reached
 from .message import Message, make, method
 from .node import Node
 from .scheduling import (
-    _QUIET,
     CPU_DMA_LATENCY,
     ManualClock,
     RealClock,
     Timer,
-    _Descriptors,
     _Reader,
     keep_cpus_awake,
     quiet_thread,
     realtime_priority,
 )
+from .waiting import Waiter
 
 __all__ = [
     "CPU_DMA_LATENCY",
@@ -117,11 +115,8 @@ class Runtime:
         self._prepared = False
         self._scheduler: threading.Thread | None = None
         # Descriptors read on the scheduler thread, and a socket pair that wakes its select for posts
-        # (made when first needed, closed at shutdown).
-        self._selector: _Descriptors | None = None
-        self._wake_r: socket.socket | None = None
-        self._wake_w: socket.socket | None = None
-        self._sleeping = False
+        # (made when first needed, closed at shutdown); slept in, or spun on (:mod:`pointat.waiting`).
+        self._waiter = Waiter()
         self._passing = False  # a pass (timers due, or readers and queue) is being handled
         self._at_end: list[tuple[Node | None, Callable[[], Any]]] = []
         self._late_warned = -math.inf  # when the log last said that timers run late (time.monotonic)
@@ -131,7 +126,6 @@ class Runtime:
         self.compiled = "off"
         #: The compiled chains, once started (:class:`pointat.compiled.Chains`), or None.
         self.compiled_chains: Any = None
-        self._input_at = -math.inf  # when a pass last served input (time.monotonic)
         #: The patch's presets (:class:`pointat.presets.Presets`), when it runs from a file.
         self.presets: Any = None
         #: What reloads the patch from its file (:class:`pointat.reload.Reloader`), when it runs from one.
@@ -146,13 +140,13 @@ class Runtime:
         """Seconds after each input during which the scheduler polls for the next one instead of sleeping
         (``pointat run --spin``); 0 (the default): it sleeps as soon as there is nothing to do.  A runtime
         on a manual clock (``realtime=False``) never sleeps, and never spins."""
-        return self._spin_for
+        return self._waiter.spin_for
 
     @spin.setter
     def spin(self, seconds: float) -> None:
         if not (isinstance(seconds, (int, float)) and math.isfinite(seconds) and seconds >= 0.0):
             raise ValueError(f"spin must be a finite number of seconds >= 0, got {seconds!r}")
-        self._spin_for = float(seconds)
+        self._waiter.spin_for = float(seconds)
 
     # building ----------------------------------------------------------------------
     def add(self, node: Node) -> Node:
@@ -246,24 +240,16 @@ class Runtime:
                         self.dropped,
                     )
                 return False
-            self._wake()
+            self._waiter.wake()
             return True
         while not self.stopping.is_set():
             try:
                 self._queue.put(item, timeout=0.1)
             except queue.Full:
                 continue
-            self._wake()
+            self._waiter.wake()
             return True
         return False
-
-    def _wake(self) -> None:
-        """Wake the scheduler's select when it sleeps (a posted event is waiting)."""
-        if self._sleeping and self._wake_w is not None:
-            try:
-                self._wake_w.send(b"\0")
-            except (BlockingIOError, OSError):  # already full of wake-ups, or closed at shutdown
-                pass
 
     def add_reader(self, fileobj: Any, callback: Callable[[], Any], node: Node | None = None) -> None:
         """Call ``callback()`` on the scheduler thread whenever ``fileobj`` (a socket, a file descriptor,
@@ -271,26 +257,13 @@ class Runtime:
         a timer, a handler).  A failure in the callback is logged with ``node``'s name and the patch goes
         on; the callback must read what is there (the descriptor stays readable until it does).
         """
-        self._io().register(fileobj, _Reader(fileobj, node, callback))
+        self._waiter.descriptors().register(fileobj, _Reader(fileobj, node, callback))
 
     def remove_reader(self, fileobj: Any) -> None:
         """Stop watching ``fileobj`` (idempotent: a descriptor that is not watched is ignored)."""
-        if self._selector is None:
-            return
-        try:
-            reader = self._selector.unregister(fileobj)
-        except (KeyError, ValueError, OSError):
-            return
-        reader.watched = False
-
-    def _io(self) -> _Descriptors:
-        if self._selector is None:
-            self._selector = _Descriptors()
-            self._wake_r, self._wake_w = socket.socketpair()
-            self._wake_r.setblocking(False)
-            self._wake_w.setblocking(False)
-            self._selector.register(self._wake_r, None)
-        return self._selector
+        reader = self._waiter.unregister(fileobj)
+        if reader is not None:
+            reader.watched = False
 
     def spawn(self, node: Node, target: Callable[[], Any], what: str = "") -> threading.Thread:
         """Start a daemon thread for ``node``'s blocking I/O; exceptions are logged with the node's name."""
@@ -592,7 +565,7 @@ class Runtime:
             self._queue.put_nowait(None)
         except queue.Full:
             pass
-        self._wake()
+        self._waiter.wake()
 
     def shutdown(self) -> None:
         """Close every node (in reverse order) and join the threads. Idempotent."""
@@ -607,10 +580,7 @@ class Runtime:
             self._guard(node, node.close)
         if self.presets is not None:  # a save still waiting is written
             self._guard(None, self.presets.close)
-        if self._selector is not None:
-            self._selector.close()
-            self._wake_r.close()  # type: ignore[union-attr]
-            self._wake_w.close()  # type: ignore[union-attr]
+        self._waiter.close()
         deadline = time.monotonic() + 3.0
         for th in self._threads:
             th.join(timeout=max(0.0, deadline - time.monotonic()))
@@ -756,61 +726,16 @@ class Runtime:
         passes; then run the ready readers and every queued event.  Returns how many ran."""
         if self._closed:
             return 0
-        selector = self._io()
         waiting = self._queue.queue
-        if self._spin_for and self.realtime and timeout > 0.0 and not waiting:
-            ready = self._spin(selector, timeout, waiting)
-        else:
-            ready = self._sleep(selector, timeout, waiting)
+        ready = self._waiter.wait(timeout, waiting, self.realtime)
         self._passing = True
         try:
             n = self._serve(ready, waiting)
-            if n and self._spin_for:
-                self._input_at = time.monotonic()
+            if n:
+                self._waiter.served()
             return n
         finally:
             self._end_pass()
-
-    def _sleep(self, selector: _Descriptors, timeout: float, waiting: Any) -> list[Any]:
-        """Sleep in select until a descriptor is readable, a post comes or ``timeout`` passes."""
-        self._sleeping = True
-        try:
-            if waiting:  # checked after _sleeping is set: a post from now on wakes us
-                timeout = 0.0
-            return selector.select(timeout)
-        finally:
-            self._sleeping = False
-
-    #: While other Python threads share the process (a simulated glove's writer, a replay, MIDI input),
-    #: spinning waits this long in select between polls, so that they get the interpreter: a thread that
-    #: only polls would hold it nearly all the time.  The wait ends at once when input comes.  Threads
-    #: marked with :func:`quiet_thread` (the console's and the log's writers) do not count.
-    SPIN_GRAIN = 50e-6
-
-    def _spin_grain(self) -> float:
-        """:attr:`SPIN_GRAIN` while a thread that may want the interpreter shares the process, else 0."""
-        others = threading.active_count() - 1 - sum(1 for t in list(_QUIET) if t.is_alive())
-        return self.SPIN_GRAIN if others > 0 else 0.0
-
-    def _spin(self, selector: _Descriptors, timeout: float, waiting: Any) -> list[Any]:
-        """Poll while the last input is less than :attr:`spin` old (and ``timeout`` has not passed), then
-        sleep for the rest of ``timeout``.
-
-        A scheduler that sleeps between samples is woken by the system when the next one arrives, which
-        costs tens of microseconds (more on a virtual machine, or a CPU in a deep idle state); polling
-        keeps that wake-up out of every sample's latency, for a CPU kept busy while input flows.  A post
-        from another thread is seen at the next poll (it need not wake anyone).
-        """
-        start = now = time.monotonic()
-        end = start + timeout
-        until = min(self._input_at + self._spin_for, end)
-        grain = self._spin_grain()
-        while now < until:
-            ready = selector.select(0.0) if not grain else selector.wait(min(grain, until - now))
-            if ready or waiting:
-                return ready
-            now = time.monotonic()
-        return self._sleep(selector, max(0.0, end - now), waiting)
 
     def _serve(self, ready: list, waiting: Any) -> int:
         """One pass: the readers in ``ready``, then what is in the queue now, for :attr:`QUEUE_BUDGET`
@@ -818,11 +743,7 @@ class Runtime:
         n = 0
         for reader in ready:
             if reader is None:  # the wake-up socket
-                try:
-                    while self._wake_r.recv(4096):
-                        pass
-                except (BlockingIOError, OSError):
-                    pass
+                self._waiter.woken()
                 continue
             if not reader.watched:  # removed by a reader before it in this wake-up
                 continue

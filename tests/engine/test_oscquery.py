@@ -248,7 +248,7 @@ def test_the_observer_and_the_server_leave_a_spinning_scheduler_polling_without_
     """``--spin`` polls without pauses when no other thread wants the interpreter: the observer's thread
     and the server's (requests, OSC, zeroconf) sleep on their sockets and timers, marked quiet."""
     rt = build(check(parse_patch("node ctl osc_in port=0\nnode p print\nctl.any -> p", "x.pat"), REG))
-    assert rt._spin_grain() == 0.0
+    assert rt._waiter.spin_grain() == 0.0
     obs = Observer(rt).attach()
     server = MonitorServer(rt, obs, "127.0.0.1", 0, advertise=True)
     server.start()
@@ -259,14 +259,14 @@ def test_the_observer_and_the_server_leave_a_spinning_scheduler_polling_without_
         deadline = time.monotonic() + 5
         while server._zeroconf is None and time.monotonic() < deadline:  # advertised (or given up)
             time.sleep(0.01)
-        assert rt._spin_grain() == 0.0, [t.name for t in threading.enumerate()]
+        assert rt._waiter.spin_grain() == 0.0, [t.name for t in threading.enumerate()]
     finally:
         obs.stop()
         server.close()
 
 
 def test_a_dome_given_on_the_command_line_is_the_monitors_layout():
-    from pointat.cli import _layout
+    from pointat.cli.run import _layout
 
     dome = _layout("0:0,90:0,180:0,-90:0,45:45,-135:45,0:90")
     assert dome.dim == 3 and dome.n == 7

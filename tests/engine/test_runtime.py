@@ -12,12 +12,13 @@ import time
 
 import pytest
 
-from pointat import runtime as runtime_module
+from pointat import scheduling as scheduling_module
 from pointat.message import make, vector
 from pointat.node import Node, Outlet, Param
 from pointat.runtime import Runtime
 from pointat.terminal import LineWriter
 from pointat.testing import Collect, patch, wait_until
+from pointat.waiting import Waiter
 
 
 def test_manual_clock_runs_timers_in_order():
@@ -316,7 +317,7 @@ def test_spin_polls_after_an_input_for_its_window_then_sleeps_again():
     ``spin`` seconds; then it sleeps as before, so an idle patch does not keep a CPU busy."""
     polls = []  # the timeout of every select the scheduler makes
     with socketed_runtime(spin=0.2) as (rt, src, out, tx):
-        sel = rt._io()
+        sel = rt._waiter.descriptors()
         real_select, real_wait = sel.select, sel.wait
 
         def select(timeout):
@@ -370,14 +371,14 @@ def test_a_quiet_thread_leaves_a_spinning_scheduler_polling_without_pauses(monke
     plain = threading.Thread(target=stop.wait, daemon=True)
     plain.start()
     try:
-        assert writer._thread in runtime_module._QUIET and plain not in runtime_module._QUIET
+        assert writer._thread in scheduling_module._QUIET and plain not in scheduling_module._QUIET
         monkeypatch.setattr(threading, "active_count", lambda: 2)  # the scheduler and one other
-        assert rt._spin_grain() == 0.0  # one quiet thread alive: it is the other
+        assert rt._waiter.spin_grain() == 0.0  # one quiet thread alive: it is the other
         monkeypatch.setattr(threading, "active_count", lambda: 3)  # and one that is not quiet
-        assert rt._spin_grain() == Runtime.SPIN_GRAIN
+        assert rt._waiter.spin_grain() == Waiter.SPIN_GRAIN
         writer.close()
         monkeypatch.setattr(threading, "active_count", lambda: 2)  # the writer has ended: the other is not it
-        assert rt._spin_grain() == Runtime.SPIN_GRAIN
+        assert rt._waiter.spin_grain() == Waiter.SPIN_GRAIN
     finally:
         writer.close()
         stop.set()
@@ -441,11 +442,11 @@ def test_a_reader_removed_by_another_in_the_same_wake_up_is_not_called(epoll, mo
     import functools
     import select
 
-    from pointat import runtime
+    from pointat import waiting
 
     if epoll and not hasattr(select, "epoll"):
         pytest.skip("no epoll on this system")
-    monkeypatch.setattr(runtime, "_Descriptors", functools.partial(runtime._Descriptors, epoll=epoll))
+    monkeypatch.setattr(waiting, "_Descriptors", functools.partial(waiting._Descriptors, epoll=epoll))
     rt = Runtime()
     a, b = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(2))
     calls = []
@@ -480,7 +481,7 @@ def test_descriptors_watched_by_number_or_object_and_forgotten_once_closed(epoll
     import os
     import select
 
-    from pointat.runtime import _Descriptors
+    from pointat.scheduling import _Descriptors
 
     if epoll and not hasattr(select, "epoll"):
         pytest.skip("no epoll on this system")
@@ -536,7 +537,7 @@ def test_a_sleep_asks_epoll_for_no_more_than_its_timeout_and_the_rest_in_select(
     a select, which counts microseconds."""
     import select
 
-    from pointat.runtime import _Descriptors
+    from pointat.scheduling import _Descriptors
 
     watch = _Descriptors(epoll=True)
     watch._epoll = spy = _RecordingEpoll(watch._epoll)
@@ -569,7 +570,7 @@ class _BlindEpoll(_RecordingEpoll):
 @pytest.mark.skipif(not hasattr(__import__("select"), "epoll"), reason="no epoll on this system")
 @pytest.mark.parametrize("blind", [False, True], ids=["in epoll's whole ms", "in the select after them"])
 def test_input_ends_a_sleep_in_either_part(blind):
-    from pointat.runtime import _Descriptors
+    from pointat.scheduling import _Descriptors
 
     watch = _Descriptors(epoll=True)
     if blind:
@@ -596,7 +597,7 @@ def test_a_process_with_more_than_1024_files_open_sleeps_to_the_millisecond_and_
     import os
     import resource
 
-    from pointat.runtime import _Descriptors
+    from pointat.scheduling import _Descriptors
 
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     if hard != resource.RLIM_INFINITY and hard < 1200:
