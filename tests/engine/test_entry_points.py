@@ -6,13 +6,13 @@ that exists and defines some."""
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
 import importlib.util
 import inspect
 from pathlib import Path
 from types import ModuleType
 
 import pytest
-import tomllib
 
 from pointat.node import Node
 
@@ -22,9 +22,11 @@ FOLDERS = {"pointat.nodes": "nodes", "pointat.osc_bridge": "osc_bridge", "pointa
 
 
 def declared() -> dict[str, str]:
-    """pyproject's ``[project.entry-points."pointat.nodes"]``: entry-point name -> module."""
-    with open(ROOT / "pyproject.toml", "rb") as fh:
-        return tomllib.load(fh)["project"]["entry-points"]["pointat.nodes"]
+    """pyproject's ``[project.entry-points."pointat.nodes"]`` as the installed pointat has them (what the
+    registry reads; pip install writes them from pyproject): entry-point name -> module.  (Read from the
+    metadata rather than pyproject.toml: tomllib is 3.11's, and pointat runs on 3.10.)"""
+    entry_points = importlib.metadata.distribution("pointat").entry_points
+    return {ep.name: ep.value for ep in entry_points if ep.group == "pointat.nodes"}
 
 
 def node_types(module: ModuleType) -> list[str]:
