@@ -216,6 +216,7 @@ class Device:
         self.signals: dict[str, Any] = {}
         self._callbacks: list[Callable[..., None]] = []  # kept alive while libmapper holds them
         self._pending: set[int] = set()  # the signals given a value since the last flush (their ids)
+        self._closing = False
 
     @property
     def ready(self) -> bool:
@@ -250,7 +251,7 @@ class Device:
 
             def callback(_sig: Any, _event: Any, _instance: int, value: Any, _time: Any) -> None:
                 try:  # (an exception would end in ctypes, printed and lost)
-                    if value is not None:
+                    if value is not None and not self._closing:
                         on_value(value)
                 except Exception:
                     log.exception("libmapper signal '%s': a value could not be taken", spec.name)
@@ -304,9 +305,18 @@ class Device:
                 return sig
         return None
 
+    #: Polls at most, when the device closes, to take what is still on its way (dropped).
+    DRAIN = 100
+
     def close(self) -> None:
-        """Leave the bus (idempotent)."""
+        """Leave the bus (idempotent).  What is still on its way is taken first and dropped: freeing a
+        device with values waiting crashed libmapper 2.6.1's binding (a signal's callback called as its
+        signal was freed; found by the benchmark's soak, benchmarks/mapper.py)."""
         if self.dev is not None:
+            self._closing = True
+            for _ in range(self.DRAIN):
+                if self.dev.poll(0) <= 0:
+                    break
             self.dev.free()
             self.dev = None
         if self.graph is not None:
