@@ -319,6 +319,22 @@ def test_frames_straight_from_the_reader_give_the_same_datagrams(both_ways):
         assert mine == theirs, address
 
 
+def _programs_cache_dir(env: dict[str, str], cwd: Path) -> Path:
+    """The compiled chain's cache folder as the pointat the program runs has it: an installed wheel's in CI,
+    not this checkout's (the folder's key holds where the sources are, so the two never share one)."""
+    code = "from pointat.compiled import build; print(build.cache_dir())"
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=cwd,
+        timeout=120,
+        check=True,
+    )
+    return Path(out.stdout.strip())
+
+
 @pytest.mark.slow
 def test_the_first_run_compiles_in_the_background_and_the_next_starts_compiled(tmp_path, monkeypatch):
     """A performer's first ``pointat run`` after installing: node by node at once (no waiting for a
@@ -326,7 +342,7 @@ def test_the_first_run_compiles_in_the_background_and_the_next_starts_compiled(t
     from the cache (what start-up then costs is in the benchmarks)."""
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
     monkeypatch.setenv("XDG_CACHE_HOME", env["XDG_CACHE_HOME"])
-    chain = build.cache_dir()  # (the chain's folder: the tqt filter's step has a folder of its own)
+    chain = _programs_cache_dir(env, tmp_path)  # (the chain's: the tqt filter's step has a folder of its own)
     cmd = [sys.executable, "-m", "pointat.cli", "run", "glove_tqt", *beside(GLOVE_PATCH), "--for", "1"]
     first = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=60)
     assert first.returncode == 0, first.stderr
@@ -366,7 +382,7 @@ def test_a_run_from_a_checkouts_folder_compiles_for_the_pointat_it_runs(tmp_path
     assert first.returncode == 0, first.stderr
     assert "compiling the glove chain for the next runs" in first.stdout
     monkeypatch.setenv("XDG_CACHE_HOME", env["XDG_CACHE_HOME"])
-    mine = build.cache_dir()  # (this test's pointat is the program's; the tqt filter's folder is another)
+    mine = _programs_cache_dir(env, tmp_path)  # (the program's pointat's; the tqt filter's folder is another)
     assert wait_until(lambda: (mine / "ready").exists(), 120.0, poll=0.2), sorted(mine.parent.iterdir())
     assert wait_until(lambda: not (mine / "compiling").exists(), 10.0)
     chains = [p for p in mine.parent.iterdir() if list(p.glob("*/kernel.*")) or list(p.glob("compiling"))]
