@@ -128,7 +128,10 @@ def fetch_tree(service: Service, timeout: float = 3.0) -> dict[str, Any]:
     except (TimeoutError, urllib.error.URLError) as exc:
         reason = getattr(exc, "reason", exc)
         raise OSError(f"{service.url('/')}: {reason}") from None
-    tree = json.loads(data)
+    try:
+        tree = json.loads(data)
+    except RecursionError:  # (nested deeper than the parser's stack: not a tree anyone serves)
+        raise ValueError(f"{service.url('/')}: JSON nested too deep") from None
     if not isinstance(tree, dict):
         raise ValueError(f"{service.url('/')}: not an OSCQuery tree (a JSON {type(tree).__name__})")
     return tree
@@ -142,23 +145,20 @@ def tree_lines(tree: dict[str, Any]) -> list[str]:
     ['/a f = 0.5  (rw)', '/b N  (w)']
     """
     lines = []
-
-    def walk(node: dict[str, Any]) -> None:
+    todo = [tree]  # (a stack, not recursion: a remote's tree may be nested deeper than Python's stack)
+    while todo:
+        node = todo.pop()
         contents = node.get("CONTENTS")
         if isinstance(contents, dict) and contents:
-            for key in sorted(contents):
-                child = contents[key]
-                if isinstance(child, dict):
-                    walk(child)
-            return
+            todo += [contents[k] for k in sorted(contents, reverse=True) if isinstance(contents[k], dict)]
+            continue
         if "FULL_PATH" not in node or contents is not None:
-            return
+            continue
         text = f"{node['FULL_PATH']} {node.get('TYPE', '')}".rstrip()
         value = node.get("VALUE")
         if isinstance(value, list) and value:
             text += " = " + " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value)
-        access = {1: "r", 2: "w", 3: "rw"}.get(node.get("ACCESS", 0), "")
+        access = node.get("ACCESS")
+        access = {1: "r", 2: "w", 3: "rw"}.get(access, "") if isinstance(access, int) else ""
         lines.append(text + (f"  ({access})" if access else ""))
-
-    walk(tree)
     return lines

@@ -77,3 +77,35 @@ def test_a_tree_that_cannot_be_read_says_why():
         port = s.getsockname()[1]
     with pytest.raises(OSError, match=f"http://127.0.0.1:{port}/: .*refused"):
         fetch_tree(Service("x", ["127.0.0.1"], port), timeout=2)
+
+
+# -- a remote's OSCQuery tree is outside bytes: any JSON at all is printed or refused, never a crash
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+    lambda inner: (
+        st.lists(inner, max_size=4)
+        | st.dictionaries(
+            st.sampled_from(["CONTENTS", "FULL_PATH", "TYPE", "VALUE", "ACCESS", "x"]) | st.text(max_size=4),
+            inner,
+            max_size=5,
+        )
+    ),
+    max_leaves=30,
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(_JSON)
+def test_any_json_tree_gives_lines_of_text(tree):
+    lines = tree_lines(tree) if isinstance(tree, dict) else []
+    assert all(isinstance(line, str) for line in lines)
+
+
+def test_a_tree_nested_deeper_than_the_stack_gives_lines():
+    tree: dict = {"FULL_PATH": "/deep", "TYPE": "f"}
+    for k in range(100_000):
+        tree = {"CONTENTS": {str(k): tree}}
+    assert tree_lines(tree) == ["/deep f"]
