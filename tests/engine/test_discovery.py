@@ -109,3 +109,12 @@ def test_a_tree_nested_deeper_than_the_stack_gives_lines():
     for k in range(100_000):
         tree = {"CONTENTS": {str(k): tree}}
     assert tree_lines(tree) == ["/deep f"]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(max_size=80))
+def test_any_advertised_name_gives_a_patch_name_within_it(name):
+    from pointat.discovery import patch_name
+
+    got = patch_name(name)
+    assert isinstance(got, str) and got in name
