@@ -780,23 +780,8 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
         errors.append(f"ahrs not installed ({exc}): pip install ahrs")
 
     try:
-        import imufusion
-
-        gd = np.ascontiguousarray(np.degrees(g))
-        ag = np.ascontiguousarray(a / 9.80665)
-
-        def fusion() -> None:
-            s = imufusion.AhrsSettings()
-            s.sample_rate = BROAD_RATE
-            f = imufusion.Ahrs()
-            f.set_settings(s)
-            upd, get = f.update, f.get_quaternion
-            for i in range(n):
-                upd(gd[i], ag[i], m[i])
-                get()
-
-        us = _rounds(fusion, n, rounds)
-        library = f"imufusion {_version('imufusion')}"
+        us = _rounds(imufusion_loop(g, a, m, n), n, rounds)
+        library = f"imufusion {package_version('imufusion')}"
         out.append(FilterCost("Ahrs (update + get_quaternion)", library, us, "C, numpy rows in"))
     except ImportError as exc:
         errors.append(f"imufusion not installed ({exc}): pip install imufusion")
@@ -804,7 +789,7 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     try:
         import vqf
 
-        library = f"vqf {_version('vqf')}"
+        library = f"vqf {package_version('vqf')}"
         # the full filter and the basic one (no bias estimation, no magnetic disturbance rejection), each
         # called once a sample as a live patch would, and once for the whole trial (updateBatch: the loop
         # in C++, the same trade as TQTBank's one call for 15 sensors)
@@ -830,13 +815,36 @@ def filter_costs(sample: dict[str, np.ndarray], n: int, rounds: int) -> tuple[li
     return out, errors
 
 
-def _version(dist: str) -> str:
+def package_version(dist: str) -> str:
+    """An installed distribution's version, ``?`` when it is not installed."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
         return version(dist)
     except PackageNotFoundError:
         return "?"
+
+
+def imufusion_loop(g: np.ndarray, a: np.ndarray, m: np.ndarray, n: int) -> Callable[[], None]:
+    """imufusion's Ahrs over the first ``n`` samples of a trial (gyro rad/s, accelerometer m/s², as BROAD
+    gives them), one update and one read a sample, as a live patch would call it.  (ImportError without
+    imufusion.)"""
+    import imufusion
+
+    gd = np.ascontiguousarray(np.degrees(g))
+    ag = np.ascontiguousarray(a / 9.80665)
+
+    def fusion() -> None:
+        s = imufusion.AhrsSettings()
+        s.sample_rate = BROAD_RATE
+        f = imufusion.Ahrs()
+        f.set_settings(s)
+        upd, get = f.update, f.get_quaternion
+        for i in range(n):
+            upd(gd[i], ag[i], m[i])
+            get()
+
+    return fusion
 
 
 # --------------------------------------------------------------------------------------- all

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.throughput import imufusion_loop, package_version
 from pointat.maths.evaluation import BROAD_RATE, BROAD_SAMPLE, load_broad
 from pointat.maths.tqt import TQTBank, TQTFilter
 from pointat.maths.tqt import compiled as tqt_compiled
@@ -37,7 +38,6 @@ START, SAMPLES = 20000, 5000  # the vendored trial's fastest stretch (motion thr
 
 def contestants(d: dict[str, np.ndarray]) -> list[tuple[str, str, Callable[[], None], int]]:
     """(group, name, one round, items a round): the round's time over its items is the figure."""
-    import imufusion
     import vqf
 
     g, a, m = (np.ascontiguousarray(d[k][START : START + SAMPLES]) for k in ("gyr", "acc", "mag"))
@@ -53,17 +53,7 @@ def contestants(d: dict[str, np.ndarray]) -> list[tuple[str, str, Callable[[], N
 
         return run
 
-    gd, ag = np.ascontiguousarray(np.degrees(g)), np.ascontiguousarray(a / 9.80665)
-
-    def fusion() -> None:
-        s = imufusion.AhrsSettings()
-        s.sample_rate = BROAD_RATE
-        f = imufusion.Ahrs()
-        f.set_settings(s)
-        upd, get = f.update, f.get_quaternion
-        for i in range(n):
-            upd(gd[i], ag[i], m[i])
-            get()
+    fusion = imufusion_loop(g, a, m, n)
 
     def vqf_loop() -> None:
         f = vqf.VQF(dt)
@@ -76,8 +66,8 @@ def contestants(d: dict[str, np.ndarray]) -> list[tuple[str, str, Callable[[], N
     out += [
         (one, "TQTFilter robust (compiled step)", filt("numba"), n),
         (one, "TQTFilter robust (the step in Python)", filt("python"), n),
-        (one, f"imufusion {_version('imufusion')} Ahrs update + get_quaternion", fusion, n),
-        (one, f"vqf {_version('vqf')} VQF update + getQuat9D", vqf_loop, n),
+        (one, f"imufusion {package_version('imufusion')} Ahrs update + get_quaternion", fusion, n),
+        (one, f"vqf {package_version('vqf')} VQF update + getQuat9D", vqf_loop, n),
     ]
     G, A, M = (np.ascontiguousarray(np.repeat(x[:, None, :], SENSORS, 1)) for x in (g, a, m))
 
@@ -143,15 +133,6 @@ def table(results: list[tuple[str, str, list[float]]]) -> str:
         peer = next(v for k, v in med.items() if goals[group] in k and "TQT" not in k)
         lines.append(f"| {group} | {name} | {med[name]:.3f} | {q1:.3f}–{q3:.3f} | {med[name] / peer:.2f} |")
     return "\n".join(lines)
-
-
-def _version(dist: str) -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version(dist)
-    except PackageNotFoundError:
-        return "?"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
