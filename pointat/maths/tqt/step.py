@@ -29,8 +29,8 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
   swings with impacts.  Only once the gyro alone has turned the estimate by :data:`TURN_BUDGET` does a
   chunk join all the same: a long spell of fast turning would cost more in gyro drift than a clipped
   chunk costs in bias; and a spell longer than :data:`_SPELL_MAX` is the motion's own (running), not
-  strokes.  The average is at most two chunks late (0.2 s, beside its time constant), or a run at the rail
-  and a sample (at most :data:`_RUN_MAX`: the chunk waits for the run's guess).
+  strokes.  The average is at most two chunks late (0.2 s, beside its time constant), and later while runs
+  at the rail follow one another (each at most :data:`_RUN_MAX`: the chunk waits for their guesses).
 * **The magnetic reference is learned over time** (:func:`_magnetic_gate`): it starts from the first
   sample, follows the accepted field, and is replaced by a candidate field that has held its norm and
   dip while the sensor turned, so that a start in motion or a place whose dip differs from the first
