@@ -72,8 +72,10 @@ class TQTFilter(_TQTParams):
     4. *Magnetic gating, with a reference learned over time* (after VQF, Laidig & Seel 2023 §IV-C).  The
        field's norm and dip seen through the estimate, low-passed over ``mag_tau`` seconds, are compared
        with a reference; while either is off by more than ``mag_norm_tol`` (relative) or ``mag_dip_tol`` the field
-       is taken for disturbed (``MAG_DISTURBED``), the heading correction stops, and it is taken back
-       only after half a second within the gate (the flag's hysteresis).  The reference starts from the
+       is taken for disturbed, the heading correction stops, and it is taken back only after half a
+       second within the gate.  The flag ``MAG_DISTURBED`` has its own, wider hysteresis (raised beyond
+       1.25 times the tolerances, lowered after 2 s within 0.85 times them): each change is a message to
+       the receiver, and the flag changes nothing in the estimate.  The reference starts from the
        first sample (its dip from the angle between the measured vectors) and follows the accepted field
        over 20 s.  Beside it a *candidate* follows the field as it is lately; a candidate that keeps its
        norm and dip while the sensor turns (above 20°/s: a field that holds while the sensor turns is
@@ -293,6 +295,13 @@ class TQTFilter(_TQTParams):
     def bias_seconds(self) -> float:
         """Seconds of rest the bias estimate has taken in so far (robust mode)."""
         return float(self._s[step.S_BIAS_T])
+
+    @property
+    def magnetometer_ignored(self) -> bool:
+        """Robust mode: whether the gate refuses the field this sample (the heading correction stopped, or
+        at half gain once ``mag_reject_time`` is used up).  ``MAG_DISTURBED`` reports the same judgement
+        with a wider hysteresis of its own, for the receiver; this is what the estimate runs on."""
+        return bool(self._s[step.S_MAG_DIST] != 0.0)
 
     @property
     def magnetic_dip(self) -> float | None:

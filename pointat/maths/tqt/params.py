@@ -37,9 +37,10 @@ class TQTFlags(IntFlag):
     DT_INVALID = step.F_DT_INVALID
     #: no valid accelerometer + magnetometer pair seen yet: the output is the identity
     UNINITIALISED = step.F_UNINITIALISED
-    #: robust mode: the field's norm or dip is off its reference: the magnetometer is ignored (after
+    #: robust mode: the field's norm or dip is off its reference, the magnetometer ignored (after
     #: ``mag_reject_time`` seconds of it, used at half gain); raised when the field (low-passed over ``mag_tau``)
-    #: leaves the gate, lowered after half a second within it
+    #: is off by 1.25 times the gate's tolerances, lowered after 2 s within 0.85 times them (the gate that
+    #: decides whether the magnetometer is used has its own half second: the flag only reports)
     MAG_DISTURBED = step.F_MAG_DISTURBED
     #: robust mode: the sensor is at rest, the gyro bias is being learned
     REST = step.F_REST

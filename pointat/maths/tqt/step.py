@@ -34,9 +34,12 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
 * **The magnetic reference is learned over time** (:func:`_magnetic_gate`): it starts from the first
   sample, follows the accepted field, and is replaced by a candidate field that has held its norm and
   dip while the sensor turned, so that a start in motion or a place whose dip differs from the first
-  sample's does not refuse the magnetometer for good (the heading drifting unseen).  The disturbance flag
-  has hysteresis: up at once when the low-passed field leaves the gate, down after :data:`_MAG_CALM`
-  seconds within it.
+  sample's does not refuse the magnetometer for good (the heading drifting unseen).  The gate has
+  hysteresis (the magnetometer ignored at once when the low-passed field leaves it, taken back after
+  :data:`_MAG_CALM` seconds within it), and the disturbance flag the receiver is told has its own, wider
+  (:func:`_report_flag`: raised beyond a quarter more than the gate's tolerances, lowered after
+  :data:`_FLAG_CALM` seconds within less than them), so that a field wobbling about the gate's edge is
+  one message, not one a wobble; the flag changes nothing in the estimate.
 * **A saturated gyro** is flagged, nothing more.  Leaning on gravity and the field after it (the average
   started anew, faster corrections) fixed the simulated rolls but made every real recording with a
   clipped gyro worse (BROAD with the gyro clipped at 300 and 500 °/s; ``benchmarks/README.md``).
@@ -95,8 +98,17 @@ _SHAKE_TAU = 0.25
 _GNORM_TAU = 5.0
 # time constant (s) of the magnetic reference and of the candidate: learned while the field is accepted
 _MAG_REF_TAU = 20.0
-# seconds the field must stay within the gate before a disturbance is over (the flag's hysteresis)
+# seconds the field must stay within the gate before a disturbance is over (the gate's hysteresis)
 _MAG_CALM = 0.5
+# the reported flag (F_MAG_DISTURBED, a status message to the receiver at each change) has hysteresis of
+# its own, apart from the gate that decides whether the magnetometer is used (the estimate does not see
+# it): raised when the low-passed field is off the reference by _FLAG_RAISE times the gate's tolerances,
+# lowered after _FLAG_CALM seconds in a row within _FLAG_LOWER times them.  Chosen leave-one-trial-out
+# over BROAD and the Tyrex phones (benchmarks/MAGFLAGS.md): a phone swung or run with wobbles about the
+# gate's edge, and the gate's own half second let each wobble through as a raising
+_FLAG_RAISE = 1.25
+_FLAG_LOWER = 0.85
+_FLAG_CALM = 2.0
 # a candidate field is timed only while the sensor turns at least this fast (rad/s, the gyro's 0.5 s
 # low-pass): a field that keeps its norm and dip while the sensor turns is the earth's, not a magnet's
 _MAG_NEW_GYRO = math.radians(20.0)
@@ -189,7 +201,9 @@ S_ACC_FOUND = 54  # the full scale found from the data (0: none; used when none 
 S_STROKE_T = 55  # seconds since a run at the rail ended that could not be declipped (a stroke's)
 S_CLIP = 56  # 3 x _CLIP_SLOTS: each accelerometer axis's run at the rail (see _clip_axis)
 _CLIP_SLOTS = 9
-STATE_SIZE = S_CLIP + 3 * _CLIP_SLOTS
+S_MAG_FLAG = S_CLIP + 3 * _CLIP_SLOTS  # 1.0: the reported flag (F_MAG_DISTURBED) is up
+S_MAG_FLAG_T = S_MAG_FLAG + 1  # seconds in a row the field has been within its lowering band
+STATE_SIZE = S_MAG_FLAG_T + 1
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -614,16 +628,19 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
 def _magnetic_gate(s, p, norm, dip, dt, dip_gate):  # type: ignore[no-untyped-def]
     """Judge the field (its norm and dip through the estimate, low-passed) against the reference, learn the
     reference while it is accepted, and replace it by a candidate that has held steady while the sensor
-    turned (VQF's rejection, Laidig & Seel 2023 §IV-C).  Returns whether the field is taken for
-    disturbed: at once when the low-passed field leaves the gate, over only after :data:`_MAG_CALM`
-    seconds within it."""
+    turned (VQF's rejection, Laidig & Seel 2023 §IV-C).  The field is taken for disturbed (``S_MAG_DIST``:
+    the heading correction stops) at once when the low-passed field leaves the gate, and over only after
+    :data:`_MAG_CALM` seconds within it.  Returns the reported flag (:func:`_report_flag`), which has
+    hysteresis of its own and changes nothing else."""
     c = p[P_C_MAGLP]
     ln = s[S_MAG_LPN] + c * (norm - s[S_MAG_LPN])
     ld = s[S_MAG_LPD] + c * (dip - s[S_MAG_LPD])
     s[S_MAG_LPN], s[S_MAG_LPD] = ln, ld
     tol_n, tol_d = p[P_MAG_NORM_TOL], p[P_MAG_DIP_TOL]
     ref = s[S_MAG_NORM]
-    if abs(ln - ref) > tol_n * ref or (dip_gate and abs(ld - s[S_DIP]) > tol_d):
+    off_n, off_d = abs(ln - ref), abs(ld - s[S_DIP]) if dip_gate else 0.0
+    _report_flag(s, off_n, tol_n * ref, off_d, tol_d, dt)
+    if off_n > tol_n * ref or off_d > tol_d:
         s[S_MAG_DIST], s[S_MAG_CALM_T] = 1.0, 0.0
     else:
         s[S_MAG_CALM_T] += dt
@@ -648,7 +665,24 @@ def _magnetic_gate(s, p, norm, dip, dt, dip_gate):  # type: ignore[no-untyped-de
             s[S_MAG_DIST], s[S_MAG_CALM_T] = 0.0, _MAG_CALM
     else:
         s[S_CAND_N], s[S_CAND_D], s[S_CAND_T] = ln, ld, 0.0
-    return s[S_MAG_DIST] != 0.0
+    return s[S_MAG_FLAG] != 0.0
+
+
+def _report_flag(s, off_n, tol_n, off_d, tol_d, dt):  # type: ignore[no-untyped-def]
+    """The flag the receiver is told (``F_MAG_DISTURBED``), from the low-passed field's distance to the
+    reference (``off_n`` in the field's unit against the norm tolerance ``tol_n``, ``off_d`` radians of dip
+    against ``tol_d``): raised when either is beyond :data:`_FLAG_RAISE` times its tolerance, lowered once
+    both have been within :data:`_FLAG_LOWER` times theirs for :data:`_FLAG_CALM` seconds in a row.  A
+    field that wobbles about the gate's edge (a phone swung, a runner's) raises it once, not at every
+    wobble; the gate itself (``S_MAG_DIST``) is left as it is, and so is the estimate."""
+    if off_n <= _FLAG_LOWER * tol_n and off_d <= _FLAG_LOWER * tol_d:
+        s[S_MAG_FLAG_T] += dt
+    else:
+        s[S_MAG_FLAG_T] = 0.0
+    if off_n > _FLAG_RAISE * tol_n or off_d > _FLAG_RAISE * tol_d:
+        s[S_MAG_FLAG] = 1.0
+    elif s[S_MAG_FLAG_T] >= _FLAG_CALM:
+        s[S_MAG_FLAG] = 0.0
 
 
 def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-untyped-def]
