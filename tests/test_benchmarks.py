@@ -377,7 +377,10 @@ def test_the_flag_statistics_count_raisings_and_what_the_truth_calls_disturbed()
 
     flag = np.array([True, False, False, True, True, False])
     truth = np.array([False, False, False, True, False, True])
-    assert flag_stats(flag, truth, 10.0) == (2, 2.0, 50.0, 50.0)
+    # two of the four undisturbed samples flagged all the same: 50 % wrong
+    assert flag_stats(flag, truth, 10.0) == (2, 2.0, 50.0, 50.0, 50.0)
+    assert flag_stats(flag, ~truth, 10.0)[3:] == (50.0, 50.0)
+    assert np.isnan(flag_stats(flag, np.zeros(6, bool), 10.0)[3])  # nothing truly disturbed: nothing to catch
     assert trial_set("Guillaume_iPhone5_Dist_AR.csv.gz") == "tyrex"
     assert trial_set("32_disturbed_attached_magnet_1cm.csv.gz") == "broad"
 
