@@ -46,7 +46,10 @@ class TQT(SampleClock, Flagged, Node):
     (``scaling``'s knows the glove's ADC; ``replay``'s and ``osc_in``'s send the ``acc_range`` and
     ``gyro_range`` you give them from the sensor's data sheet), or set ``acc_range`` and ``gyro_range``.
     ``flags`` says ``acc_saturated``, ``gyro_saturated`` and ``shaking`` while they last (and
-    ``mag_disturbed``, ``bad_gyro``..., or ``ok``).
+    ``mag_disturbed``, ``bad_gyro``..., or ``ok``).  ``mag_disturbed`` has a hysteresis of its own, for
+    the receiver: up when the field is off by a quarter more than the tolerances that make the filter
+    ignore it, down two seconds after it is back within less than them, so that a hand swinging or
+    running about the edge is one message, not one a swing.
 
     ``use_gyro=false`` tracks from accel/mag alone, heading and tilt at gain ``k`` (robust default 50:
     within 20 ms of the measurement).  Send the gyro last (the left inlet is hot): mote and scaling
