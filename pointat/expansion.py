@@ -91,6 +91,11 @@ def expand(spec: PatchSpec, _stack: tuple[str, ...] = (), _prefix: str = "") -> 
     return out
 
 
+#: (instance, port name) -> [(node, port)] for inlets; -> (node, port) for outlets
+_InletMap = dict[tuple[str, str | int], list[tuple[str, str | int]]]
+_OutletMap = dict[tuple[str, str | int], tuple[str, str | int]]
+
+
 def _expand(
     spec: PatchSpec, problems: list[Problem], _stack: tuple[str, ...] = (), _prefix: str = ""
 ) -> PatchSpec:
@@ -102,9 +107,8 @@ def _expand(
         _stack = (os.path.realpath(spec.path),)  # (Path.resolve raises on a loop of links before 3.13)
     out = PatchSpec(path=spec.path, args=dict(spec.args))
     out.doc = spec.doc
-    # (instance, port name) -> [(node, port)] for inlets; -> (node, port) for outlets
-    inlet_map: dict[tuple[str, str | int], list[tuple[str, str | int]]] = {}
-    outlet_map: dict[tuple[str, str | int], tuple[str, str | int]] = {}
+    inlet_map: _InletMap = {}
+    outlet_map: _OutletMap = {}
     failed: set[str] = set()
     for decl in spec.nodes:
         if not is_abstraction(decl.type):
@@ -128,11 +132,26 @@ def _expand(
             for key in (port.name, names.index(port.name)):
                 outlet_map[(decl.name, key)] = (port.node, port.port)
     instances = {d.name for d in spec.nodes if is_abstraction(d.type)}
-    # this patch's own inlets and outlets may lead into an abstraction it holds: through to its nodes
-    out.inlets, out.outlets = [], []
+    out.inlets, out.outlets = _through_ports(spec, instances, failed, inlet_map, outlet_map, problems)
+    out.wires += _through_wires(spec, instances, failed, inlet_map, outlet_map, problems)
+    out.failed = failed  # type: ignore[attr-defined]  # (check: their wires are not "no such node")
+    return out
+
+
+def _through_ports(
+    spec: PatchSpec,
+    instances: set[str],
+    failed: set[str],
+    inlet_map: _InletMap,
+    outlet_map: _OutletMap,
+    problems: list[Problem],
+) -> tuple[list[PortDecl], list[PortDecl]]:
+    """This patch's own inlets and outlets: those that lead into an abstraction it holds, through to its
+    nodes."""
+    inlets, outlets = [], []
     for port in spec.inlets:
         if port.node not in instances:
-            out.inlets.append(port)
+            inlets.append(port)
         elif port.node not in failed:
             inner = inlet_map.get((port.node, port.port))
             if inner is None:
@@ -140,10 +159,10 @@ def _expand(
                     Problem(port.where, f"abstraction instance '{port.node}' has no inlet {port.port!r}")
                 )
                 continue
-            out.inlets += [PortDecl(port.name, n, i, port.where) for n, i in inner]
+            inlets += [PortDecl(port.name, n, i, port.where) for n, i in inner]
     for port in spec.outlets:
         if port.node not in instances:
-            out.outlets.append(port)
+            outlets.append(port)
         elif port.node not in failed:
             if (port.node, port.port) not in outlet_map:
                 problems.append(
@@ -151,7 +170,21 @@ def _expand(
                 )
                 continue
             n, o = outlet_map[(port.node, port.port)]
-            out.outlets.append(PortDecl(port.name, n, o, port.where))
+            outlets.append(PortDecl(port.name, n, o, port.where))
+    return inlets, outlets
+
+
+def _through_wires(
+    spec: PatchSpec,
+    instances: set[str],
+    failed: set[str],
+    inlet_map: _InletMap,
+    outlet_map: _OutletMap,
+    problems: list[Problem],
+) -> list[Wire]:
+    """This patch's wires, those to or from an abstraction it holds led to and from its nodes (none of
+    an instance that failed: its problem is said once)."""
+    wires = []
     for w in spec.wires:
         if w.src in failed or w.dst in failed:
             continue
@@ -171,9 +204,8 @@ def _expand(
             dsts = inlet_map[(w.dst, w.inlet)]
         for s, o in srcs:
             for d, i in dsts:
-                out.wires.append(Wire(s, o, d, i, w.where))
-    out.failed = failed  # type: ignore[attr-defined]  # (check: their wires are not "no such node")
-    return out
+                wires.append(Wire(s, o, d, i, w.where))
+    return wires
 
 
 def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:

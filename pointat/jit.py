@@ -14,7 +14,9 @@ goes to the user's cache folder instead, ``$XDG_CACHE_HOME/pointat/numba-KEY`` (
 ``KEY`` a hash of the sources compiled together, where they are, and numba's and Python's versions:
 numba's own check looks at the file of the function it loads, not at the files of the functions it
 calls, so a change to any of them must mean another folder (an installed copy and a checkout never
-share one either).
+share one either).  Every version leaves a folder behind, so the folders of versions no run has used for
+:data:`KEEP_DAYS` days are removed as another is opened (:func:`prune`; a folder's ``used`` file says
+when it was last opened).
 
 Compiling is lazy, as numba's is: a function is compiled (or loaded from the cache) at its first call.
 ``options`` are numba's own for every function of the set (``{"_nrt": False}``: no reference counting,
@@ -30,14 +32,19 @@ from __future__ import annotations
 import hashlib
 import inspect
 import os
+import shutil
 import sys
 import threading
+import time
 import types
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["cache_dir", "cache_root", "compile_module"]
+__all__ = ["KEEP_DAYS", "cache_dir", "cache_root", "compile_module", "prune"]
+
+#: A cache folder no run has opened for this many days is removed (:func:`prune`).
+KEEP_DAYS = 30
 
 
 def cache_root() -> Path:
@@ -62,6 +69,26 @@ def cache_dir(
     if options:
         h.update(repr(sorted(options.items())).encode())
     return cache_root() / f"numba-{h.hexdigest()[:16]}"
+
+
+def prune(root: Path, keep: Path, now: float | None = None) -> list[Path]:
+    """Remove the ``numba-*`` folders of ``root`` but ``keep`` that no run has opened for
+    :data:`KEEP_DAYS` days (their ``used`` file's time, else the folder's); returns those removed.  A
+    folder that cannot be removed is left as it is: the cache is never worth an error."""
+    limit = (time.time() if now is None else now) - KEEP_DAYS * 86400.0
+    gone = []
+    for folder in root.glob("numba-*"):
+        if folder == keep or not folder.is_dir():
+            continue
+        stamp = folder / "used"
+        try:
+            last = (stamp if stamp.exists() else folder).stat().st_mtime
+        except OSError:
+            continue
+        if last < limit:
+            shutil.rmtree(folder, ignore_errors=True)
+            gone.append(folder)
+    return gone
 
 
 _lock = threading.Lock()  # (numba reads its cache folder from its config as a function is decorated)
@@ -103,6 +130,8 @@ def _compile(
     modules = [module, *(m for m in calls if m is not module)]
     where = cache_dir(module, calls=calls, options=options)
     where.mkdir(parents=True, exist_ok=True)
+    (where / "used").touch()
+    prune(where.parent, keep=where)
     spaces = {m.__name__: dict(vars(m)) for m in modules}
     compiled: dict[int, Any] = {}  # id of a Python function -> its compiled form
     jit = numba.njit(cache=True, nogil=True, **options)

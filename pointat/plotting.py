@@ -163,15 +163,30 @@ def read_take(path: str | Path, *, truth: bool = True) -> Take:
     as a table of numbers, or lacks the sensor columns raises :class:`TakeError`, naming the file and
     what is missing.
     """
+    path = Path(path)
+    header, rows = _read_table(path)
+    col = {name: i for i, name in enumerate(header)}
+    if len(rows) < 2:
+        raise TakeError(f"{path}: {len(rows)} row{'s' * (len(rows) != 1)} of samples: nothing to plot")
+    gyro, accel, mag, start, acc_range, gyro_range, source = _sensors(path, header, rows, col)
+    t = rows[:, 0] - rows[0, 0]
+    dt = _time_steps(path, t, start)
+    q_truth = _group(rows, col, "truth") if truth else None
+    if q_truth is not None and not np.isfinite(q_truth).all(axis=1).any():
+        q_truth = None
+    movement = rows[:, col["movement"]] != 0.0 if q_truth is not None and "movement" in col else None
+    return Take(
+        path, t, dt, gyro, accel, mag, q_truth, movement, start, float(acc_range), float(gyro_range), source
+    )
+
+
+def _read_table(path: Path) -> tuple[list[str], np.ndarray]:
+    """A take's header and rows as ``replay`` reads them (:class:`TakeError` naming the file)."""
     # the node modules, for their reading function and their numbers: the rest of this module needs none
-    from pointat.nodes.calibration import Scaling
-    from pointat.nodes.orientation import SampleClock, time_step
-    from pointat.nodes.recording import _GROUPS, _format, read_csv_table
+    from pointat.nodes.recording import _format, read_csv_table
     from pointat.spec import path_kind
 
-    path = Path(path)
-    kind = path_kind(path)
-    if kind == "missing":
+    if path_kind(path) == "missing":
         raise TakeError(f"{path}: no such file")
     # anything else but a regular file (a pipe, a device, a folder, 1 GB or more): read_csv_table says so
     if _format(str(path), "auto") == "ndjson":
@@ -180,50 +195,62 @@ def read_take(path: str | Path, *, truth: bool = True) -> Take:
             " (patches/record_glove.pat does)"
         )
     try:
-        header, rows = read_csv_table(path)
+        return read_csv_table(path)
     except ValueError as exc:  # (replay's own messages: they name the file and the line)
         raise TakeError(str(exc)) from None
     except OSError as exc:
         raise TakeError(f"{path}: {exc.strerror or exc}") from None
-    col = {name: i for i, name in enumerate(header)}
 
-    def group(name: str) -> np.ndarray | None:
-        """The columns of one of ``replay``'s outlets, by the first set of names it finds complete."""
-        for names in _GROUPS[name]:
-            if all(n in col for n in names):
-                data = rows[:, [col[n] for n in names]]
-                if names[0] == "gt_qw":  # BROAD's truth, sensor -> ENU: to NWU, as replay's truth outlet
-                    data = data.copy()
-                    ok = np.all(np.isfinite(data), axis=1)
-                    data[ok] = enu_to_nwu(data[ok])
-                return data
-        return None
 
-    si = {name: group(name) for name in ("gyro", "accel", "mag")}
-    if len(rows) < 2:
-        raise TakeError(f"{path}: {len(rows)} row{'s' * (len(rows) != 1)} of samples: nothing to plot")
+def _group(rows: np.ndarray, col: dict[str, int], name: str) -> np.ndarray | None:
+    """The columns of one of ``replay``'s outlets, by the first set of names it finds complete."""
+    from pointat.nodes.recording import _GROUPS
+
+    for names in _GROUPS[name]:
+        if all(n in col for n in names):
+            data = rows[:, [col[n] for n in names]]
+            if names[0] == "gt_qw":  # BROAD's truth, sensor -> ENU: to NWU, as replay's truth outlet
+                data = data.copy()
+                ok = np.all(np.isfinite(data), axis=1)
+                data[ok] = enu_to_nwu(data[ok])
+            return data
+    return None
+
+
+def _sensors(
+    path: Path, header: list[str], rows: np.ndarray, col: dict[str, int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float, float, str]:
+    """gyro, accel and mag in SI units, the first sample the filter takes, the full scales (0: not known)
+    and where the readings came from: the take's own SI columns, or its ADC counts taken as the glove
+    patches take them."""
+    from pointat.nodes.calibration import Scaling
+
+    si = {name: _group(rows, col, name) for name in ("gyro", "accel", "mag")}
     if all(v is not None for v in si.values()):
-        gyro, accel, mag = si["gyro"], si["accel"], si["mag"]
-        start, acc_range, gyro_range = 0, 0.0, 0.0  # (replay's range: its acc_range and gyro_range, 0)
-        source = "gyro, accel and mag columns as they are"
-    elif all(c in col for c in ADC_COLUMNS):
-        counts = rows[:, [col[c] for c in ADC_COLUMNS]]
-        nulls_gyro, start = gyro_nulls(counts[:, :3])
-        if start is None:
-            raise TakeError(
-                f"{path}: the glove never held still for {NULL_SAMPLES} samples in a row (a gyro varied by"
-                f" more than {NULL_STILL:g} counts rms in each): offset samples={NULL_SAMPLES} takes no gyro"
-                " nulls from it, and the glove patches output nothing"
-            )
-        units = Scaling("units", {})  # the glove patches' scaling, no calibration file: its numbers
-        nulls = np.array([*nulls_gyro, *[float(ADC_NULL)] * 6])
-        gyro, accel, mag = adc_to_si(counts, nulls, units.factor)
-        acc_range, gyro_range = units.full_scale
-        source = f"ADC counts through offset samples={NULL_SAMPLES} and scaling"
-    else:
+        # (replay's range: its acc_range and gyro_range, 0)
+        return si["gyro"], si["accel"], si["mag"], 0, 0.0, 0.0, "gyro, accel and mag columns as they are"
+    if not all(c in col for c in ADC_COLUMNS):
         raise TakeError(f"{path}: {_missing(col, si)}; its columns: {' '.join(header)}")
+    counts = rows[:, [col[c] for c in ADC_COLUMNS]]
+    nulls_gyro, start = gyro_nulls(counts[:, :3])
+    if start is None:
+        raise TakeError(
+            f"{path}: the glove never held still for {NULL_SAMPLES} samples in a row (a gyro varied by"
+            f" more than {NULL_STILL:g} counts rms in each): offset samples={NULL_SAMPLES} takes no gyro"
+            " nulls from it, and the glove patches output nothing"
+        )
+    units = Scaling("units", {})  # the glove patches' scaling, no calibration file: its numbers
+    nulls = np.array([*nulls_gyro, *[float(ADC_NULL)] * 6])
+    gyro, accel, mag = adc_to_si(counts, nulls, units.factor)
+    acc_range, gyro_range = units.full_scale
+    source = f"ADC counts through offset samples={NULL_SAMPLES} and scaling"
+    return gyro, accel, mag, start, acc_range, gyro_range, source
 
-    t = rows[:, 0] - rows[0, 0]
+
+def _time_steps(path: Path, t: np.ndarray, start: int) -> np.ndarray:
+    """Each sample's time step as the tqt node takes it from the time stamps."""
+    from pointat.nodes.orientation import SampleClock, time_step
+
     steps = np.diff(t)
     steps = steps[np.isfinite(steps) & (steps > 0.0)]
     if not len(steps):
@@ -235,14 +262,7 @@ def read_take(path: str | Path, *, truth: bool = True) -> Take:
     for i in range(start, len(t)):  # as the tqt node steps: from the time stamps
         dt[i] = time_step(last, float(t[i]), nominal, SampleClock.MAX_GAP)
         last = float(t[i])
-
-    q_truth = group("truth") if truth else None
-    if q_truth is not None and not np.isfinite(q_truth).all(axis=1).any():
-        q_truth = None
-    movement = rows[:, col["movement"]] != 0.0 if q_truth is not None and "movement" in col else None
-    return Take(
-        path, t, dt, gyro, accel, mag, q_truth, movement, start, float(acc_range), float(gyro_range), source
-    )
+    return dt
 
 
 def _missing(col: dict[str, int], si: dict[str, np.ndarray | None]) -> str:

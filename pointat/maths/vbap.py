@@ -373,6 +373,32 @@ def make_layout(
     >>> make_layout([30, -30]).sets.tolist()
     [[1, 0]]
     """
+    az, el, dim = _checked_angles(azimuths, elevations, dim)
+    vectors = direction_vector(az, el)
+    sets = _speaker_sets(az, el, vectors, dim, triplets, max_gap)
+    inverses = []
+    for s in sets:
+        L = vectors[s][:, :dim].T
+        if abs(np.linalg.det(L)) < 1e-9:
+            raise ValueError(f"loudspeakers {' '.join(str(i + 1) for i in s)} make no valid set (flat)")
+        inverses.append(np.linalg.inv(L))
+    edges, border = _border(sets, az.size, dim)
+    return Layout(
+        azimuths=_frozen(az),
+        elevations=_frozen(el),
+        dim=dim,
+        vectors=_frozen(vectors),
+        sets=_frozen(np.asarray(sets, dtype=int).reshape(-1, dim)),
+        inverses=_frozen(np.array(inverses, dtype=float).reshape(-1, dim, dim)),
+        border_edges=_frozen(edges),
+        border_speakers=_frozen(border.astype(int)),
+    )
+
+
+def _checked_angles(
+    azimuths: ArrayLike, elevations: ArrayLike | None, dim: int | None
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """:func:`make_layout`'s angles as arrays, checked, and its dimension (inferred when absent)."""
     az = np.asarray(azimuths, dtype=float).ravel()
     el = np.zeros_like(az) if elevations is None else np.asarray(elevations, dtype=float).ravel()
     if el.shape != az.shape:
@@ -390,7 +416,20 @@ def make_layout(
         raise ValueError(f"a {dim}-D layout needs at least {dim} loudspeakers; got {n}")
     if n > MAX_SPEAKERS:
         raise ValueError(f"at most {MAX_SPEAKERS} loudspeakers; got {n}")
-    vectors = direction_vector(az, el)
+    return az, el, int(dim)
+
+
+def _speaker_sets(
+    az: np.ndarray,
+    el: np.ndarray,
+    vectors: np.ndarray,
+    dim: int,
+    triplets: ArrayLike | None,
+    max_gap: float,
+) -> np.ndarray:
+    """The pairs (2-D) or triplets (3-D, the hull's or those given, numbered from 1) panned across,
+    numbered from 0; no two loudspeakers may point the same way."""
+    n = len(vectors)
     for i, j in itertools.combinations(range(n), 2):
         if float(vectors[i] @ vectors[j]) > 1.0 - 1e-12:
             raise ValueError(
@@ -402,44 +441,32 @@ def make_layout(
         sets = pairs_2d(az, max_gap=max_gap)
         if len(sets) == 0:
             raise ValueError(f"no loudspeaker pairs: every gap is wider than {max_gap:g} degrees")
-    elif triplets is not None:
-        sets = np.asarray(triplets, dtype=int).reshape(-1, 3) - 1
-        if len(sets) == 0 or sets.min() < 0 or sets.max() >= n:
-            raise ValueError(f"triplets are loudspeaker numbers from 1 to {n}, three per triplet")
-        if np.any((sets[:, 0] == sets[:, 1]) | (sets[:, 1] == sets[:, 2]) | (sets[:, 0] == sets[:, 2])):
-            raise ValueError("a triplet names one loudspeaker twice")
-    else:
-        sets = triangulate(vectors)
-    inverses = []
-    for s in sets:
-        L = vectors[s][:, :dim].T
-        if abs(np.linalg.det(L)) < 1e-9:
-            raise ValueError(f"loudspeakers {' '.join(str(i + 1) for i in s)} make no valid set (flat)")
-        inverses.append(np.linalg.inv(L))
+        return sets
+    if triplets is None:
+        return triangulate(vectors)
+    sets = np.asarray(triplets, dtype=int).reshape(-1, 3) - 1
+    if len(sets) == 0 or sets.min() < 0 or sets.max() >= n:
+        raise ValueError(f"triplets are loudspeaker numbers from 1 to {n}, three per triplet")
+    if np.any((sets[:, 0] == sets[:, 1]) | (sets[:, 1] == sets[:, 2]) | (sets[:, 0] == sets[:, 2])):
+        raise ValueError("a triplet names one loudspeaker twice")
+    return sets
+
+
+def _border(sets: np.ndarray, n: int, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """The layout's border: 3-D, the triplets' edges that only one triplet has, and the loudspeakers in
+    no triplet; 2-D, no edges, and the loudspeakers in fewer than two pairs."""
     used = np.zeros(n, dtype=int)
     for s in sets:
         used[s] += 1
     if dim == 2:
-        edges = np.zeros((0, 2), dtype=int)
-        border = np.nonzero(used < 2)[0]
-    else:
-        count: dict[tuple[int, int], int] = {}
-        for s in sets:
-            for a, b in ((s[0], s[1]), (s[1], s[2]), (s[0], s[2])):
-                key = (int(min(a, b)), int(max(a, b)))
-                count[key] = count.get(key, 0) + 1
-        edges = np.array(sorted(k for k, c in count.items() if c == 1), dtype=int).reshape(-1, 2)
-        border = np.nonzero(used == 0)[0]
-    return Layout(
-        azimuths=_frozen(az),
-        elevations=_frozen(el),
-        dim=dim,
-        vectors=_frozen(vectors),
-        sets=_frozen(np.asarray(sets, dtype=int).reshape(-1, dim)),
-        inverses=_frozen(np.array(inverses, dtype=float).reshape(-1, dim, dim)),
-        border_edges=_frozen(edges),
-        border_speakers=_frozen(border.astype(int)),
-    )
+        return np.zeros((0, 2), dtype=int), np.nonzero(used < 2)[0]
+    count: dict[tuple[int, int], int] = {}
+    for s in sets:
+        for a, b in ((s[0], s[1]), (s[1], s[2]), (s[0], s[2])):
+            key = (int(min(a, b)), int(max(a, b)))
+            count[key] = count.get(key, 0) + 1
+    edges = np.array(sorted(k for k, c in count.items() if c == 1), dtype=int).reshape(-1, 2)
+    return edges, np.nonzero(used == 0)[0]
 
 
 # ------------------------------------------------------------------------------------------- gains

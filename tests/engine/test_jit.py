@@ -4,6 +4,7 @@ the machine code in the user's cache folder and nowhere else."""
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 import textwrap
 
@@ -71,3 +72,36 @@ def test_the_cache_folder_changes_with_any_source_compiled_together(tmp_path, mo
 
     linecache.checkcache(a.__file__)
     assert jit.cache_dir(b, calls=[a]) != before
+
+
+def test_folders_of_versions_unused_for_a_month_are_removed_as_another_opens(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    root = jit.cache_root()
+    now = 2_000_000_000.0
+    old, recent, stamped = (root / f"numba-{n}" for n in ("old", "recent", "stamped"))
+    for folder in (old, recent, stamped):
+        folder.mkdir(parents=True)
+        (folder / "f.nbi").write_text("x")
+    os.utime(old, (now - 40 * 86400, now - 40 * 86400))
+    os.utime(recent, (now - 2 * 86400, now - 2 * 86400))
+    os.utime(stamped, (now - 40 * 86400, now - 40 * 86400))  # an old folder, opened yesterday:
+    (stamped / "used").touch()
+    os.utime(stamped / "used", (now - 86400, now - 86400))
+    other = root / "not-numba"
+    other.mkdir()
+    os.utime(other, (now - 400 * 86400, now - 400 * 86400))
+    assert jit.prune(root, keep=recent, now=now) == [old]
+    assert sorted(p.name for p in root.iterdir()) == ["not-numba", "numba-recent", "numba-stamped"]
+    os.utime(recent, (now - 40 * 86400, now - 40 * 86400))
+    assert jit.prune(root, keep=recent, now=now) == []  # (the folder being opened is kept)
+
+
+def test_opening_a_folder_marks_it_used(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    a, b = _modules(tmp_path, monkeypatch)
+    stale = jit.cache_root() / "numba-0123456789abcdef"
+    stale.mkdir(parents=True)
+    os.utime(stale, (1.0, 1.0))  # (1970: no run has opened it since)
+    jit.compile_module(b, calls=[a])
+    assert (jit.cache_dir(b, calls=[a]) / "used").exists()
+    assert not stale.exists()
