@@ -64,9 +64,10 @@ class GestureModel:
         DTW's band, a fraction of the longer series.
     reject : float
         A movement is no gesture when its nearest template is more than ``reject`` times its class's
-        reach away (:meth:`threshold`: the class's distance from keeping still), or when it is not nearer
-        to its class than :attr:`STILL` times its own distance from keeping still; 0: never rejected,
-        but by ``null`` examples.
+        reach away (:meth:`threshold`: the class's distance from keeping still, or the examples' spread
+        when nearer), or when it is not nearer to its class than :attr:`STILL` times its own distance
+        from keeping still, or (:attr:`QUIET`) its class is nearly still and it is not; 0: never
+        rejected, but by ``null`` examples.
     warp : str
         ``together``: all features warped as one (DTW_D), ``each`` on its own (DTW_I), or ``auto``
         (:meth:`choose_warp`: the one that names more of the examples, each left out in turn, together
