@@ -17,14 +17,20 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
   known full scale, more than :data:`ACC_LIMIT` (1000) times the first reading.
 * **Saturation is known** when the source says its full scale (``acc_range``, ``gyro_range``), and
   **found** when it does not (:func:`_found_range`: a clipped axis reads its rail again and again, to the
-  bit; the average then forgets what it took before the rail was known): an axis at its rail reads less than the truth.  Leaving out only the clipped samples
-  would leave out one side of a zero-mean stroke, so the acceleration average is fed in *chunks* of
-  :data:`CHUNK` seconds, and none joins it from a chunk before a spell of saturation (saturations less
-  than :data:`SATURATION_SPELL` apart) to that long after the spell: the strokes are left out whole,
+  bit; the average then forgets what it took before the rail was known): an axis at its rail reads less
+  than the truth.  A run of readings at the rail that has a shape (:data:`_RUN_SHAPE` samples or more, a fast translation's or a
+  turn's) is **declipped** (:func:`_declip`: the quadratic through the readings about it guesses what
+  the rail cut off, and that joins the average); leaving such runs out, with the chunks about them,
+  left the gyro alone for most of a fast trial (BROAD clipped at ±2 g: 3.3° where unclipped gave 2.0°).
+  An impact too short to have a shape, or one too violent to guess, is a stroke's.  Leaving out only its
+  clipped samples would leave out one side of a zero-mean stroke, so the acceleration average is fed in
+  *chunks* of :data:`CHUNK` seconds, and none joins it from a chunk before a spell of strokes (strokes
+  less than :data:`SATURATION_SPELL` apart) to that long after the spell: the strokes are left out whole,
   swings with impacts.  Only once the gyro alone has turned the estimate by :data:`TURN_BUDGET` does a
   chunk join all the same: a long spell of fast turning would cost more in gyro drift than a clipped
   chunk costs in bias; and a spell longer than :data:`_SPELL_MAX` is the motion's own (running), not
-  strokes.  The average is at most two chunks late (0.2 s, beside its time constant).
+  strokes.  The average is at most two chunks late (0.2 s, beside its time constant), and later while runs
+  at the rail follow one another (each at most :data:`_RUN_MAX`: the chunk waits for their guesses).
 * **The magnetic reference is learned over time** (:func:`_magnetic_gate`): it starts from the first
   sample, follows the accepted field, and is replaced by a candidate field that has held its norm and
   dip while the sensor turned, so that a start in motion or a place whose dip differs from the first
@@ -108,6 +114,15 @@ _SPELL_MAX = 8.0
 _CLIP_REPEAT = 3
 _CLIP_LEAST = 1.5
 _CLIP_MARGIN = 1e-3
+# a run at the rail is declipped (_declip) when it lasts at least _RUN_SHAPE samples and the quadratic
+# through the readings about it peaks at most _PEAK_MAX times the rail; else (an impact too short to have a
+# shape, or too violent to guess) it is a stroke's, and the chunks about it are left out
+_RUN_SHAPE = 2
+_PEAK_MAX = 2.0
+# seconds a run at the rail may last and still be declipped (the chunk under way waits for its end)
+_RUN_MAX = 0.5
+_RUN_ON = 1
+_RUN_STROKE = 2
 # after the magnetometer's rejection time is used up, the heading correction runs at this fraction
 _MAG_LATE_FACTOR = 0.5
 # time constant (s) of the gyro / accelerometer low-pass the rest detector compares against (as VQF)
@@ -171,7 +186,10 @@ S_SPELL_T = 51  # seconds the current spell of accelerometer saturation has last
 S_ACC_PEAK = 52  # the largest reading on any axis so far (absolute)
 S_ACC_PEAK_N = 53  # readings that met it exactly
 S_ACC_FOUND = 54  # the full scale found from the data (0: none; used when none is told)
-STATE_SIZE = 55
+S_STROKE_T = 55  # seconds since a run at the rail ended that could not be declipped (a stroke's)
+S_CLIP = 56  # 3 x _CLIP_SLOTS: each accelerometer axis's run at the rail (see _clip_axis)
+_CLIP_SLOTS = 9
+STATE_SIZE = S_CLIP + 3 * _CLIP_SLOTS
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -236,7 +254,7 @@ def new_state(q: tuple[float, float, float, float] | None, dip: float | None) ->
     s[S_A2_MAX] = _INF
     if dip is not None:
         s[S_DIP], s[S_NX], s[S_NZ] = dip, math.cos(dip), -math.sin(dip)
-    s[S_ACC_SAT_T] = s[S_GYRO_SAT_T] = _LONG_AGO
+    s[S_ACC_SAT_T] = s[S_GYRO_SAT_T] = s[S_STROKE_T] = _LONG_AGO
     return s
 
 
@@ -403,14 +421,15 @@ def _turn_average(s, cw, sx, sy, sz):  # type: ignore[no-untyped-def]
         s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
 
 
-def _add_to_average(s, p, ex, ey, ez, dt, calm):  # type: ignore[no-untyped-def]
-    """Sum one earth-frame acceleration into the current chunk; when the chunk is full, the chunk before it
-    joins the average if all is still ``calm`` (no saturation for :data:`SATURATION_SPELL` seconds)."""
+def _add_to_average(s, p, ex, ey, ez, dt, calm, hold):  # type: ignore[no-untyped-def]
+    """Sum one earth-frame acceleration into the current chunk; when the chunk is full (and not ``hold``:
+    a run at the rail under way, its declipping still to come), the chunk before it joins the average if
+    all is still ``calm`` (no stroke for :data:`SATURATION_SPELL` seconds)."""
     s[S_CUR] += ex * dt
     s[S_CUR + 1] += ey * dt
     s[S_CUR + 2] += ez * dt
     s[S_CUR_T] += dt
-    if s[S_CUR_T] < CHUNK * (1.0 - 1e-9):
+    if hold or s[S_CUR_T] < CHUNK * (1.0 - 1e-9):
         return
     t = s[S_PREV_T]
     if t > 0.0 and (calm or s[S_TURN] >= TURN_BUDGET):
@@ -450,15 +469,13 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     elif s[S_GYRO_SAT_T] < _LONG_AGO:
         s[S_GYRO_SAT_T] += dt
     if a_sat:
-        if s[S_ACC_SAT_T] >= SATURATION_SPELL:  # a new spell begins
-            s[S_SPELL_T] = 0.0
         s[S_ACC_SAT_T] = 0.0
     elif s[S_ACC_SAT_T] < _LONG_AGO:
         s[S_ACC_SAT_T] += dt
     if s[S_ACC_SAT_T] < SATURATION_SPELL:
-        s[S_SPELL_T] += dt
-    if s[S_ACC_SAT_T] < SATURATION_SPELL:
         flags |= F_ACC_SATURATED
+    if s[S_STROKE_T] < _LONG_AGO:
+        s[S_STROKE_T] += dt
     if s[S_GYRO_SAT_T] < SATURATION_SPELL:
         flags |= F_GYRO_SATURATED
     # without a gyro to carry the tilt between corrections it lags the motion, and the dip seen through it
@@ -526,10 +543,26 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
     correct = False
     if use_gyro:
         if a_ok:
+            hold = False
+            if r > 0.0:  # the runs at the rail: declipped into the chunk, or a stroke's
+                # in a spell of strokes longer than _SPELL_MAX (the motion's own) the runs join as they are
+                fix = s[S_STROKE_T] >= SATURATION_SPELL or s[S_SPELL_T] < _SPELL_MAX
+                o = (
+                    _clip_axis(s, S_CLIP, ax, r, w, x, y, z, 1.0, 0.0, 0.0, dt, fix)
+                    | _clip_axis(s, S_CLIP + _CLIP_SLOTS, ay, r, w, x, y, z, 0.0, 1.0, 0.0, dt, fix)
+                    | _clip_axis(s, S_CLIP + 2 * _CLIP_SLOTS, az, r, w, x, y, z, 0.0, 0.0, 1.0, dt, fix)
+                )
+                if o & _RUN_STROKE:
+                    if s[S_STROKE_T] >= SATURATION_SPELL:  # a new spell begins
+                        s[S_SPELL_T] = 0.0
+                    s[S_STROKE_T] = 0.0
+                hold = (o & _RUN_ON) != 0
+            if s[S_STROKE_T] < SATURATION_SPELL:
+                s[S_SPELL_T] += dt
             # a spell longer than _SPELL_MAX is the motion's own (a runner's every step), not strokes
-            calm = s[S_ACC_SAT_T] >= SATURATION_SPELL or s[S_SPELL_T] >= _SPELL_MAX
+            calm = s[S_STROKE_T] >= SATURATION_SPELL or s[S_SPELL_T] >= _SPELL_MAX
             aex, aey, aez = _rotate(w, x, y, z, ax, ay, az)
-            _add_to_average(s, p, aex, aey, aez, dt, calm)
+            _add_to_average(s, p, aex, aey, aez, dt, calm, hold)
         correct = s[S_E_AGE] > 0.0
     elif a_ok and not a_sat:  # accelerometer / magnetometer only: no frame to average in, the reading itself
         s[S_E], s[S_E + 1], s[S_E + 2] = _rotate(w, x, y, z, ax, ay, az)
@@ -616,6 +649,99 @@ def _magnetic_gate(s, p, norm, dip, dt, dip_gate):  # type: ignore[no-untyped-de
     else:
         s[S_CAND_N], s[S_CAND_D], s[S_CAND_T] = ln, ld, 0.0
     return s[S_MAG_DIST] != 0.0
+
+
+def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-untyped-def]
+    r"""Follow one accelerometer axis (reading ``v``, unit vector ``u`` in the sensor frame) at the rail
+    ``r``; its slots from ``s[j]``: the two readings before the run, the run's length in samples, its
+    sign, :math:`A = \sum_k R_k u \, dt` (the axis in the earth frame over the run), the first reading
+    after it and whether it waits for the second (:func:`_declip` guesses what the rail cut off).  The
+    chunk under way waits while a run lasts (``hold``).  A run that flips rail or lasts beyond
+    :data:`_RUN_MAX` is a stroke's.  Returns bits: :data:`_RUN_ON` (a run under way or waiting) and
+    :data:`_RUN_STROKE` (a stroke's run ended)."""
+    at = v >= r or v <= -r
+    out = 0
+    closed = s[j + 8] != 0.0
+    if closed:  # the run ended with the reading before this one: declip it now
+        s[j + 8] = 0.0
+        out = _declip(s, j, r, v, not at, fix)
+        if at:
+            s[j], s[j + 1] = s[j + 1], s[j + 7]
+        else:
+            s[j], s[j + 1] = s[j + 7], v
+    n = s[j + 2]
+    if at:
+        sg = 1.0 if v > 0.0 else -1.0
+        out |= _RUN_ON
+        if n > 0.0 and (sg != s[j + 3] or n * dt >= _RUN_MAX):
+            out, n = out | _RUN_STROKE, 0.0
+        if n == 0.0:
+            s[j + 3] = sg
+            s[j + 4] = s[j + 5] = s[j + 6] = 0.0
+        ex, ey, ez = _rotate(w, x, y, z, ux, uy, uz)
+        s[j + 4] += ex * dt
+        s[j + 5] += ey * dt
+        s[j + 6] += ez * dt
+        s[j + 2] = n + 1.0
+        return out
+    if n > 0.0:  # the run has ended: the next reading too, then the guess
+        s[j + 7], s[j + 8] = v, 1.0
+        return out | _RUN_ON
+    if not closed:
+        s[j], s[j + 1] = s[j + 1], v
+    return out
+
+
+def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
+    r"""Guess what the rail cut off a run of ``n`` samples, as audio declippers do: the least-squares
+    quadratic :math:`\hat y(k) = c_0 + c_1 k + c_2 k^2` through the two readings before the run (samples
+    -2, -1) and the two after it (``n``, ``n + 1``; the second left out when ``use_b`` is false: it is at
+    the rail again), and
+
+    .. math:: X = \sum_{k=0}^{n-1} \max(\sigma \hat y(k) - r, 0)
+
+    (:math:`\sigma` the rail's sign).  When ``fix``, :math:`\sigma X A / n` (the excess along the run's
+    mean earth-frame axis; m/s² x s) joins the chunk under way.  A run shorter than :data:`_RUN_SHAPE`
+    samples (an impact: no shape to fit) or whose quadratic peaks beyond :data:`_PEAK_MAX` times the rail
+    (too violent to guess) is a stroke's: returns :data:`_RUN_STROKE`, else 0."""
+    n = s[j + 2]
+    s[j + 2] = 0.0
+    if n < _RUN_SHAPE:
+        return _RUN_STROKE
+    wb = 1.0 if use_b else 0.0
+    ta, tb = n, n + 1.0
+    # normal equations of the fit through (-2, y2), (-1, y1), (ta, ya), (tb, yb) weighted (1, 1, 1, wb)
+    s0 = 3.0 + wb
+    s1 = -3.0 + ta + wb * tb
+    s2 = 5.0 + ta * ta + wb * tb * tb
+    s3 = -9.0 + ta * ta * ta + wb * tb * tb * tb
+    s4 = 17.0 + ta * ta * ta * ta + wb * tb * tb * tb * tb
+    y2, y1, ya = s[j], s[j + 1], s[j + 7]
+    q0 = y2 + y1 + ya + wb * yb
+    q1 = -2.0 * y2 - y1 + ta * ya + wb * tb * yb
+    q2 = 4.0 * y2 + y1 + ta * ta * ya + wb * tb * tb * yb
+    det = s0 * (s2 * s4 - s3 * s3) - s1 * (s1 * s4 - s3 * s2) + s2 * (s1 * s3 - s2 * s2)
+    if det == 0.0:
+        return _RUN_STROKE
+    c0 = (q0 * (s2 * s4 - s3 * s3) - s1 * (q1 * s4 - s3 * q2) + s2 * (q1 * s3 - s2 * q2)) / det
+    c1 = (s0 * (q1 * s4 - q2 * s3) - q0 * (s1 * s4 - s3 * s2) + s2 * (s1 * q2 - q1 * s2)) / det
+    c2 = (s0 * (s2 * q2 - s3 * q1) - s1 * (s1 * q2 - s2 * q1) + q0 * (s1 * s3 - s2 * s2)) / det
+    sg = s[j + 3]
+    excess = peak = 0.0
+    for i in range(int(n)):
+        k = float(i)
+        e = sg * (c0 + k * (c1 + k * c2))
+        peak = max(peak, e)
+        if e > r:
+            excess += e - r
+    if peak > _PEAK_MAX * r:
+        return _RUN_STROKE
+    if fix:
+        c = sg * excess / n
+        s[S_CUR] += c * s[j + 4]
+        s[S_CUR + 1] += c * s[j + 5]
+        s[S_CUR + 2] += c * s[j + 6]
+    return 0
 
 
 def _found_range(s, ax, ay, az):  # type: ignore[no-untyped-def]
