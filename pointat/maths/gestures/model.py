@@ -136,9 +136,8 @@ class GestureModel:
         self.labels: list[str] = []
         self.scales = np.ones(0)
         self.reach: dict[str, float] = {}
-        self.quiet: dict[
-            str, float
-        ] = {}  # the classes nearly still: the farthest a movement may be from keeping still
+        # the classes nearly still: the farthest a movement may be from keeping still to be one of them
+        self.quiet: dict[str, float] = {}
         self.spread = math.inf  # the examples' spread (:meth:`_reaches`)
         self._taken: set[int] = set()  # examples taken from performances (adapt), not taught
         self.peaks: list[float] = []
