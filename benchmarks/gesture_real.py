@@ -25,8 +25,9 @@ Protocols that mirror a performer (each gated: a recording or a cut repetition i
 False triggers: each model of the seglearn protocols, run ungated (cut from rest to rest) over the
 BROAD trials, real hand motion that is no gesture: gestures told per minute.  The curve of ``reject``
 is traced with early decisions off (the model's own decision with each ``reject``, on the same
-movements; the strength rule left out, as those decisions do not keep it); the defaults are then run as
-they are.  Ungated streams: seglearn's uncut recordings (repetitions with no rest between them)
+movements; the strength rule left out, as those decisions do not keep it), and the null class's rules
+beside each other with the worst model of every set (seglearn's, PickupGestureWiimoteZ's and
+BasicMotions'); the defaults are then run as they are.  Ungated streams: seglearn's uncut recordings (repetitions with no rest between them)
 streamed whole, cut from rest to rest and spotted (``cut=spot``), taught by the person or by the others.
 Beside every row, plain 1-NN DTW (:func:`pointat.gesture_eval.baseline`) on the same split, in the same
 run.  About 13 minutes; seglearn's and aeon's wheels are fetched into ``~/.cache/pointat/gesture-sets``
@@ -64,6 +65,8 @@ VARIANTS: tuple[tuple[str, dict[str, Any], dict[str, Any]], ...] = (
     ("band=0.2", {"band": 0.2}, {}),
     ("band=1 (none)", {"band": 1.0}, {}),
     ("rate=25", {"rate": 25.0}, {}),
+    ("scale=common (acc in g, gyr in rad/s)", {"scale": "common"}, {}),
+    ("scale=si (acc in m/s², gyr in rad/s, as plain DTW)", {"scale": "si"}, {}),
     ("reject=0 (no null class)", {"reject": 0.0}, {"early": False}),
 )
 CURVE = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
@@ -155,44 +158,82 @@ def _ungated(model: GestureModel, take: sets.Take, step: int, **rec: Any) -> lis
     return [d for _, d in perform(Recognizer(model, **rec), take.t[::step], x[::step])]
 
 
-def _accepted(model: GestureModel, d: Decision, k: float) -> bool:
-    """The decision ``d`` (made with rejection off) as the model decides it with ``reject=k``."""
-    saved, model.reject = model.reject, k
+#: The null class's rules traced beside each other (:func:`curve_table`): name, the model's attributes.
+RULES: tuple[tuple[str, dict[str, float]], ...] = (
+    ("the reach alone (spread and quiet off)", {"SPREAD": math.inf, "QUIET": math.inf}),
+    ("the reach and quiet classes", {"SPREAD": math.inf}),
+    ("the reach and the examples' spread", {"QUIET": math.inf}),
+    ("**all three (the default)**", {}),
+)
+
+
+def _accepted(model: GestureModel, d: Decision, k: float, rules: dict[str, float] | None = None) -> bool:
+    """The decision ``d`` (made with rejection off) as the model decides it with ``reject=k`` (and the
+    class attributes ``rules`` set: :data:`RULES`)."""
+    saved = model.reject, model.spread, dict(model.quiet)
+    model.reject = k
+    rules = rules or {}
+    if "SPREAD" in rules:
+        model.spread = rules["SPREAD"]
+    if "QUIET" in rules:
+        model.quiet = {}
     try:
         distances = np.array([d.per_class[label] for label in model.labels])
         gauge = np.array([d.distance if label == d.nearest else math.inf for label in model.labels])
         return model.decide(distances, duration=d.duration, still=d.still, gauge=gauge).label is not None
     finally:
-        model.reject = saved
+        model.reject, model.spread, model.quiet = saved
+
+
+def _curve_models(data: Data, people: Sequence[int]) -> list[tuple[str, tuple[str, ...], list, list]]:
+    """The models the curves are traced with: (set, channels, train, test), seglearn's first."""
+    out = []
+    for protocol in ("new", "three"):
+        for ch in (("acc", "gyr"), ("acc",)):
+            name = f"seglearn, {'a new person' if protocol == 'new' else '3 examples'}, {' '.join(ch)}"
+            out += [(name, ch, tr, te) for tr, te in data.splits(people, protocol)]
+    if data.pickup:
+        out.append(("PickupGestureWiimoteZ (acc)", ("acc",), *data.pickup))
+    if data.basic:
+        out.append(("BasicMotions (acc gyr)", ("acc", "gyr"), *data.basic))
+    return out
 
 
 def curve_table(
     data: Data, people: Sequence[int], trials: Sequence[str], progress: Callable[[str], None]
 ) -> tuple[str, dict[float, tuple[float, float]]]:
-    """Recall of real gestures against false triggers a minute on BROAD, as ``reject`` goes."""
+    """Recall of real gestures against false triggers a minute on BROAD, as ``reject`` goes; then the
+    null class's rules (:data:`RULES`) beside each other at the default ``reject``, with the worst model
+    of every set."""
     takes = data.trials(trials)
     minutes = sum(t.minutes for t in takes)
-    found = {k: [0, 0] for k in CURVE}
-    false = {k: 0 for k in CURVE}
-    models = 0
-    for protocol in ("new", "three"):
-        for ch in (("acc", "gyr"), ("acc",)):
-            for tr, te in data.splits(people, protocol):
-                model = GestureModel(ch, reject=0.0).train([r.example(ch) for r in tr])
-                models += 1
-                decisions = [(r.label, model.classify(r.example(ch).t, r.example(ch).frames)) for r in te]
-                moves = [d for t in takes for d in _ungated(model, t, BROAD_STEP, early=False)]
-                for k in CURVE:
-                    found[k][0] += sum(
-                        d.nearest == truth and _accepted(model, d, k) for truth, d in decisions
-                    )
-                    found[k][1] += len(decisions)
-                    false[k] += sum(_accepted(model, d, k) for d in moves)
-            progress(f"gesture_real: curve, {protocol} {' '.join(ch)}")
-    out = {k: (found[k][0] / max(1, found[k][1]), false[k] / max(1e-9, models * minutes)) for k in CURVE}
+    runs = []
+    for name, ch, tr, te in _curve_models(data, people):
+        model = GestureModel(ch, reject=0.0).train([r.example(ch) for r in tr])
+        decisions = [(r.label, model.classify(r.example(ch).t, r.example(ch).frames)) for r in te]
+        moves = [d for t in takes for d in _ungated(model, t, BROAD_STEP, early=False)]
+        runs.append((name, model, decisions, moves))
+        progress(f"gesture_real: curve, {name}")
+    seglearn = [r for r in runs if r[0].startswith("seglearn")]
+
+    def score(k: float, rules: dict[str, float], among: list) -> tuple[float, float, dict[str, float]]:
+        found = total = false = 0
+        worst: dict[str, float] = {}
+        for name, model, decisions, moves in among:
+            found += sum(d.nearest == truth and _accepted(model, d, k, rules) for truth, d in decisions)
+            total += len(decisions)
+            told = sum(_accepted(model, d, k, rules) for d in moves)
+            false += told
+            worst[name] = max(worst.get(name, 0.0), told / minutes)
+        return found / max(1, total), false / max(1e-9, len(among) * minutes), worst
+
+    out = {}
+    for k in CURVE:
+        found, false, _ = score(k, {}, seglearn)
+        out[k] = (found, false)
     lines = [
-        f"{models} models (both protocols, acc gyr and acc only), each run over {len(takes)} BROAD trials "
-        f"({minutes:.1f} min): real gestures found and named against false triggers a minute.",
+        f"{len(seglearn)} models (both protocols, acc gyr and acc only), each run over {len(takes)} BROAD"
+        f" trials ({minutes:.1f} min): real gestures found and named against false triggers a minute.",
         "",
         "| reject | found and named | false triggers / min |",
         "|---|---|---|",
@@ -200,6 +241,33 @@ def curve_table(
     for k in CURVE:
         mark = " **(the default)**" if k == REJECT else ""
         lines.append(f"| {k}{mark} | {_pct(out[k][0])} | {out[k][1]:.2f} |")
+    sets_ = list(dict.fromkeys(r[0] for r in runs))
+    lines += [
+        "",
+        f"The null class's rules beside each other (``reject={REJECT:g}``): the reach (``reject`` times a"
+        " class's distance from keeping still), quiet classes (a class itself nearly still is told only for"
+        f" a movement within {GestureModel.QUIET:g} times its examples' distance from keeping still) and"
+        f" the examples' spread (``reject`` times {GestureModel.SPREAD:g} of the"
+        f" {GestureModel.SPREAD_QUANTILE:g}th percentile of their leave-one-out distances, pooled over the"
+        " classes).  Found and named: seglearn's models' test repetitions, and each own split's test set;"
+        " then the worst model of each set on BROAD, false triggers a minute.",
+        "",
+        "| rules | found and named, seglearn | "
+        + " | ".join(f"{n.split(' (')[0]}: found" for n in sets_ if not n.startswith("seglearn"))
+        + " | "
+        + " | ".join(f"worst, {n}" for n in sets_)
+        + " |",
+        "|" + "---|" * (2 + sum(not n.startswith("seglearn") for n in sets_) + len(sets_)),
+    ]
+    for label, rules in RULES:
+        found, _, _ = score(REJECT, rules, seglearn)
+        cells = [_pct(found)]
+        for n in sets_:
+            if not n.startswith("seglearn"):
+                cells.append(_pct(score(REJECT, rules, [r for r in runs if r[0] == n])[0]))
+        _, _, worst = score(REJECT, rules, runs)
+        cells += [f"{worst[n]:.2f}" for n in sets_]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n", out
 
 

@@ -35,6 +35,7 @@ from pointat.maths.gestures import (
     NULL,
     REJECT,
     RELATIVE,
+    SCALES,
     WARPS,
     Adapted,
     Decided,
@@ -373,6 +374,7 @@ def model_options(p: Any) -> dict[str, Any]:
         "reject": p.reject,
         "warp": p.warp,
         "relative": tuple(str(c) for c in p.relative),
+        "scale": p.scale,
     }
 
 
@@ -403,7 +405,9 @@ class GestureNode(_Learner):
     attitude counts), with a null class.  A movement is no gesture (``none``) when:
 
     * it is farther from its nearest class than ``reject`` times the class's reach (how far its
-      examples are from keeping still);
+      examples are from keeping still), or than ``reject`` times how far the examples lie from their
+      class's others (pooled over the classes);
+    * or its class is itself nearly still (standing, a hand held) and it is not;
     * or it is not nearer to the class than three times its own distance from keeping still (a
       tremble, a small turn of the wrist);
     * or it is three times faster or slower, stronger or weaker than the class's examples (a tap, a
@@ -474,6 +478,14 @@ class GestureNode(_Learner):
             "list",
             RELATIVE,
             "channels taken relative to how the movement began: acc (the hand's attitude left out), q",
+        ),
+        Param(
+            "scale",
+            "symbol",
+            "spread",
+            "how channel groups are weighed: each by its spread over the examples, or in their units by one"
+            " spread (common: acc in g, gyr in rad/s; si: acc in m/s², as plain DTW)",
+            choices=SCALES,
         ),
         Param(
             "cut",

@@ -96,9 +96,9 @@ def test_real_motion_that_is_no_gesture_is_rarely_taken_for_one(reps, no_gesture
     for t, frames in no_gesture:
         x = frames if channels == CH else frames[:, :3]
         told.append(sum(d.label is not None for _, d in perform(Recognizer(model), t, x)))
-    # two minutes each: the goal, 0.5 a minute, holds on the rotation; on the fast translation these
-    # defaults give up to 1.5 a minute (acc gyr), held here so that it gets no worse
-    assert told[0] <= 1 and told[1] <= 3, f"false triggers in two minutes: {told}"
+    # two minutes each: the goal, 0.5 a minute (on the fast translation, the reach alone gave 1.5 a
+    # minute with acc gyr; the examples' spread holds it to the goal)
+    assert told[0] <= 1 and told[1] <= 1, f"false triggers in two minutes: {told}"
 
 
 @pytest.fixture(scope="module")
@@ -140,6 +140,31 @@ def test_repetitions_with_no_rest_between_them_are_spotted(reps, takes):
             person,
             found,
         )
+
+
+def test_a_new_person_s_repetitions_are_spotted_from_the_others_examples(reps, takes):
+    """Each person's recordings streamed whole (``cut=spot``), taught by the two others (one repetition of
+    each exercise each): most repetitions found and named, few told wrong.  On this sample, taught by two
+    people, the spotter's :attr:`~pointat.maths.gestures.Spotter.ENDS` (chosen on nine teachers) finds
+    51, 69 and 63 % (without it 52, 66 and 76 %): held here so that it gets no worse."""
+    found, wrong = [], []
+    for person in (1, 2, 3):
+        train, _ = _new_person(reps, person)
+        model = GestureModel(CH).train([r.example(CH) for r in train])
+        right = told_wrong = total = 0
+        for (p, label), (t, frames) in takes.items():
+            if p != person:
+                continue
+            told = [
+                d.label for _, d in perform(Recognizer(model, cut="spot"), t, frames) if d.label is not None
+            ]
+            n = len(reps[(p, label)])
+            right += min(n, told.count(label))
+            told_wrong += len(told) - min(n, told.count(label))
+            total += n
+        found.append(right / total)
+        wrong.append(told_wrong / total)
+    assert np.mean(found) >= 0.58 and min(found) >= 0.45 and max(wrong) <= 0.5, (found, wrong)
 
 
 def test_adapt_follows_the_performer_and_keeps_the_taught_examples(reps):

@@ -17,12 +17,15 @@ Conventions
   tells the hand's attitude, which tells real gestures apart), or its change since the gesture began
   when ``relative`` says so; ``mag`` as a unit vector; ``q`` as the rotation since the gesture began (a
   rotation vector, radians: where the performer faces does not matter); each channel group then divided
-  by its spread over the examples (:attr:`GestureModel.scales`), so that no unit outweighs another.
+  by its spread over the examples (:attr:`GestureModel.scales`), so that no unit outweighs another
+  (``scale``: or all in their units by one spread, :func:`group_scales`).
 * Distances are dynamic time warping's (:mod:`pointat.maths.dtw`), all features warped together (DTW_D)
   or each on its own (DTW_I), whichever names more of the model's examples left out one at a time;
   nearest template wins (1-NN DTW, the baseline the literature holds every newer method against).
 * The *null class* (:meth:`GestureModel.decide`): a movement farther from its nearest class than
-  ``reject`` times the class's reach (its examples' distance from keeping still), or no nearer to it than
+  ``reject`` times the class's reach (its examples' distance from keeping still) or the examples' spread
+  (their leave-one-out distances, pooled over the classes), or, for a class itself nearly still, farther
+  from keeping still than its examples by far, or no nearer to it than
   three times its own distance from keeping still, or three times faster, slower, stronger or weaker than
   the class's examples, or whose nearest template is labelled ``null`` (movements the performer showed
   as "no gesture"), is no gesture.  Every default was chosen on real recordings and reported on others
@@ -50,9 +53,11 @@ from pointat.maths.gestures.features import (
     GRAVITY,
     NULL,
     RELATIVE,
+    SCALES,
     WARPS,
     Example,
     channel_slices,
+    group_scales,
     relative_channels,
     resample,
     segment_features,
@@ -74,6 +79,7 @@ __all__ = [
     "NULL",
     "REJECT",
     "RELATIVE",
+    "SCALES",
     "WARPS",
     "Adapted",
     "Decided",
@@ -94,6 +100,7 @@ __all__ = [
     "Stroke",
     "StrokeDetector",
     "channel_slices",
+    "group_scales",
     "posture_features",
     "relative_channels",
     "resample",

@@ -23,6 +23,12 @@ WARPS = ("auto", "each", "together")
 #: accelerometer as it is (the hand's attitude tells gestures apart), the turn since the start.
 RELATIVE = ("q",)
 
+#: How the channel groups are weighed against each other before DTW (:class:`GestureModel`'s ``scale``):
+#: ``spread``: each group divided by its own spread over the examples; ``common``: the groups in their
+#: feature units (``acc`` in g, ``gyr`` in rad/s, ``q`` in rad), all divided by one spread; ``si``: as
+#: plain DTW weighs raw frames (``acc`` in m/s², ``gyr`` in rad/s), all divided by one spread.
+SCALES = ("spread", "common", "si")
+
 #: The label of examples of movements that are no gesture.
 NULL = "null"
 
@@ -135,6 +141,38 @@ def feature_groups(channels: Sequence[str], size: int) -> list[slice]:
         out.append(slice(at, at + n))
         at += n
     return out
+
+
+def group_scales(x: np.ndarray, channels: Sequence[str], size: int = 0, scale: str = "spread") -> np.ndarray:
+    r"""What each feature is divided by before DTW, from the pooled feature frames ``x`` (N, D) of a
+    model's examples (:data:`SCALES`): per group *g*, :math:`s_g = \sqrt{\overline{\operatorname{var}}(x_g)}`
+    (``spread``), or one :math:`s = \sqrt{\overline{\operatorname{var}}(w x)}` over all features with
+    each group's unit weight :math:`w_g` (1, but ``acc`` in m/s² per g for ``si``) and :math:`s_g = s / w_g`
+    (``common``, ``si``).  A spread of 0 counts as 1.
+
+    >>> x = np.column_stack([np.ones(4), np.array([0.0, 2.0, 0.0, 2.0])[:, None] * [1, 1, 1],
+    ...                      np.array([0.0, 1.0, 0.0, 1.0])[:, None] * [1, 1, 1]])[:, 1:]
+    >>> group_scales(x, ("acc", "gyr")).tolist()
+    [1.0, 1.0, 1.0, 0.5, 0.5, 0.5]
+    >>> group_scales(x, ("acc", "gyr"), scale="common").round(3).tolist()
+    [0.791, 0.791, 0.791, 0.791, 0.791, 0.791]
+    """
+    if scale not in SCALES:
+        raise ValueError(f"scale must be one of {', '.join(SCALES)}; got {scale!r}")
+    groups = feature_groups(channels, size)
+    weights = np.ones(x.shape[1])
+    if scale == "si":
+        for name, g in zip(channels, groups, strict=True):
+            if name == "acc":
+                weights[g] = GRAVITY
+    out = np.empty(x.shape[1])
+    if scale == "spread":
+        for g in groups:
+            spread = float(np.sqrt(np.mean(np.var(x[:, g], axis=0))))
+            out[g] = spread if spread > 1e-9 else 1.0
+        return out
+    spread = float(np.sqrt(np.mean(np.var(x * weights, axis=0))))
+    return (spread if spread > 1e-9 else 1.0) / weights
 
 
 @dataclass

@@ -14,10 +14,12 @@ from pointat.maths.dtw import dtw_many, dtw_prefix_many
 from pointat.maths.gestures.features import (
     NULL,
     RELATIVE,
+    SCALES,
     WARPS,
     Example,
     channel_slices,
     feature_groups,
+    group_scales,
     relative_channels,
     segment_features,
 )
@@ -62,15 +64,19 @@ class GestureModel:
         DTW's band, a fraction of the longer series.
     reject : float
         A movement is no gesture when its nearest template is more than ``reject`` times its class's
-        reach away (:meth:`threshold`: the class's distance from keeping still), or when it is not nearer
-        to its class than :attr:`STILL` times its own distance from keeping still; 0: never rejected,
-        but by ``null`` examples.
+        reach away (:meth:`threshold`: the class's distance from keeping still, or the examples' spread
+        when nearer), or when it is not nearer to its class than :attr:`STILL` times its own distance
+        from keeping still, or (:attr:`QUIET`) its class is nearly still and it is not; 0: never
+        rejected, but by ``null`` examples.
     warp : str
         ``together``: all features warped as one (DTW_D), ``each`` on its own (DTW_I), or ``auto``
         (:meth:`choose_warp`: the one that names more of the examples, each left out in turn, together
         on a tie; :attr:`warped` says which).
     relative : sequence of str
         The channel groups taken relative to how the movement began (:func:`transform`).
+    scale : str
+        How the channel groups are weighed against each other (:data:`SCALES`, :func:`group_scales`):
+        each by its own spread over the examples, or all in their units by one spread.
     """
 
     #: A movement is no performance of a class when it is this many times faster than its fastest
@@ -82,10 +88,21 @@ class GestureModel:
     #: The least reach of a class, as a share of the median class's: a class that is itself nearly
     #: still (standing, a hand held) is then not refused for every tremble of its performance.
     FLOOR = 0.25
+    #: ... but such a class (its own reach under the floor) is told only for a movement nearly as still
+    #: as its examples: within this many times their own distance from keeping still (a performer
+    #: expects "standing" of standing, not of any motion slow enough to be near it).
+    QUIET = 6.0
     #: A movement is no gesture when it is not nearer to its class than this many times its own distance
     #: from keeping still (a tremble, a small turn of the wrist: near keeping still, so near every
     #: gesture's reach from it).
     STILL = 3.0
+    #: ... or when it is farther from its class than ``reject`` times :attr:`spread`, this many times the
+    #: examples' spread (:meth:`examples_spread`): where the examples of every class are far more alike
+    #: than the gestures are far from keeping still, the reach alone takes ordinary motion for them.
+    SPREAD = 0.93
+    #: The share of the examples' leave-one-out distances under which the spread lies (pooled over every
+    #: class: a class of three examples alone says little of how a gesture varies).
+    SPREAD_QUANTILE = 90.0
     #: How near a movement under way must be to a class to be told early, as a share of its reach.
     EARLY = 0.35
 
@@ -99,6 +116,7 @@ class GestureModel:
         reject: float = REJECT,
         warp: str = "auto",
         relative: Sequence[str] = RELATIVE,
+        scale: str = "spread",
     ) -> None:
         self.channels = tuple(channels)
         self.relative = relative_channels(relative)
@@ -109,12 +127,18 @@ class GestureModel:
         if warp not in WARPS:
             raise ValueError(f"warp must be one of {', '.join(WARPS)}; got {warp!r}")
         self.warp = warp
+        if scale not in SCALES:
+            raise ValueError(f"scale must be one of {', '.join(SCALES)}; got {scale!r}")
+        self.scale = scale
         self.warped = "together" if warp == "auto" else warp  # the one in use (auto: set by train)
         self.examples: list[Example] = []
         self.templates: list[np.ndarray] = []
         self.labels: list[str] = []
         self.scales = np.ones(0)
         self.reach: dict[str, float] = {}
+        # the classes nearly still: the farthest a movement may be from keeping still to be one of them
+        self.quiet: dict[str, float] = {}
+        self.spread = math.inf  # the examples' spread (:meth:`_reaches`)
         self._taken: set[int] = set()  # examples taken from performances (adapt), not taught
         self.peaks: list[float] = []
         self.durations: dict[str, tuple[float, float]] = {}
@@ -161,11 +185,7 @@ class GestureModel:
             segment_features(e.t, e.frames, self.channels, self.frame_rate, self.size, self.relative)
             for e in self.examples
         ]
-        pooled = np.vstack(raw)
-        scales = np.empty(pooled.shape[1])
-        for g in feature_groups(self.channels, self.size):
-            spread = float(np.sqrt(np.mean(np.var(pooled[:, g], axis=0))))
-            scales[g] = spread if spread > 1e-9 else 1.0
+        scales = group_scales(np.vstack(raw), self.channels, self.size, self.scale)
         self.scales = scales
         self.templates = [x / scales for x in raw]
         self.labels = [e.label for e in self.examples]
@@ -192,6 +212,21 @@ class GestureModel:
         reach = {c: float(np.median(still[labels == c])) for c in self.classes}
         least = self.FLOOR * float(np.median(list(reach.values())))
         self.reach = {c: max(r, least) for c, r in reach.items()}
+        self.quiet = {c: self.QUIET * r for c, r in reach.items() if r < least}
+        self.spread = self.SPREAD * self.examples_spread()
+
+    def examples_spread(self) -> float:
+        """How far an example of a class lies from its class's others: the :attr:`SPREAD_QUANTILE`
+        percentile of each example's DTW distance to the nearest other of its class (left out in turn),
+        pooled over every class (``inf`` when no class has two examples)."""
+        near = []
+        for i, x in enumerate(self.templates):
+            same = [
+                y for j, y in enumerate(self.templates) if j != i and self.labels[j] == self.labels[i] != NULL
+            ]
+            if same:
+                near.append(float(np.min(self._gauge(x, same))))
+        return float(np.percentile(near, self.SPREAD_QUANTILE)) if near else math.inf
 
     def still(self, x: np.ndarray) -> float:
         """The distance of feature frames ``x`` from keeping still: from their first frame held as long,
@@ -236,10 +271,11 @@ class GestureModel:
 
     def threshold(self, label: str) -> float:
         """The distance beyond which a movement nearest to ``label`` is no gesture: ``reject`` times the
-        class's reach (its examples' distance from keeping still)."""
+        class's reach (its examples' distance from keeping still) or the examples' spread
+        (:attr:`spread`), the nearer."""
         if self.reject <= 0:
             return math.inf
-        return self.reject * self.reach[label]
+        return self.reject * min(self.reach[label], self.spread)
 
     def early_limit(self, label: str) -> float:
         """The farthest a movement under way may be from ``label`` to be told early: :attr:`EARLY` of the
@@ -296,6 +332,7 @@ class GestureModel:
         ok = (
             d <= limit
             and (self.reject <= 0 or d < self.STILL * still)
+            and (self.reject <= 0 or not still > self.quiet.get(nearest, math.inf))
             and self.fits(nearest, duration, strength)
         )
         return Decision(
@@ -344,7 +381,8 @@ class GestureModel:
             return None
         if any(v[0] < margin * cost for c, v in per_class.items() if c != best):
             return None
-        if self.reject > 0 and cost >= self.STILL * self.still(x):
+        still = self.still(x)
+        if self.reject > 0 and (cost >= self.STILL * still or still > self.quiet.get(best, math.inf)):
             return None
         if self.reject > 0 and np.any(self.strength(frames) > self.strengths[best][1] * self.STRENGTH):
             return None

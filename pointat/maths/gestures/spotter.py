@@ -27,8 +27,9 @@ class _Match(NamedTuple):
 class Spotter:
     """Trained movements found in a stream that never rests (repetitions one after another): every
     template matched anywhere, frame by frame (:class:`~pointat.maths.dtw.Spring`, subsequence DTW on
-    the features at the model's frame rate, taken as they are: nothing is relative to a start), the
-    best match of those that overlap told once no better one can follow (``hold`` s after its end),
+    the features at the model's frame rate, taken as they are: nothing is relative to a start; a match
+    that does not begin and end as its template does costs more, :attr:`ENDS`), the best match of those
+    that overlap told once no better one can follow (``hold`` s after its end),
     under the model's rules of rejection (:meth:`GestureModel.decide`: reach, keeping still, pace and
     strength).  :meth:`push` returns decisions (:class:`~pointat.maths.gestures.events.Decided`: the
     decision and the time of the match's last frame).
@@ -36,6 +37,13 @@ class Spotter:
 
     #: A match is no longer nor shorter than this many times its template.
     STRETCH = 2.5
+    #: A match's cost also counts how far its first and last feature frames are from its template's first
+    #: and last (their squared distance, as a frame of the warping path counts it), this many times: in a
+    #: stream of repetitions with no rest between them, the span from the middle of one repetition to the
+    #: middle of the next can match another gesture's template as cheaply as a whole repetition matches
+    #: its own (raising the arm forward or sideways, turning it in or out), but it does not begin and end
+    #: as a template does.  Chosen on seglearn people 1-5 (``benchmarks/GESTURES_REAL.md``).
+    ENDS = 0.5
 
     def __init__(self, model: GestureModel, hold: float | None = None) -> None:
         self.model = model
@@ -99,6 +107,10 @@ class Spotter:
             m = len(self.templates[j])
             if not m / self.STRETCH <= step - start + 1 <= m * self.STRETCH:
                 continue
+            if self.ENDS:
+                x0, tj = self.feats[start - first], self.templates[j]
+                ends = float(np.sum((x0 - tj[0]) ** 2)) + float(np.sum((self.feats[-1] - tj[-1]) ** 2))
+                cost += self.ENDS * 0.5 * ends
             share = cost / self.model.threshold(label)  # (the classes compared at their own scale)
             if share > 1.0:
                 continue
