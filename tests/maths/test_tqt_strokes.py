@@ -200,3 +200,27 @@ def test_a_long_run_at_the_rail_is_declipped_not_left_out(told):
     unclipped, clip = ends
     assert unclipped < 2.5
     assert clip < unclipped + 0.7
+
+
+def test_an_axis_held_at_the_rail_does_not_stop_the_gravity_average():
+    """Arm circles about the vertical at 1 turn a second, the centripetal 3 g along the sensor's x held at
+    the ±2 g rail for 20 s: each run at the rail is cut at the longest declipped (a stroke's, then), and
+    the chunk under way is held open at most that long, so the average goes on taking chunks (the turn
+    budget lets them in) a little at a time.  Holding the chunk for as long as runs followed one another
+    froze the average for the whole 20 s, and then took the 20 s chunk in one step."""
+    from pointat.maths.tqt import step
+
+    rate, seconds = 200.0, 20.0
+    n = int(rate * seconds)
+    w = 2.0 * math.pi
+    f = TQTFilter(acc_range=2.0 * GRAVITY)
+    ages = []
+    for i in range(n):
+        psi = w * i / rate  # the heading: the field turns in the sensor's frame as the arm goes round
+        mag = [0.2 * math.cos(psi), -0.2 * math.sin(psi), -0.45]
+        f.update([0.0, 0.0, w], [2.0 * GRAVITY, 0.0, GRAVITY], mag, 1.0 / rate)
+        if i % 20 == 0:
+            ages.append(f.export_state()[0][step.S_E_AGE])
+    steps = np.diff(ages)
+    assert ages[-1] > 10.0  # (the rule before: 2.8 s, frozen)
+    assert steps.max() < 2.0  # no chunk of many seconds at once

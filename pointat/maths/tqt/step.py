@@ -200,7 +200,7 @@ S_ACC_PEAK_N = 53  # readings that met it exactly
 S_ACC_FOUND = 54  # the full scale found from the data (0: none; used when none is told)
 S_STROKE_T = 55  # seconds since a run at the rail ended that could not be declipped (a stroke's)
 S_CLIP = 56  # 3 x _CLIP_SLOTS: each accelerometer axis's run at the rail (see _clip_axis)
-_CLIP_SLOTS = 9
+_CLIP_SLOTS = 10
 S_MAG_FLAG = S_CLIP + 3 * _CLIP_SLOTS  # 1.0: the reported flag (F_MAG_DISTURBED) is up
 S_MAG_FLAG_T = S_MAG_FLAG + 1  # seconds in a row the field has been within its lowering band
 STATE_SIZE = S_MAG_FLAG_T + 1
@@ -430,8 +430,9 @@ def begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-unty
 
 
 def _turn_average(s, cw, sx, sy, sz):  # type: ignore[no-untyped-def]
-    """Turn the acceleration average and its pending chunks with a correction of the estimate."""
-    for i in (S_E, S_CUR, S_PREV):
+    """Turn the acceleration average, its pending chunks and the runs at the rail's axis sums (what a
+    declipped run adds to the chunk) with a correction of the estimate."""
+    for i in (S_E, S_CUR, S_PREV, S_CLIP + 4, S_CLIP + _CLIP_SLOTS + 4, S_CLIP + 2 * _CLIP_SLOTS + 4):
         s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
 
 
@@ -443,7 +444,9 @@ def _add_to_average(s, p, ex, ey, ez, dt, calm, hold):  # type: ignore[no-untype
     s[S_CUR + 1] += ey * dt
     s[S_CUR + 2] += ez * dt
     s[S_CUR_T] += dt
-    if hold or s[S_CUR_T] < CHUNK * (1.0 - 1e-9):
+    # (a run under way holds the chunk open for its guess, but never beyond the longest run declipped: an
+    # axis held at the rail must not stop the average, nor its ways out, TURN_BUDGET and _SPELL_MAX)
+    if s[S_CUR_T] < CHUNK * (1.0 - 1e-9) or (hold and s[S_CUR_T] < CHUNK + _RUN_MAX):
         return
     t = s[S_PREV_T]
     if t > 0.0 and (calm or s[S_TURN] >= TURN_BUDGET):
@@ -689,9 +692,10 @@ def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-
     r"""Follow one accelerometer axis (reading ``v``, unit vector ``u`` in the sensor frame) at the rail
     ``r``; its slots from ``s[j]``: the two readings before the run, the run's length in samples, its
     sign, :math:`A = \sum_k R_k u \, dt` (the axis in the earth frame over the run), the first reading
-    after it and whether it waits for the second (:func:`_declip` guesses what the rail cut off).  The
-    chunk under way waits while a run lasts (``hold``).  A run that flips rail or lasts beyond
-    :data:`_RUN_MAX` is a stroke's.  Returns bits: :data:`_RUN_ON` (a run under way or waiting) and
+    after it, whether it waits for the second, and how many of the two readings before it are known
+    (:func:`_declip` guesses what the rail cut off).  The chunk under way waits while a run lasts
+    (``hold``).  A run that flips rail or lasts beyond :data:`_RUN_MAX` is a stroke's, and so is what
+    follows it at the rail (no reading before it is known).  Returns bits: :data:`_RUN_ON` (a run under way or waiting) and
     :data:`_RUN_STROKE` (a stroke's run ended)."""
     at = v >= r or v <= -r
     out = 0
@@ -699,16 +703,18 @@ def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-
     if closed:  # the run ended with the reading before this one: declip it now
         s[j + 8] = 0.0
         out = _declip(s, j, r, v, not at, fix)
-        if at:
-            s[j], s[j + 1] = s[j + 1], s[j + 7]
+        if at:  # another run after one reading off the rail: before it, the last of the run and that one
+            s[j], s[j + 1] = s[j + 3] * r, s[j + 7]
         else:
             s[j], s[j + 1] = s[j + 7], v
+        s[j + 9] = 2.0
     n = s[j + 2]
     if at:
         sg = 1.0 if v > 0.0 else -1.0
         out |= _RUN_ON
         if n > 0.0 and (sg != s[j + 3] or n * dt >= _RUN_MAX):
             out, n = out | _RUN_STROKE, 0.0
+            s[j + 9] = 0.0  # (the readings before it are those before the stroke's run)
         if n == 0.0:
             s[j + 3] = sg
             s[j + 4] = s[j + 5] = s[j + 6] = 0.0
@@ -723,6 +729,7 @@ def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-
         return out | _RUN_ON
     if not closed:
         s[j], s[j + 1] = s[j + 1], v
+        s[j + 9] = min(2.0, s[j + 9] + 1.0)
     return out
 
 
@@ -736,11 +743,12 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
 
     (:math:`\sigma` the rail's sign).  When ``fix``, :math:`\sigma X A / n` (the excess along the run's
     mean earth-frame axis; m/s² x s) joins the chunk under way.  A run shorter than :data:`_RUN_SHAPE`
-    samples (an impact: no shape to fit) or whose quadratic peaks beyond :data:`_PEAK_MAX` times the rail
-    (too violent to guess) is a stroke's: returns :data:`_RUN_STROKE`, else 0."""
+    samples (an impact: no shape to fit), without two readings known before it, or whose quadratic peaks
+    beyond :data:`_PEAK_MAX` times the rail (too violent to guess) is a stroke's: returns
+    :data:`_RUN_STROKE`, else 0."""
     n = s[j + 2]
     s[j + 2] = 0.0
-    if n < _RUN_SHAPE:
+    if n < _RUN_SHAPE or s[j + 9] < 2.0:  # (no shape, or not two readings known before it)
         return _RUN_STROKE
     wb = 1.0 if use_b else 0.0
     ta, tb = n, n + 1.0
