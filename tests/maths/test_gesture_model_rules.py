@@ -70,9 +70,29 @@ def test_the_examples_spread_refuses_what_the_reach_alone_would_take():
 
 def test_the_spread_is_pooled_over_classes_and_unknown_without_two_of_one():
     model = GestureModel(("gyr",)).train(_examples(noise=0.1))
-    assert model.examples_spread() > 0 and math.isfinite(model.spread)
+    spread, classes = model.examples_spread()
+    assert spread > 0 and math.isfinite(model.spread) and classes == {"one", "two"}
     one_each = GestureModel(("gyr",)).train([Example("one", T, _turn(2)), Example("two", T, _turn(6))])
     assert one_each.spread == math.inf and one_each.classify(T, _turn(2)).label == "one"
+
+
+def test_the_spread_caps_only_the_classes_taught_two_examples_and_never_learns_from_adapt():
+    """Two close examples of "one" say nothing of how "two", taught once, varies: its threshold stays
+    its reach; and a performance taken by ``adapt`` (taken for being near its class) does not narrow the
+    spread, so adapting one class cannot make the others refuse what they took before."""
+    rng = np.random.default_rng(4)
+    taught = [
+        Example("one", T, _turn(2) + rng.normal(0, 0.02, (60, 3))),
+        Example("one", T, _turn(2) + rng.normal(0, 0.02, (60, 3))),
+        Example("two", T, _turn(6)),
+    ]
+    model = GestureModel(("gyr",)).train(taught)
+    assert model.spread_classes == {"one"} and model.spread < model.reach["one"]
+    assert model.threshold("one") < model.reject * model.reach["one"]
+    assert model.threshold("two") == model.reject * model.reach["two"]  # (not capped by one's pair)
+    before = model.spread
+    model.adapt(Example("one", T, _turn(2) + rng.normal(0, 0.001, (60, 3))), keep=5)
+    assert model.spread == pytest.approx(before, rel=1e-3) and model.spread_classes == {"one"}
 
 
 def test_a_class_that_is_itself_nearly_still_is_told_for_stillness_not_for_motion():

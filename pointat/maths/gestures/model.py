@@ -139,6 +139,7 @@ class GestureModel:
         # the classes nearly still: the farthest a movement may be from keeping still to be one of them
         self.quiet: dict[str, float] = {}
         self.spread = math.inf  # the examples' spread (:meth:`_reaches`)
+        self.spread_classes: set[str] = set()  # the classes it caps: those taught two examples or more
         self._taken: set[int] = set()  # examples taken from performances (adapt), not taught
         self.peaks: list[float] = []
         self.durations: dict[str, tuple[float, float]] = {}
@@ -212,21 +213,26 @@ class GestureModel:
         reach = {c: float(np.median(still[labels == c])) for c in self.classes}
         least = self.FLOOR * float(np.median(list(reach.values())))
         self.reach = {c: max(r, least) for c, r in reach.items()}
-        self.quiet = {c: self.QUIET * r for c, r in reach.items() if r < least}
-        self.spread = self.SPREAD * self.examples_spread()
+        # (a class whose examples are all alike to the bit still takes a performance as still as they are)
+        self.quiet = {c: self.QUIET * max(r, 0.01 * least) for c, r in reach.items() if r < least}
+        spread, self.spread_classes = self.examples_spread()
+        self.spread = self.SPREAD * spread if spread > 0.0 else math.inf
 
-    def examples_spread(self) -> float:
-        """How far an example of a class lies from its class's others: the :attr:`SPREAD_QUANTILE`
+    def examples_spread(self) -> tuple[float, set[str]]:
+        """How far a taught example of a class lies from its class's others: the :attr:`SPREAD_QUANTILE`
         percentile of each example's DTW distance to the nearest other of its class (left out in turn),
-        pooled over every class (``inf`` when no class has two examples)."""
-        near = []
-        for i, x in enumerate(self.templates):
-            same = [
-                y for j, y in enumerate(self.templates) if j != i and self.labels[j] == self.labels[i] != NULL
-            ]
+        pooled over the classes taught two examples or more; and those classes (the spread is evidence of
+        theirs only).  ``inf`` when no class has two.  Examples taken from performances (``adapt``) are
+        left out: taken for being near their class, they would only narrow it."""
+        taught = [i for i, e in enumerate(self.examples) if id(e) not in self._taken]
+        near, classes = [], set()
+        for i in taught:
+            label = self.labels[i]
+            same = [self.templates[j] for j in taught if j != i and self.labels[j] == label != NULL]
             if same:
-                near.append(float(np.min(self._gauge(x, same))))
-        return float(np.percentile(near, self.SPREAD_QUANTILE)) if near else math.inf
+                near.append(float(np.min(self._gauge(self.templates[i], same))))
+                classes.add(label)
+        return (float(np.percentile(near, self.SPREAD_QUANTILE)) if near else math.inf), classes
 
     def still(self, x: np.ndarray) -> float:
         """The distance of feature frames ``x`` from keeping still: from their first frame held as long,
@@ -275,7 +281,8 @@ class GestureModel:
         (:attr:`spread`), the nearer."""
         if self.reject <= 0:
             return math.inf
-        return self.reject * min(self.reach[label], self.spread)
+        cap = self.spread if label in self.spread_classes else math.inf
+        return self.reject * min(self.reach[label], cap)
 
     def early_limit(self, label: str) -> float:
         """The farthest a movement under way may be from ``label`` to be told early: :attr:`EARLY` of the
@@ -332,7 +339,7 @@ class GestureModel:
         ok = (
             d <= limit
             and (self.reject <= 0 or d < self.STILL * still)
-            and (self.reject <= 0 or not still > self.quiet.get(nearest, math.inf))
+            and (self.reject <= 0 or not (math.isfinite(still) and still > self.quiet.get(nearest, math.inf)))
             and self.fits(nearest, duration, strength)
         )
         return Decision(
