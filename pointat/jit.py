@@ -87,7 +87,8 @@ def prune(root: Path, keep: Path, now: float | None = None) -> list[Path]:
             continue
         if last < limit:
             shutil.rmtree(folder, ignore_errors=True)
-            gone.append(folder)
+            if not folder.exists():  # (a link, a folder not ours to remove: left, and not said removed)
+                gone.append(folder)
     return gone
 
 

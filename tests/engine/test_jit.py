@@ -105,3 +105,18 @@ def test_opening_a_folder_marks_it_used(tmp_path, monkeypatch):
     jit.compile_module(b, calls=[a])
     assert (jit.cache_dir(b, calls=[a]) / "used").exists()
     assert not stale.exists()
+
+
+def test_a_link_among_the_folders_is_left_and_not_said_removed(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    root = jit.cache_root()
+    target = tmp_path / "elsewhere"
+    target.mkdir()
+    (target / "keep.txt").write_text("x")
+    root.mkdir(parents=True)
+    link = root / "numba-link"
+    link.symlink_to(target, target_is_directory=True)
+    os.utime(link, (1.0, 1.0), follow_symlinks=False)
+    os.utime(target, (1.0, 1.0))
+    assert jit.prune(root, keep=root / "numba-current", now=2_000_000_000.0) == []
+    assert (target / "keep.txt").exists()
