@@ -405,8 +405,7 @@ class GestureNode(_Learner):
     attitude counts), with a null class.  A movement is no gesture (``none``) when:
 
     * it is farther from its nearest class than ``reject`` times the class's reach (how far its
-      examples are from keeping still), or than ``reject`` times how far the examples lie from their
-      class's others (pooled over the classes);
+      examples are from keeping still);
     * or its class is itself nearly still (standing, a hand held) and it is not;
     * or it is not nearer to the class than three times its own distance from keeping still (a
       tremble, a small turn of the wrist);

@@ -54,10 +54,17 @@ def test_scale_is_an_option_of_evaluate_and_changes_what_the_model_divides_by():
     assert by["si"][3] / by["si"][0] == pytest.approx(GRAVITY)
 
 
+def _spread_on(channels=("gyr",)) -> GestureModel:
+    """A model with the examples' spread rule on (off by default), at the factor once chosen."""
+    model = GestureModel(channels)
+    model.SPREAD = 0.93
+    return model
+
+
 def test_the_examples_spread_refuses_what_the_reach_alone_would_take():
     """Examples far more alike than the gesture is far from keeping still: a movement well within the
     reach but far beyond how the examples vary is no gesture; with the spread left out, it was one."""
-    model = GestureModel(("gyr",)).train(_examples(noise=0.02))
+    model = _spread_on().train(_examples(noise=0.02))
     sloppy = _turn(2, amplitude=2.5)  # the turn, at 60 % of its size
     d = model.classify(T, sloppy)
     assert d.nearest == "one" and d.distance < model.reject * model.reach["one"]
@@ -65,11 +72,14 @@ def test_the_examples_spread_refuses_what_the_reach_alone_would_take():
     model.spread = math.inf
     assert model.classify(T, sloppy).label == "one"
     # the examples' own performances still pass
-    assert GestureModel(("gyr",)).train(_examples(0.02)).classify(T, _turn(2)).label == "one"
+    assert _spread_on().train(_examples(0.02)).classify(T, _turn(2)).label == "one"
+    # off by default (a rehearsal's examples vary less than performances: the simulated performer)
+    default = GestureModel(("gyr",)).train(_examples(noise=0.02))
+    assert default.spread == math.inf and default.classify(T, sloppy).label == "one"
 
 
 def test_the_spread_is_pooled_over_classes_and_unknown_without_two_of_one():
-    model = GestureModel(("gyr",)).train(_examples(noise=0.1))
+    model = _spread_on().train(_examples(noise=0.1))
     spread, classes = model.examples_spread()
     assert spread > 0 and math.isfinite(model.spread) and classes == {"one", "two"}
     one_each = GestureModel(("gyr",)).train([Example("one", T, _turn(2)), Example("two", T, _turn(6))])
@@ -86,7 +96,7 @@ def test_the_spread_caps_only_the_classes_taught_two_examples_and_never_learns_f
         Example("one", T, _turn(2) + rng.normal(0, 0.02, (60, 3))),
         Example("two", T, _turn(6)),
     ]
-    model = GestureModel(("gyr",)).train(taught)
+    model = _spread_on().train(taught)
     assert model.spread_classes == {"one"} and model.spread < model.reach["one"]
     assert model.threshold("one") < model.reject * model.reach["one"]
     assert model.threshold("two") == model.reject * model.reach["two"]  # (not capped by one's pair)
