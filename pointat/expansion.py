@@ -132,80 +132,83 @@ def _expand(
             for key in (port.name, names.index(port.name)):
                 outlet_map[(decl.name, key)] = (port.node, port.port)
     instances = {d.name for d in spec.nodes if is_abstraction(d.type)}
-    out.inlets, out.outlets = _through_ports(spec, instances, failed, inlet_map, outlet_map, problems)
-    out.wires += _through_wires(spec, instances, failed, inlet_map, outlet_map, problems)
+    through = _Through(instances, failed, inlet_map, outlet_map, problems)
+    out.inlets, out.outlets = through.ports(spec)
+    out.wires += through.wires(spec)
     out.failed = failed  # type: ignore[attr-defined]  # (check: their wires are not "no such node")
     return out
 
 
-def _through_ports(
-    spec: PatchSpec,
-    instances: set[str],
-    failed: set[str],
-    inlet_map: _InletMap,
-    outlet_map: _OutletMap,
-    problems: list[Problem],
-) -> tuple[list[PortDecl], list[PortDecl]]:
-    """This patch's own inlets and outlets: those that lead into an abstraction it holds, through to its
-    nodes."""
-    inlets, outlets = [], []
-    for port in spec.inlets:
-        if port.node not in instances:
-            inlets.append(port)
-        elif port.node not in failed:
-            inner = inlet_map.get((port.node, port.port))
-            if inner is None:
-                problems.append(
-                    Problem(port.where, f"abstraction instance '{port.node}' has no inlet {port.port!r}")
-                )
-                continue
-            inlets += [PortDecl(port.name, n, i, port.where) for n, i in inner]
-    for port in spec.outlets:
-        if port.node not in instances:
-            outlets.append(port)
-        elif port.node not in failed:
-            if (port.node, port.port) not in outlet_map:
-                problems.append(
-                    Problem(port.where, f"abstraction instance '{port.node}' has no outlet {port.port!r}")
-                )
-                continue
-            n, o = outlet_map[(port.node, port.port)]
-            outlets.append(PortDecl(port.name, n, o, port.where))
-    return inlets, outlets
+@dataclasses.dataclass
+class _Through:
+    """A patch's abstraction instances once expanded: what their inlets and outlets lead to (and which
+    failed), to lead the patch's own ports and wires through them; problems are added to ``problems``."""
 
+    instances: set[str]
+    failed: set[str]
+    inlet_map: _InletMap
+    outlet_map: _OutletMap
+    problems: list[Problem]
 
-def _through_wires(
-    spec: PatchSpec,
-    instances: set[str],
-    failed: set[str],
-    inlet_map: _InletMap,
-    outlet_map: _OutletMap,
-    problems: list[Problem],
-) -> list[Wire]:
-    """This patch's wires, those to or from an abstraction it holds led to and from its nodes (none of
-    an instance that failed: its problem is said once)."""
-    wires = []
-    for w in spec.wires:
-        if w.src in failed or w.dst in failed:
-            continue
-        srcs = [(w.src, w.outlet)]
-        dsts = [(w.dst, w.inlet)]
-        if w.src in instances:
-            if (w.src, w.outlet) not in outlet_map:
-                problems.append(
-                    Problem(w.where, f"abstraction instance '{w.src}' has no outlet {w.outlet!r}")
-                )
+    def ports(self, spec: PatchSpec) -> tuple[list[PortDecl], list[PortDecl]]:
+        """This patch's own inlets and outlets: those that lead into an abstraction it holds, through to its
+        nodes."""
+        instances, failed, problems = self.instances, self.failed, self.problems
+        inlet_map, outlet_map = self.inlet_map, self.outlet_map
+        inlets, outlets = [], []
+        for port in spec.inlets:
+            if port.node not in instances:
+                inlets.append(port)
+            elif port.node not in failed:
+                inner = inlet_map.get((port.node, port.port))
+                if inner is None:
+                    problems.append(
+                        Problem(port.where, f"abstraction instance '{port.node}' has no inlet {port.port!r}")
+                    )
+                    continue
+                inlets += [PortDecl(port.name, n, i, port.where) for n, i in inner]
+        for port in spec.outlets:
+            if port.node not in instances:
+                outlets.append(port)
+            elif port.node not in failed:
+                if (port.node, port.port) not in outlet_map:
+                    problems.append(
+                        Problem(port.where, f"abstraction instance '{port.node}' has no outlet {port.port!r}")
+                    )
+                    continue
+                n, o = outlet_map[(port.node, port.port)]
+                outlets.append(PortDecl(port.name, n, o, port.where))
+        return inlets, outlets
+
+    def wires(self, spec: PatchSpec) -> list[Wire]:
+        """This patch's wires, those to or from an abstraction it holds led to and from its nodes (none of
+        an instance that failed: its problem is said once)."""
+        instances, failed, problems = self.instances, self.failed, self.problems
+        inlet_map, outlet_map = self.inlet_map, self.outlet_map
+        wires = []
+        for w in spec.wires:
+            if w.src in failed or w.dst in failed:
                 continue
-            srcs = [outlet_map[(w.src, w.outlet)]]
-        if w.dst in instances:
-            if (w.dst, w.inlet) not in inlet_map:
-                problems.append(Problem(w.where, f"abstraction instance '{w.dst}' has no inlet {w.inlet!r}"))
-                continue
-            dsts = inlet_map[(w.dst, w.inlet)]
-        for s, o in srcs:
-            for d, i in dsts:
-                wires.append(Wire(s, o, d, i, w.where))
-    return wires
+            srcs = [(w.src, w.outlet)]
+            dsts = [(w.dst, w.inlet)]
+            if w.src in instances:
+                if (w.src, w.outlet) not in outlet_map:
+                    problems.append(
+                        Problem(w.where, f"abstraction instance '{w.src}' has no outlet {w.outlet!r}")
+                    )
+                    continue
+                srcs = [outlet_map[(w.src, w.outlet)]]
+            if w.dst in instances:
+                if (w.dst, w.inlet) not in inlet_map:
+                    problems.append(
+                        Problem(w.where, f"abstraction instance '{w.dst}' has no inlet {w.inlet!r}")
+                    )
+                    continue
+                dsts = inlet_map[(w.dst, w.inlet)]
+            for s, o in srcs:
+                for d, i in dsts:
+                    wires.append(Wire(s, o, d, i, w.where))
+        return wires
 
 
 def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
