@@ -432,8 +432,12 @@ def begin(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[no-unty
 def _turn_average(s, cw, sx, sy, sz):  # type: ignore[no-untyped-def]
     """Turn the acceleration average, its pending chunks and the runs at the rail's axis sums (what a
     declipped run adds to the chunk) with a correction of the estimate."""
-    for i in (S_E, S_CUR, S_PREV, S_CLIP + 4, S_CLIP + _CLIP_SLOTS + 4, S_CLIP + 2 * _CLIP_SLOTS + 4):
+    for i in (S_E, S_CUR, S_PREV):
         s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
+    for j in (S_CLIP, S_CLIP + _CLIP_SLOTS, S_CLIP + 2 * _CLIP_SLOTS):
+        if s[j + 2] > 0.0:  # (a run under way: its sum is still to be used)
+            i = j + 4
+            s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
 
 
 def _add_to_average(s, p, ex, ey, ez, dt, calm, hold):  # type: ignore[no-untyped-def]
