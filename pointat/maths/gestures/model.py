@@ -65,9 +65,9 @@ class GestureModel:
     reject : float
         A movement is no gesture when its nearest template is more than ``reject`` times its class's
         reach away (:meth:`threshold`: the class's distance from keeping still, or the examples' spread
-        when nearer and :attr:`SPREAD` is set), or when it is not nearer to its class than :attr:`STILL` times its own distance
-        from keeping still, or (:attr:`QUIET`) its class is nearly still and it is not; 0: never
-        rejected, but by ``null`` examples.
+        when nearer and :attr:`SPREAD` is set), or when it is not nearer to its class than :attr:`STILL`
+        times its own distance from keeping still, or (:attr:`QUIET`) its class is nearly still and it
+        is not; 0: never rejected, but by ``null`` examples.
     warp : str
         ``together``: all features warped as one (DTW_D), ``each`` on its own (DTW_I), or ``auto``
         (:meth:`choose_warp`: the one that names more of the examples, each left out in turn, together
@@ -219,8 +219,10 @@ class GestureModel:
         self.reach = {c: max(r, least) for c, r in reach.items()}
         # (a class whose examples are all alike to the bit still takes a performance as still as they are)
         self.quiet = {c: self.QUIET * max(r, 0.01 * least) for c, r in reach.items() if r < least}
-        spread, self.spread_classes = self.examples_spread()
-        self.spread = self.SPREAD * spread if spread > 0.0 else math.inf
+        self.spread, self.spread_classes = math.inf, set()
+        if math.isfinite(self.SPREAD):  # (its leave-one-out DTW only when the rule is on)
+            spread, self.spread_classes = self.examples_spread()
+            self.spread = self.SPREAD * spread if spread > 0.0 else math.inf
 
     def examples_spread(self) -> tuple[float, set[str]]:
         """How far a taught example of a class lies from its class's others: the :attr:`SPREAD_QUANTILE`
@@ -278,6 +280,11 @@ class GestureModel:
             return self.warp
         each, together = self.named_left_out("each"), self.named_left_out("together")
         return "each" if each > together else "together"
+
+    def too_lively(self, label: str, still: float) -> bool:
+        """Whether a movement ``still`` from keeping still is too lively for ``label``, a class itself
+        nearly still (:attr:`QUIET`; never for another class, nor when its stillness is not known)."""
+        return math.isfinite(still) and still > self.quiet.get(label, math.inf)
 
     def threshold(self, label: str) -> float:
         """The distance beyond which a movement nearest to ``label`` is no gesture: ``reject`` times the
@@ -343,7 +350,7 @@ class GestureModel:
         ok = (
             d <= limit
             and (self.reject <= 0 or d < self.STILL * still)
-            and (self.reject <= 0 or not (math.isfinite(still) and still > self.quiet.get(nearest, math.inf)))
+            and (self.reject <= 0 or not self.too_lively(nearest, still))
             and self.fits(nearest, duration, strength)
         )
         return Decision(
@@ -393,7 +400,7 @@ class GestureModel:
         if any(v[0] < margin * cost for c, v in per_class.items() if c != best):
             return None
         still = self.still(x)
-        if self.reject > 0 and (cost >= self.STILL * still or still > self.quiet.get(best, math.inf)):
+        if self.reject > 0 and (cost >= self.STILL * still or self.too_lively(best, still)):
             return None
         if self.reject > 0 and np.any(self.strength(frames) > self.strengths[best][1] * self.STRENGTH):
             return None

@@ -18,10 +18,11 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
 * **Saturation is known** when the source says its full scale (``acc_range``, ``gyro_range``), and
   **found** when it does not (:func:`_found_range`: a clipped axis reads its rail again and again, to the
   bit; the average then forgets what it took before the rail was known): an axis at its rail reads less
-  than the truth.  A run of readings at the rail that has a shape (:data:`_RUN_SHAPE` samples or more, a fast translation's or a
-  turn's) is **declipped** (:func:`_declip`: the quadratic through the readings about it guesses what
-  the rail cut off, and that joins the average); leaving such runs out, with the chunks about them,
-  left the gyro alone for most of a fast trial (BROAD clipped at ±2 g: 3.3° where unclipped gave 2.0°).
+  than the truth.  A run of readings at the rail that has a shape (:data:`_RUN_SHAPE` samples or more,
+  a fast translation's or a turn's) is **declipped** (:func:`_declip`: the quadratic through the
+  readings about it guesses what the rail cut off, and that joins the average); leaving such runs out,
+  with the chunks about them, left the gyro alone for most of a fast trial (BROAD clipped at ±2 g: 3.3°
+  where unclipped gave 2.0°).
   An impact too short to have a shape, or one too violent to guess, is a stroke's.  Leaving out only its
   clipped samples would leave out one side of a zero-mean stroke, so the acceleration average is fed in
   *chunks* of :data:`CHUNK` seconds, and none joins it from a chunk before a spell of strokes (strokes
@@ -699,8 +700,8 @@ def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-
     after it, whether it waits for the second, and how many of the two readings before it are known
     (:func:`_declip` guesses what the rail cut off).  The chunk under way waits while a run lasts
     (``hold``).  A run that flips rail or lasts beyond :data:`_RUN_MAX` is a stroke's, and so is what
-    follows it at the rail (no reading before it is known).  Returns bits: :data:`_RUN_ON` (a run under way or waiting) and
-    :data:`_RUN_STROKE` (a stroke's run ended)."""
+    follows it at the rail (no reading before it is known).  Returns bits: :data:`_RUN_ON` (a run under
+    way or waiting) and :data:`_RUN_STROKE` (a stroke's run ended)."""
     at = v >= r or v <= -r
     out = 0
     closed = s[j + 8] != 0.0
