@@ -201,6 +201,15 @@ S_ACC_PEAK_N = 53  # readings that met it exactly
 S_ACC_FOUND = 54  # the full scale found from the data (0: none; used when none is told)
 S_STROKE_T = 55  # seconds since a run at the rail ended that could not be declipped (a stroke's)
 S_CLIP = 56  # 3 x _CLIP_SLOTS: each accelerometer axis's run at the rail (see _clip_axis)
+# an axis's slots, from its first (S_CLIP + axis x _CLIP_SLOTS)
+_C_Y2 = 0  # the reading two before the run
+_C_Y1 = 1  # the reading just before it
+_C_N = 2  # the run's length in samples (0: no run)
+_C_SIGN = 3  # the rail's sign, +1 or -1
+_C_AXIS = 4  # 3: the axis in the earth frame summed over the run, x dt
+_C_YA = 7  # the first reading after the run
+_C_WAIT = 8  # 1.0: the run has ended, its guess waits for the second reading after it
+_C_KNOWN = 9  # readings before the run known (0, 1, 2)
 _CLIP_SLOTS = 10
 S_MAG_FLAG = S_CLIP + 3 * _CLIP_SLOTS  # 1.0: the reported flag (F_MAG_DISTURBED) is up
 S_MAG_FLAG_T = S_MAG_FLAG + 1  # seconds in a row the field has been within its lowering band
@@ -436,8 +445,8 @@ def _turn_average(s, cw, sx, sy, sz):  # type: ignore[no-untyped-def]
     for i in (S_E, S_CUR, S_PREV):
         s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
     for j in (S_CLIP, S_CLIP + _CLIP_SLOTS, S_CLIP + 2 * _CLIP_SLOTS):
-        if s[j + 2] > 0.0:  # (a run under way: its sum is still to be used)
-            i = j + 4
+        if s[j + _C_N] > 0.0:  # (a run under way: its sum is still to be used)
+            i = j + _C_AXIS
             s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
 
 
@@ -695,7 +704,7 @@ def _report_flag(s, off_n, tol_n, off_d, tol_d, dt):  # type: ignore[no-untyped-
 
 def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-untyped-def]
     r"""Follow one accelerometer axis (reading ``v``, unit vector ``u`` in the sensor frame) at the rail
-    ``r``; its slots from ``s[j]``: the two readings before the run, the run's length in samples, its
+    ``r``; its slots from ``s[j]`` (the ``_C_*`` offsets): the two readings before the run, the run's length in samples, its
     sign, :math:`A = \sum_k R_k u \, dt` (the axis in the earth frame over the run), the first reading
     after it, whether it waits for the second, and how many of the two readings before it are known
     (:func:`_declip` guesses what the rail cut off).  The chunk under way waits while a run lasts
@@ -704,37 +713,37 @@ def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-
     way or waiting) and :data:`_RUN_STROKE` (a stroke's run ended)."""
     at = v >= r or v <= -r
     out = 0
-    closed = s[j + 8] != 0.0
+    closed = s[j + _C_WAIT] != 0.0
     if closed:  # the run ended with the reading before this one: declip it now
-        s[j + 8] = 0.0
+        s[j + _C_WAIT] = 0.0
         out = _declip(s, j, r, v, not at, fix)
         if at:  # another run after one reading off the rail: before it, the last of the run and that one
-            s[j], s[j + 1] = s[j + 3] * r, s[j + 7]
+            s[j + _C_Y2], s[j + _C_Y1] = s[j + _C_SIGN] * r, s[j + _C_YA]
         else:
-            s[j], s[j + 1] = s[j + 7], v
-        s[j + 9] = 2.0
-    n = s[j + 2]
+            s[j + _C_Y2], s[j + _C_Y1] = s[j + _C_YA], v
+        s[j + _C_KNOWN] = 2.0
+    n = s[j + _C_N]
     if at:
         sg = 1.0 if v > 0.0 else -1.0
         out |= _RUN_ON
-        if n > 0.0 and (sg != s[j + 3] or n * dt >= _RUN_MAX):
+        if n > 0.0 and (sg != s[j + _C_SIGN] or n * dt >= _RUN_MAX):
             out, n = out | _RUN_STROKE, 0.0
-            s[j + 9] = 0.0  # (the readings before it are those before the stroke's run)
+            s[j + _C_KNOWN] = 0.0  # (the readings before it are those before the stroke's run)
         if n == 0.0:
-            s[j + 3] = sg
-            s[j + 4] = s[j + 5] = s[j + 6] = 0.0
+            s[j + _C_SIGN] = sg
+            s[j + _C_AXIS] = s[j + _C_AXIS + 1] = s[j + _C_AXIS + 2] = 0.0
         ex, ey, ez = _rotate(w, x, y, z, ux, uy, uz)
-        s[j + 4] += ex * dt
-        s[j + 5] += ey * dt
-        s[j + 6] += ez * dt
-        s[j + 2] = n + 1.0
+        s[j + _C_AXIS] += ex * dt
+        s[j + _C_AXIS + 1] += ey * dt
+        s[j + _C_AXIS + 2] += ez * dt
+        s[j + _C_N] = n + 1.0
         return out
     if n > 0.0:  # the run has ended: the next reading too, then the guess
-        s[j + 7], s[j + 8] = v, 1.0
+        s[j + _C_YA], s[j + _C_WAIT] = v, 1.0
         return out | _RUN_ON
     if not closed:
-        s[j], s[j + 1] = s[j + 1], v
-        s[j + 9] = min(2.0, s[j + 9] + 1.0)
+        s[j + _C_Y2], s[j + _C_Y1] = s[j + _C_Y1], v
+        s[j + _C_KNOWN] = min(2.0, s[j + _C_KNOWN] + 1.0)
     return out
 
 
@@ -751,9 +760,9 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
     samples (an impact: no shape to fit), without two readings known before it, or whose quadratic peaks
     beyond :data:`_PEAK_MAX` times the rail (too violent to guess) is a stroke's: returns
     :data:`_RUN_STROKE`, else 0."""
-    n = s[j + 2]
-    s[j + 2] = 0.0
-    if n < _RUN_SHAPE or s[j + 9] < 2.0:  # (no shape, or not two readings known before it)
+    n = s[j + _C_N]
+    s[j + _C_N] = 0.0
+    if n < _RUN_SHAPE or s[j + _C_KNOWN] < 2.0:  # (no shape, or not two readings known before it)
         return _RUN_STROKE
     wb = 1.0 if use_b else 0.0
     ta, tb = n, n + 1.0
@@ -763,7 +772,7 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
     s2 = 5.0 + ta * ta + wb * tb * tb
     s3 = -9.0 + ta * ta * ta + wb * tb * tb * tb
     s4 = 17.0 + ta * ta * ta * ta + wb * tb * tb * tb * tb
-    y2, y1, ya = s[j], s[j + 1], s[j + 7]
+    y2, y1, ya = s[j + _C_Y2], s[j + _C_Y1], s[j + _C_YA]
     q0 = y2 + y1 + ya + wb * yb
     q1 = -2.0 * y2 - y1 + ta * ya + wb * tb * yb
     q2 = 4.0 * y2 + y1 + ta * ta * ya + wb * tb * tb * yb
@@ -773,7 +782,7 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
     c0 = (q0 * (s2 * s4 - s3 * s3) - s1 * (q1 * s4 - s3 * q2) + s2 * (q1 * s3 - s2 * q2)) / det
     c1 = (s0 * (q1 * s4 - q2 * s3) - q0 * (s1 * s4 - s3 * s2) + s2 * (s1 * q2 - q1 * s2)) / det
     c2 = (s0 * (s2 * q2 - s3 * q1) - s1 * (s1 * q2 - s2 * q1) + q0 * (s1 * s3 - s2 * s2)) / det
-    sg = s[j + 3]
+    sg = s[j + _C_SIGN]
     excess = peak = 0.0
     for i in range(int(n)):
         k = float(i)
@@ -785,9 +794,9 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
         return _RUN_STROKE
     if fix:
         c = sg * excess / n
-        s[S_CUR] += c * s[j + 4]
-        s[S_CUR + 1] += c * s[j + 5]
-        s[S_CUR + 2] += c * s[j + 6]
+        s[S_CUR] += c * s[j + _C_AXIS]
+        s[S_CUR + 1] += c * s[j + _C_AXIS + 1]
+        s[S_CUR + 2] += c * s[j + _C_AXIS + 2]
     return 0
 
 
