@@ -35,7 +35,7 @@ from pointat.maths.tqt import TQTFilter
 #: once the gyro's bias is known from rest, the gain added per rad/s of sustained turning, the gain before
 #: the bias is known, the bias learned from the heading in motion), each at its default and either side
 #: (k_heading also at 0.05, its default before k_heading_turn).  Held: mag_dip_tol (10°: 15° scored within
-#: 0.01° and was chosen in 3 of 52 folds, LOO.md of commit 129d7ae), bias_tau (10 s, chosen on BROAD's
+#: 0.01° and was chosen in 2 of 52 folds, LOO.md of commit 129d7ae), bias_tau (10 s, chosen on BROAD's
 #: 81-point grid before: this file's history), mag_new_time (VQF's 20 s; 10 s scored the same within
 #: 0.01°) and mag_tau (0.2 s: 0.05 / 0.2 / 0.4 s on the first round of this grid, LOO.md of commit
 #: 4e6629d, took 0.4; 0.1 / 0.2 / 0.3 / 0.4 s with the phones' error found in the gate, issue 46 point 4,
