@@ -112,6 +112,15 @@ class TQT(SampleClock, Flagged, Node):
             minimum=0.0,
         ),
         Param(
+            "mag_lag_max",
+            "float",
+            0.02,
+            "most the magnetometer's lag behind the gyro, learned as it turns, may be (robust mode; 0: none learned)",
+            unit="s",
+            live=True,
+            minimum=0.0,
+        ),
+        Param(
             "k_heading_rest",
             "float",
             0.2,
@@ -259,6 +268,7 @@ def _settings(p: Any) -> dict[str, Any]:
         "k_heading_unrested": p.k_heading_unrested,
         "k_heading_rest": p.k_heading_rest,
         "k_heading_turn": p.k_heading_turn,
+        "mag_lag_max": p.mag_lag_max,
         "acc_range": p.acc_range * STANDARD_GRAVITY,
         "gyro_range": math.radians(p.gyro_range),
     }

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from pointat.maths.quaternion import quat_angle, quat_from_axis_angle, quat_inverse_rotate
-from pointat.maths.tqt import TQTFilter
+from pointat.maths.tqt import TQTFilter, step
 from tests.maths.mcghee_reference import magnetic_reference
 
 G = 9.81
@@ -91,3 +91,19 @@ def test_a_gyro_at_its_rail_leans_the_heading_on_the_field(told):
     left = float(np.degrees(quat_angle(np.array([q_now]), q[-1:])[0]))
     decay = left / error[end]
     assert decay == pytest.approx(math.exp(-0.1 * 0.9) if told else math.exp(-f.k_heading * 0.9), abs=0.02)
+
+
+def test_a_gyro_at_its_rail_does_not_lean_the_heading_on_a_disturbed_field():
+    """A field judged disturbed for longer than the rejection time is taken back at a fraction of the gain
+    (VQF's late rejection); a gyro at its rail at the same time must not raise that to k_heading_unrested
+    (before: 13 times the late gain, pulling the heading toward a magnet on the hand)."""
+    f = TQTFilter(backend="python")
+    f.update([0.0, 0.0, 0.0], [0.0, 0.0, G], FIELD.tolist(), DT)
+    s, p = list(f._s), f._p
+    s[step.S_BIAS_T] = s[step.S_MAG_T] = 1e9  # the bias known, the plain-mean start long over
+    s[step.S_MAG_DIST], s[step.S_MAG_REJ_T] = 1.0, 1e9  # disturbed, the rejection time used up
+    late = step._heading_gain(list(s), p, DT, 0)
+    assert 0.0 < late < p[step.P_ALPHA_MAG_UNRESTED] / 4
+    assert step._heading_gain(list(s), p, DT, step.F_GYRO_SATURATED) == late
+    s[step.S_MAG_DIST] = 0.0  # the field accepted: the rail's gain
+    assert step._heading_gain(list(s), p, DT, step.F_GYRO_SATURATED) == p[step.P_ALPHA_MAG_UNRESTED]

@@ -153,11 +153,13 @@ class TQTFilter(_TQTParams):
     mag_lag_tau, mag_lag_max : float, keyword-only
         Robust mode: the magnetometer's lag behind the gyro is learned as it runs (:attr:`magnetometer_lag`:
         the field's heading error regressed on the turn rate about the vertical, over ``mag_lag_tau``
-        seconds, 10) and taken out of the field's heading, within 0 and ``mag_lag_max`` seconds (0.02; 0:
-        not at all).  Both chosen leave-one-trial-out on BROAD and the phones (``benchmarks/README.md``).
-        What is learned is any heading error of the field that goes with the turn rate, the lag's and
-        (through the dip) the tilt's: on BROAD's fast rotation it settles near 15 ms (the lag found
-        offline, 10 ms, and half a sample), on other trials it wanders between 0 and the cap.
+        seconds, 10; 0: not learned) and taken out of the field's heading, within 0 and ``mag_lag_max``
+        seconds (0.02; 0: not at all).  Both chosen leave-one-trial-out on BROAD and the phones (``benchmarks/README.md``).
+        It is learned from the rate's changes (the error and the rate less their half-second low-passes,
+        in motion), so that a gyro's scale error, whose heading error follows the rate slowly, passes
+        for a lag of only a few milliseconds; a rest or a steady turn holds what was learned.  What is
+        learned is any heading error of the field that follows the rate's changes, the lag's and
+        (through the dip) the tilt's.
     k_heading_rest : float, keyword-only
         Robust mode: the heading-correction gain (1/s) while the sensor rests, when it is more than the
         gain of the moment.  Default 0.2; 0: as in motion.
@@ -329,7 +331,8 @@ class TQTFilter(_TQTParams):
     @property
     def magnetometer_lag(self) -> float:
         """Robust mode: the magnetometer's lag behind the gyro (s) as learned from the turning so far (0
-        until the sensor has turned; at most ``mag_lag_max``), taken out of the field's heading."""
+        until the turn rate has changed in motion, and with the learning off; at most ``mag_lag_max``),
+        taken out of the field's heading."""
         return float(step.mag_lag(self._s, self._p))
 
     @property

@@ -146,6 +146,15 @@ _RUN_ON = 1
 _RUN_STROKE = 2
 # after the magnetometer's rejection time is used up, the heading correction runs at this fraction
 _MAG_LATE_FACTOR = 0.5
+# time constant (s) of the low-passes taken off the field's heading error and the turn rate before _lag
+# regresses one on the other: a lag shows in how the error follows the rate's changes at once, a gyro's
+# scale error e in an error that grows with the angle turned, which passes as a lag of about e x _LAG_HP
+# (2.5 ms for 0.5 %; the steady turn's error itself is left out).  0.5, 1, 2 and 4 s tie on both sets
+# (benchmarks/README.md): the shortest that does
+_LAG_HP = 0.5
+# rad/s: _lag learns only from samples whose rate is this far from its low-pass (a change of the turn well
+# above a gyro's noise) and holds what it learned through a rest or a steady turn, which tell nothing of it
+_LAG_CHANGE = 0.05
 # time constant (s) of the gyro / accelerometer low-pass the rest detector compares against (as VQF)
 _REST_TAU = 0.5
 # below this squared half-angle (1.8 degrees of turn a sample: 60 rad/s at 100 Hz) the exponential map
@@ -223,7 +232,9 @@ S_MAG_FLAG = S_CLIP + 3 * _CLIP_SLOTS  # 1.0: the reported flag (F_MAG_DISTURBED
 S_MAG_FLAG_T = S_MAG_FLAG + 1  # seconds in a row the field has been within its lowering band
 S_LAG_XY = S_MAG_FLAG_T + 1  # low-pass of psi x the vertical turn rate (the magnetometer's lag, _lag)
 S_LAG_XX = S_LAG_XY + 1  # and of the rate squared
-STATE_SIZE = S_LAG_XX + 1
+S_LAG_P = S_LAG_XX + 1  # psi low-passed over _LAG_HP (what _lag regresses is psi and the rate less these)
+S_LAG_W = S_LAG_P + 1  # the vertical turn rate low-passed over _LAG_HP
+STATE_SIZE = S_LAG_W + 1
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -237,8 +248,8 @@ P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_C_SAT = 19, 
 P_C_MAGLP, P_C_GNORM, P_C_MBIAS, P_ALPHA_MAG_UNRESTED = 27, 28, 29, 30
 P_K_HEADING_REST, P_ALPHA_MAG_REST = 31, 32
 P_K_HEADING_TURN, P_ALPHA_MAG_TURN = 33, 34
-P_MAG_LAG_TAU, P_MAG_LAG_MAX, P_C_LAG = 35, 36, 37
-PARAM_SIZE = 38
+P_MAG_LAG_TAU, P_MAG_LAG_MAX, P_C_LAG, P_C_LAG_HP = 35, 36, 37, 38
+PARAM_SIZE = 39
 
 _LONG_AGO = 1e9  # "seconds since" for a saturation never seen
 
@@ -317,6 +328,7 @@ def _coefficients(p, dt):  # type: ignore[no-untyped-def]
     p[P_ALPHA_MAG_TURN] = 0.0 if no_gyro else p[P_K_HEADING_TURN] * dt
     lag = p[P_MAG_LAG_TAU] > 0.0 and p[P_MAG_LAG_MAX] > 0.0
     p[P_C_LAG] = 1.0 - math.exp(-dt / p[P_MAG_LAG_TAU]) if lag else 0.0
+    p[P_C_LAG_HP] = 1.0 - math.exp(-dt / _LAG_HP)
     # the heading correction's rate (k_heading psi) integrated into the bias over motion_bias_tau: k_heading / tau
     p[P_C_MBIAS] = p[P_K_HEADING_UNRESTED] / p[P_MOTION_BIAS_TAU] if p[P_MOTION_BIAS_TAU] > 0.0 else 0.0
 
@@ -640,9 +652,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         norm, dip = math.sqrt(bh * bh + bez * bez), math.atan2(-bez, bh)
         if _magnetic_gate(s, p, norm, dip, dt, dip_gate):
             flags |= F_MAG_DISTURBED
-        k = _heading_gain(s, p, dt, flags & F_REST != 0, flags & F_ACC_SATURATED == 0)
-        if flags & F_GYRO_SATURATED and 0.0 < k < p[P_ALPHA_MAG_UNRESTED]:
-            k = p[P_ALPHA_MAG_UNRESTED]
+        k = _heading_gain(s, p, dt, flags)
         ref = s[S_MAG_NORM]
         if abs(norm - ref) > _MAG_RAW * p[P_MAG_NORM_TOL] * ref or (
             dip_gate and abs(dip - s[S_DIP]) > _MAG_RAW * p[P_MAG_DIP_TOL]
@@ -651,7 +661,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         if k > 0.0 and bh > 0.0:
             psi = math.atan2(bey, bex)
             if p[P_C_LAG] > 0.0 and g_ok and use_gyro:
-                psi = _lag(s, p, psi, w, x, y, z, gx - bx, gy - by, gz - bz)
+                psi = _lag(s, p, psi, w, x, y, z, gx - bx, gy - by, gz - bz, flags & F_REST == 0)
             if (
                 p[P_C_MBIAS] > 0.0
                 and dt < k * s[S_MAG_T]
@@ -860,26 +870,36 @@ def _motion_bias(s, p, w, x, y, z, psi):  # type: ignore[no-untyped-def]
     s[S_BIAS + 2] = max(-clip, min(clip, s[S_BIAS + 2] + c * uz))
 
 
-def _lag(s, p, psi, w, x, y, z, gx, gy, gz):  # type: ignore[no-untyped-def]
+def _lag(s, p, psi, w, x, y, z, gx, gy, gz, moving):  # type: ignore[no-untyped-def]
     r"""The field's heading ``psi`` (radians off the estimate's) with the magnetometer's lag behind the gyro
     taken out: a field read :math:`\tau` late, seen through the estimate of now, is turned by
     :math:`\tau\omega_v` (:math:`\omega_v` the bias-corrected turn rate about the earth vertical), so
-    :math:`\tau` is the regression of :math:`\psi` on :math:`\omega_v` (low-passed products over
-    ``mag_lag_tau`` seconds, of the samples whose field corrects the heading) and
-    :math:`\psi - \hat\tau\omega_v` is used, :math:`\hat\tau` within 0 and
-    ``mag_lag_max`` (a sensor read late, never early).  BROAD's magnetometer trails its gyro by about 10
-    ms (``benchmarks/HEADING.md``); a fixed compensation helped its fast rotation and hurt its fast
-    combined trial: each sensor's own lag, learned as it runs."""
+    :math:`\tau` is the regression of :math:`\psi` on :math:`\omega_v` and :math:`\psi - \hat\tau\omega_v`
+    is used, :math:`\hat\tau` within 0 and ``mag_lag_max`` (a sensor read late, never early).  Both are
+    regressed less their :data:`_LAG_HP` low-passes (products low-passed over ``mag_lag_tau`` seconds, of
+    the samples whose field corrects the heading, in motion, with the rate changing by more than
+    :data:`_LAG_CHANGE`): a gyro's scale error also makes a turn's heading error follow the rate, but
+    slowly, over the heading correction's time, and a lag follows its changes at once.  BROAD's magnetometer trails its gyro by about 10 ms
+    (``benchmarks/HEADING.md``); a fixed compensation helped its fast rotation and hurt its fast combined
+    trial: each sensor's own lag, learned as it runs."""
     _, _, wv = _rotate(w, x, y, z, gx, gy, gz)
-    c = p[P_C_LAG]
-    s[S_LAG_XY] += c * (psi * wv - s[S_LAG_XY])
-    s[S_LAG_XX] += c * (wv * wv - s[S_LAG_XX])
+    if moving:
+        h = p[P_C_LAG_HP]
+        s[S_LAG_P] += h * (psi - s[S_LAG_P])
+        s[S_LAG_W] += h * (wv - s[S_LAG_W])
+        dp, dw = psi - s[S_LAG_P], wv - s[S_LAG_W]
+        if dw * dw > _LAG_CHANGE * _LAG_CHANGE:
+            c = p[P_C_LAG]
+            s[S_LAG_XY] += c * (dp * dw - s[S_LAG_XY])
+            s[S_LAG_XX] += c * (dw * dw - s[S_LAG_XX])
     return psi - mag_lag(s, p) * wv
 
 
 def mag_lag(s, p):  # type: ignore[no-untyped-def]
-    """The magnetometer's lag behind the gyro (s) :func:`_lag` takes out now: 0 until it has turned."""
-    if s[S_LAG_XX] <= 0.0:
+    """The magnetometer's lag behind the gyro (s) :func:`_lag` takes out now: 0 until the turn rate has
+    changed in motion (then held through rests and steady turns), and 0 with the learning off
+    (``mag_lag_tau`` or ``mag_lag_max`` 0)."""
+    if p[P_C_LAG] <= 0.0 or s[S_LAG_XX] <= 0.0:
         return 0.0
     return max(0.0, min(p[P_MAG_LAG_MAX], s[S_LAG_XY] / s[S_LAG_XX]))
 
@@ -889,7 +909,7 @@ def _set_dip(s, d):  # type: ignore[no-untyped-def]
     s[S_DIP] = d
 
 
-def _heading_gain(s, p, dt, rest, calm):  # type: ignore[no-untyped-def]
+def _heading_gain(s, p, dt, flags):  # type: ignore[no-untyped-def]
     """The heading correction's fraction this sample: none while the field is disturbed, until the
     rejection time is used up (then a fraction of it); a plain mean of the accepted field at the start."""
     # the gyro's bias not yet known from rest: its own gain (the heading leans more on the field)
@@ -897,9 +917,13 @@ def _heading_gain(s, p, dt, rest, calm):  # type: ignore[no-untyped-def]
     # the gyro's heading drift grows with the angle it turns (its scale error), not with time alone: the
     # gain grows with the sustained turn rate (the rest detector's 0.5 s low-pass of the gyro, in which a
     # back-and-forth motion cancels, as its drift does)
-    if calm and p[P_ALPHA_MAG_TURN] > 0.0:
+    if flags & F_ACC_SATURATED == 0 and p[P_ALPHA_MAG_TURN] > 0.0:
         g2 = s[S_LPG] * s[S_LPG] + s[S_LPG + 1] * s[S_LPG + 1] + s[S_LPG + 2] * s[S_LPG + 2]
         k = min(k + p[P_ALPHA_MAG_TURN] * math.sqrt(g2), 1.0)
+    # a gyro at its told rail loses the turn beyond it: an accepted field takes the heading back faster
+    if flags & F_GYRO_SATURATED and s[S_MAG_DIST] == 0.0 and k < p[P_ALPHA_MAG_UNRESTED]:
+        k = p[P_ALPHA_MAG_UNRESTED]
+    rest = flags & F_REST != 0
     if rest and p[P_ALPHA_MAG_REST] > k:
         k = p[P_ALPHA_MAG_REST]
     if s[S_MAG_DIST] != 0.0:
