@@ -147,7 +147,8 @@ def test_a_new_person_s_repetitions_are_spotted_from_the_others_examples(reps, t
     """Each person's recordings streamed whole (``cut=spot``), taught by the two others (one repetition of
     each exercise each): most repetitions found and named, few told wrong.  On this sample, taught by two
     people, the spotter's :attr:`~pointat.maths.gestures.Spotter.ENDS` (chosen on nine teachers) finds
-    51, 69 and 63 % (without it 52, 66 and 76 %): held here so that it gets no worse."""
+    51, 69 and 63 % (without it 52, 66 and 76 %), with its :attr:`~pointat.maths.gestures.Spotter.RHYTHM`
+    51, 69 and 65 %: held here so that it gets no worse."""
     found, wrong = [], []
     for person in (1, 2, 3):
         train, _ = _new_person(reps, person)

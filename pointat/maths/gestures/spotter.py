@@ -29,10 +29,11 @@ class Spotter:
     template matched anywhere, frame by frame (:class:`~pointat.maths.dtw.Spring`, subsequence DTW on
     the features at the model's frame rate, taken as they are: nothing is relative to a start; a match
     that does not begin and end as its template does costs more, :attr:`ENDS`), the best match of those
-    that overlap told once no better one can follow (``hold`` s after its end),
-    under the model's rules of rejection (:meth:`GestureModel.decide`: reach, keeping still, pace and
-    strength).  :meth:`push` returns decisions (:class:`~pointat.maths.gestures.events.Decided`: the
-    decision and the time of the match's last frame).
+    that overlap (one that keeps the rhythm of the last told counts as better, :attr:`RHYTHM`) told once
+    no better one can follow (``hold`` s after its end), under the model's rules of rejection
+    (:meth:`GestureModel.decide`: reach, keeping still, pace and strength).  :meth:`push` returns decisions
+    (:class:`~pointat.maths.gestures.events.Decided`: the decision and the time of the match's last
+    frame).
     """
 
     #: A match is no longer nor shorter than this many times its template.
@@ -44,6 +45,14 @@ class Spotter:
     #: its own (raising the arm forward or sideways, turning it in or out), but it does not begin and end
     #: as a template does.  Chosen on seglearn people 1-5 (``benchmarks/GESTURES_REAL.md``).
     ENDS = 0.5
+    #: Of the matches that overlap, the one told is the cheapest as a share of its class's threshold, that
+    #: share weighed by ``1 + RHYTHM * |gap| / n`` when the last match told (``n`` steps long) ended less
+    #: than ``2 n`` steps before it begins (``gap``: the steps between that end and this start): a
+    #: performer who repeats a movement with no rest keeps a rhythm, each repetition beginning where the
+    #: last one ended, and a span from the middle of one to the middle of the next breaks it.  It chooses
+    #: only: whether a match is a gesture at all stays the model's rules' alone.  Chosen on seglearn
+    #: people 1-5 (``benchmarks/GESTURES_REAL.md``); 0: off.
+    RHYTHM = 0.5
 
     def __init__(self, model: GestureModel, hold: float | None = None) -> None:
         self.model = model
@@ -71,6 +80,7 @@ class Spotter:
         self._last: tuple[float, np.ndarray] | None = None
         self._pending: list[_Match] = []
         self._free = 0  # steps before this one belong to a match already told
+        self._told: tuple[int, int] | None = None  # the first and last steps of the last match told
 
     def push(self, t: float, frame: np.ndarray) -> list[Decided]:
         out: list[Decided] = []
@@ -114,6 +124,10 @@ class Spotter:
             share = cost / self.model.threshold(label)  # (the classes compared at their own scale)
             if share > 1.0:
                 continue
+            if self.RHYTHM and self._told is not None:
+                gap, n = start - self._told[1] - 1, self._told[1] - self._told[0] + 1
+                if gap < 2 * n:
+                    share *= 1.0 + self.RHYTHM * abs(gap) / n
             for k, p in enumerate(pending):  # the best of the matches that overlap by half or more
                 if (
                     min(step, p.end) - max(start, p.start) + 1
@@ -136,6 +150,7 @@ class Spotter:
                     p.end + 1 - len(self.templates[p.template]) // 4
                 )  # (a next one may begin as it ends)
                 out.append(Decided(decision, self.times[p.end - first]))
+                self._told = (p.start, p.end)
         return out
 
     def _decide(self, p: _Match, first: int) -> Decision | None:
