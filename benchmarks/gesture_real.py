@@ -69,7 +69,7 @@ VARIANTS: tuple[tuple[str, dict[str, Any], dict[str, Any]], ...] = (
     ("scale=si (acc in m/s², gyr in rad/s, as plain DTW)", {"scale": "si"}, {}),
     ("reject=0 (no null class)", {"reject": 0.0}, {"early": False}),
 )
-CURVE = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
+CURVE = (1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0)
 BASELINE = "**plain 1-NN DTW (baseline)**"
 DEFAULTS = "pointat's defaults, as they run (early decisions)"
 
