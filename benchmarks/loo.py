@@ -32,18 +32,21 @@ from benchmarks.accuracy import trial_files
 from pointat.maths.tqt import TQTFilter
 
 #: The robust parameters cross-validated: the tilt's (k, acc_tau) and the magnetic ones (the heading gain
-#: once the gyro's bias is known from rest and before, the gate's dip tolerance, the bias learned from the
-#: heading in motion), each at its default and either side.  Held: bias_tau (10 s, chosen on BROAD's
+#: once the gyro's bias is known from rest, the gain added per rad/s of sustained turning, the gain before
+#: the bias is known, the bias learned from the heading in motion), each at its default and either side
+#: (k_heading also at 0.05, its default before k_heading_turn).  Held: mag_dip_tol (10°: 15° scored within
+#: 0.01° and was chosen in 2 of 52 folds, LOO.md of commit 129d7ae), bias_tau (10 s, chosen on BROAD's
 #: 81-point grid before: this file's history), mag_new_time (VQF's 20 s; 10 s scored the same within
 #: 0.01°) and mag_tau (0.2 s: 0.05 / 0.2 / 0.4 s on the first round of this grid, LOO.md of commit
 #: 4e6629d, took 0.4; 0.1 / 0.2 / 0.3 / 0.4 s with the phones' error found in the gate, issue 46 point 4,
-#: took 0.2 in all 52 folds).
+#: took 0.2 in all 52 folds), mag_lag_tau and mag_lag_max (10 s and 0.02 s: their own 12-point LOO, 10 /
+#: 30 / 100 s x 0 / 0.01 / 0.02 / 0.04 s, in benchmarks/README.md).
 TQT_GRID: dict[str, Sequence[float]] = {
     "k": (0.5, 1.0),
     "acc_tau": (2.0, 4.0),
-    "k_heading": (0.03, 0.05, 0.1),
+    "k_heading": (0.01, 0.015, 0.03, 0.05),
+    "k_heading_turn": (0.0, 0.01, 0.02),
     "k_heading_unrested": (0.05, 0.1, 0.2),
-    "mag_dip_tol": (math.radians(10.0), math.radians(15.0)),
     "motion_bias_tau": (0.0, 30.0),
 }
 #: The strike claim, degrees (tests/maths/test_tqt_strokes.py).

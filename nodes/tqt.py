@@ -96,9 +96,18 @@ class TQT(SampleClock, Flagged, Node):
         Param(
             "k_heading",
             "float",
-            0.05,
+            0.015,
             "heading-correction gain (robust mode)",
             unit="1/s",
+            live=True,
+            minimum=0.0,
+        ),
+        Param(
+            "k_heading_turn",
+            "float",
+            0.01,
+            "heading-correction gain added per rad/s of sustained turning (robust mode)",
+            unit="1/rad",
             live=True,
             minimum=0.0,
         ),
@@ -249,6 +258,7 @@ def _settings(p: Any) -> dict[str, Any]:
         "k_heading": p.k_heading,
         "k_heading_unrested": p.k_heading_unrested,
         "k_heading_rest": p.k_heading_rest,
+        "k_heading_turn": p.k_heading_turn,
         "acc_range": p.acc_range * STANDARD_GRAVITY,
         "gyro_range": math.radians(p.gyro_range),
     }

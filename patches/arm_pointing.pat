@@ -22,7 +22,7 @@ node ctl   osc_in port=9001
 node lb    loadbang
 node fast  msg k 5, k_heading 2, k_heading_unrested 2
 node wait  delay 4500
-node calm  msg k 0, k_heading 0.05, k_heading_unrested 0.1
+node calm  msg k 0, k_heading 0.015, k_heading_unrested 0.1
 node both  pack 0 0 0
 node slow  speedlim 500
 node show  print prefix="arm points at: azimuth elevation metres" decimals=2

@@ -17,7 +17,7 @@ node ctl   osc_in port=9001
 node lb    loadbang
 node fast  msg k 5, k_heading 2, k_heading_unrested 2
 node wait  delay 4500
-node calm  msg k 0, k_heading 0.05, k_heading_unrested 0.1
+node calm  msg k 0, k_heading 0.015, k_heading_unrested 0.1
 node state print prefix=body
 
 lb -> fast -> bank

@@ -338,12 +338,12 @@ def test_nan_stays_a_setting_where_it_is_the_default_and_tqt_refuses_what_means_
     rt = patch("node f tqt\n")
     with pytest.raises(ValueError, match="'k_heading' expects a number >= 0; got -1.0"):
         rt.nodes["f"].set_param("k_heading", -1.0)  # live, from /pointat/f/k_heading -1
-    assert rt.nodes["f"].p.k_heading == 0.05
+    assert rt.nodes["f"].p.k_heading == 0.015
 
 
 def test_a_parameter_sent_without_a_value_says_it_needs_one():
     rt = patch("node f tqt\n")
-    with pytest.raises(TypeError, match=r"'k_heading' needs a value \(float >= 0\), e.g. 'k_heading 0.05'"):
+    with pytest.raises(TypeError, match=r"'k_heading' needs a value \(float >= 0\), e.g. 'k_heading 0.015'"):
         rt.nodes["f"].receive(0, method("k_heading"))
     with pytest.raises(TypeError, match=r"expected a number, got 'symbol abc'$"):
         as_float(make("abc"))

@@ -58,13 +58,15 @@ def run_filter(trial, **params):
 
 
 def test_robust_mode_on_broad(trial):
-    """Measured: total 1.70°, heading 1.49°, inclination 0.82° (VQF's defaults 1.99°).  Before issue 46's
-    defaults (a 2 s acceleration average, the field learned only at rest) this trial was 1.58°: the
-    defaults are chosen on BROAD and the Tyrex phones together, and the phones want the longer average."""
+    """Measured: total 1.75°, heading 1.60°, inclination 0.72° (VQF's defaults 1.99°).  Before issue 46's
+    defaults (a 2 s acceleration average, the field learned only at rest) this trial was 1.58°, and 1.59°
+    before the heading gain that grows with turning (k_heading 0.05 then, 0.015 + 0.01 per rad/s now):
+    the defaults are chosen on BROAD and the Tyrex phones together (benchmarks/LOO.md), and this trial's
+    slow steady rotation is where the slower field gain costs (its translation twins gain 1°)."""
     total, heading, incl = run_filter(trial)
     assert total < 1.8
-    assert heading < 1.6
-    assert incl < 0.9
+    assert heading < 1.65
+    assert incl < 0.8
 
 
 def test_the_disturbance_flag_does_not_flicker_on_an_undisturbed_trial(trial):

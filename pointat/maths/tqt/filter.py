@@ -94,8 +94,11 @@ class TQTFilter(_TQTParams):
        is, and a magnetometer that lags the gyro, BROAD's by ~10 ms, has nothing to lag behind), so the
        heading error the gyro left behind after fast turning is taken back in a pause, not over the
        next 20 s of motion.  In fast motion the field is wrong by that lag (the sensor turns several
-       degrees in 10 ms) and by the tilt's error times the dip's tangent: a larger gain while turning
-       made trial 06 of BROAD worse, a smaller one its fast combined trial.
+       degrees in 10 ms) and by the tilt's error times the dip's tangent.  The gyro, though, drifts with
+       the angle it turns (its scale error), not with time alone: the heading gain grows with the
+       sustained turn rate, ``k_heading_turn`` per rad/s of the rest detector's 0.5 s low-pass of the
+       gyro (in which a back-and-forth motion cancels, as its drift does), except while the accelerometer
+       is at its rail (strokes: the tilt, and the field seen through it, are the gyro's alone).
        Gating on the accelerometer norm is not done: it made every variant worse on BROAD.
     5. *Saturation* (when the source gives ``acc_range`` / ``gyro_range``, the sensor's full scale per
        axis; when it gives no ``acc_range``, the accelerometer's is found from the data: the largest
@@ -104,7 +107,8 @@ class TQTFilter(_TQTParams):
        saturation (clips less than 1 s apart) to 1 s after it: strokes are left out whole, swing and
        impact, never one side of them, so the average stays unbiased; once the gyro alone has turned
        the estimate by half a turn, or the spell has lasted 8 s (a runner's every step clips: the
-       motion's own), a chunk goes in all the same.  A saturated gyro is flagged only.
+       motion's own), a chunk goes in all the same.  While the gyro is saturated (and a second after) the
+       heading is corrected at ``k_heading_unrested``: the turn beyond the rail is lost.
 
     Nothing a hand can produce is refused: a reading counts as corrupt only beyond half again the full
     scale, or with none known beyond :data:`~pointat.maths.tqt.ACC_LIMIT` (1000) times the first
@@ -138,10 +142,22 @@ class TQTFilter(_TQTParams):
         Robust mode learns on from either (extension 4): a dip given for another place is replaced.
     k_heading : float, keyword-only
         Robust mode: heading-correction gain (1/s) once the gyro's bias is known from rest (``bias_tau``
-        seconds of rest in all).  Default 0.05.
+        seconds of rest in all).  Default 0.015.
     k_heading_unrested : float, keyword-only
         Robust mode: the heading-correction gain (1/s) before that: a gyro whose bias is not known drifts,
         and the heading leans more on the field.  Default 0.1.
+    k_heading_turn : float, keyword-only
+        Robust mode: the heading-correction gain added per rad/s of sustained turning (1/rad: the gain is
+        ``k_heading + k_heading_turn * |w|``, ``w`` the gyro low-passed over 0.5 s), to every gain but the
+        rest's.  Default 0.01; 0: the gain of the moment alone.
+    mag_lag_tau, mag_lag_max : float, keyword-only
+        Robust mode: the magnetometer's lag behind the gyro is learned as it runs (:attr:`magnetometer_lag`:
+        the field's heading error regressed on the turn rate about the vertical, over ``mag_lag_tau``
+        seconds, 10) and taken out of the field's heading, within 0 and ``mag_lag_max`` seconds (0.02; 0:
+        not at all).  Both chosen leave-one-trial-out on BROAD and the phones (``benchmarks/README.md``).
+        What is learned is any heading error of the field that goes with the turn rate, the lag's and
+        (through the dip) the tilt's: on BROAD's fast rotation it settles near 15 ms (the lag found
+        offline, 10 ms, and half a sample), on other trials it wanders between 0 and the cap.
     k_heading_rest : float, keyword-only
         Robust mode: the heading-correction gain (1/s) while the sensor rests, when it is more than the
         gain of the moment.  Default 0.2; 0: as in motion.
@@ -187,10 +203,17 @@ class TQTFilter(_TQTParams):
       per radian: what 50 of the 52 folds chose (BROAD 2.06°, phones 4.66° in-sample; k = 1 with a 4 s
       average 2.12° and 4.62°).  k = 1 with a 2 s average fails the strike claim once the heading leans on
       the field before the bias is known (``k_heading_unrested``).
-    * ``k_heading = 0.05`` (a 20 s time constant) once the bias is known from rest: heading errors are
-      dominated by the field varying over the room, a slow heading correction lets the gyro carry the
-      heading through them; ``k_heading_unrested = 0.1`` before (the phones, which never rest: 4.89°
-      against 5.13° at 0.05, BROAD the same).
+    * ``k_heading = 0.015`` (a 67 s time constant) once the bias is known from rest, plus
+      ``k_heading_turn = 0.01`` per rad/s of sustained turning: the field varies over the room (BROAD's
+      translations, little turned, want the slowest gain: 0.49° and 0.80° where 0.05 gave 1.49° and
+      1.82°), while the gyro drifts with the angle it turns (the rotations want more).  With one gain
+      for both, 0.03 and 0.05 tied on BROAD's mean (2.00° each) and the folds flipped between them; with
+      the turn's part the grid's means by k_heading_turn are 2.12 / **1.88** / 1.98° (0 / 0.01 / 0.02),
+      the defaults 1.75° in-sample, 1.83° leave-one-trial-out (``benchmarks/LOO.md``).
+      ``k_heading_unrested = 0.1`` before the bias is known (the phones, which never rest: 4.85°
+      against 5.66° at 0.05, BROAD the same).
+    * ``mag_lag_tau = 10`` s, ``mag_lag_max = 0.02`` s: their own 12-point leave-one-trial-out (BROAD
+      1.85° → 1.77° in-sample with the lag taken out; the phones 4.54° either way).
     * ``k_heading_rest = 0.2`` (a 5 s time constant at rest): what the heading left behind by fast
       turning needs (``benchmarks/LOO.md``, a grid of it and ``k_heading``): BROAD's slow rotation with
       breaks 1.58 → 1.43°, the attached magnet 1.88 → 1.44°, the others within 0.01°, the phones (which
@@ -302,6 +325,12 @@ class TQTFilter(_TQTParams):
         at half gain once ``mag_reject_time`` is used up).  ``MAG_DISTURBED`` reports the same judgement
         with a wider hysteresis of its own, for the receiver; this is what the estimate runs on."""
         return bool(self._s[step.S_MAG_DIST] != 0.0)
+
+    @property
+    def magnetometer_lag(self) -> float:
+        """Robust mode: the magnetometer's lag behind the gyro (s) as learned from the turning so far (0
+        until the sensor has turned; at most ``mag_lag_max``), taken out of the field's heading."""
+        return float(step.mag_lag(self._s, self._p))
 
     @property
     def magnetic_dip(self) -> float | None:

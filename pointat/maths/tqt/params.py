@@ -76,7 +76,7 @@ class _TQTParams:
         mode: Mode = "robust",
         use_gyro: bool = True,
         dip: float | None = None,
-        k_heading: float = 0.05,
+        k_heading: float = 0.015,
         acc_tau: float = 2.0,
         mag_norm_tol: float = 0.1,
         mag_dip_tol: float = math.radians(10.0),
@@ -86,6 +86,9 @@ class _TQTParams:
         mag_tau: float = 0.2,
         k_heading_unrested: float = 0.1,
         k_heading_rest: float = 0.2,
+        k_heading_turn: float = 0.01,
+        mag_lag_tau: float = 10.0,
+        mag_lag_max: float = 0.02,
         rest_time: float = 1.5,
         rest_gyro: float = math.radians(2.0),
         rest_acc: float = 0.05,
@@ -111,6 +114,9 @@ class _TQTParams:
             ("mag_tau", mag_tau),
             ("k_heading_unrested", k_heading_unrested),
             ("k_heading_rest", k_heading_rest),
+            ("k_heading_turn", k_heading_turn),
+            ("mag_lag_tau", mag_lag_tau),
+            ("mag_lag_max", mag_lag_max),
             ("rest_time", rest_time),
             ("rest_gyro", rest_gyro),
             ("rest_acc", rest_acc),
@@ -143,6 +149,9 @@ class _TQTParams:
         self.mag_tau = float(mag_tau)
         self.k_heading_unrested = float(k_heading_unrested)
         self.k_heading_rest = float(k_heading_rest)
+        self.k_heading_turn = float(k_heading_turn)
+        self.mag_lag_tau = float(mag_lag_tau)
+        self.mag_lag_max = float(mag_lag_max)
         self.rest_time = float(rest_time)
         self.rest_gyro = float(rest_gyro)
         self.rest_acc = float(rest_acc)
@@ -190,6 +199,9 @@ class _TQTParams:
             self.mag_tau,
             self.k_heading_unrested,
             self.k_heading_rest,
+            self.k_heading_turn,
+            self.mag_lag_tau,
+            self.mag_lag_max,
         ) + [self.rho, float(self.iterations)]
 
     @property
@@ -221,7 +233,7 @@ class _TQTParams:
     @property
     def heading_crossover(self) -> float:
         r"""robust mode: the heading correction's crossover in Hz, :math:`k_{heading} / 2\pi` (below it the
-        heading follows the magnetometer, above it the gyro; 0.008 Hz at the default 0.05)."""
+        heading follows the magnetometer, above it the gyro; 0.0024 Hz at the default 0.015; more while turning, ``k_heading_turn``)."""
         return crossover_from_gain(self.k_heading if self.use_gyro else self.k)
 
     def reset(self, q: ArrayLike | None = None) -> None:  # pragma: no cover - overridden
@@ -229,7 +241,9 @@ class _TQTParams:
 
     _TUNABLE = (
         "k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "mag_new_time", "mag_reject_time",
-        "motion_bias_tau", "mag_tau", "k_heading_unrested", "k_heading_rest", "bias_tau", "acc_range", "gyro_range",
+        "motion_bias_tau", "mag_tau", "k_heading_unrested", "k_heading_rest", "k_heading_turn", "mag_lag_tau", "mag_lag_max",
+        "bias_tau",
+        "acc_range", "gyro_range",
     )  # fmt: skip
 
     def retune(self, **gains: float) -> None:

@@ -41,9 +41,17 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
   (:func:`_report_flag`: raised beyond a quarter more than the gate's tolerances, lowered after
   :data:`_FLAG_CALM` seconds within less than them), so that a field wobbling about the gate's edge is
   one message, not one a wobble; the flag changes nothing in the estimate.
-* **A saturated gyro** is flagged, nothing more.  Leaning on gravity and the field after it (the average
-  started anew, faster corrections) fixed the simulated rolls but made every real recording with a
-  clipped gyro worse (BROAD with the gyro clipped at 300 and 500 °/s; ``benchmarks/README.md``).
+* **The heading gain grows with sustained turning** (:func:`_heading_gain`, ``k_heading_turn`` per rad/s of
+  the rest detector's gyro low-pass, not while the accelerometer is at its rail): a gyro drifts with the
+  angle it turns (its scale error), and a back-and-forth motion, whose drift cancels, cancels in the
+  low-pass too.  The slow gain this allows (``k_heading`` 0.015) lets the gyro carry the heading through
+  a field that varies over the room (BROAD's translations: 1.49 -> 0.49 and 1.82 -> 0.80 degrees).
+* **The magnetometer's lag behind the gyro is learned and taken out** (:func:`_lag`): the field's heading
+  error regressed on the turn rate about the vertical, within 0 and ``mag_lag_max``.
+* **A saturated gyro** (``gyro_range`` told) has the heading corrected at ``k_heading_unrested`` while the
+  spell lasts: it loses the turn beyond its rail (BROAD clipped at 300 °/s: 27.62 -> 27.26 degrees, at
+  500 °/s 8.57 -> 8.03).  Leaning the tilt on gravity too (the average started anew, a faster
+  correction) fixed the simulated rolls but made every real recording with a clipped gyro worse.
 
 The state and parameter layouts are private to :mod:`pointat.maths.tqt`; nothing else reads them.
 """
@@ -201,10 +209,21 @@ S_ACC_PEAK_N = 53  # readings that met it exactly
 S_ACC_FOUND = 54  # the full scale found from the data (0: none; used when none is told)
 S_STROKE_T = 55  # seconds since a run at the rail ended that could not be declipped (a stroke's)
 S_CLIP = 56  # 3 x _CLIP_SLOTS: each accelerometer axis's run at the rail (see _clip_axis)
+# an axis's slots, from its first (S_CLIP + axis x _CLIP_SLOTS)
+_C_Y2 = 0  # the reading two before the run
+_C_Y1 = 1  # the reading just before it
+_C_N = 2  # the run's length in samples (0: no run)
+_C_SIGN = 3  # the rail's sign, +1 or -1
+_C_AXIS = 4  # 3: the axis in the earth frame summed over the run, x dt
+_C_YA = 7  # the first reading after the run
+_C_WAIT = 8  # 1.0: the run has ended, its guess waits for the second reading after it
+_C_KNOWN = 9  # readings before the run known (0, 1, 2)
 _CLIP_SLOTS = 10
 S_MAG_FLAG = S_CLIP + 3 * _CLIP_SLOTS  # 1.0: the reported flag (F_MAG_DISTURBED) is up
 S_MAG_FLAG_T = S_MAG_FLAG + 1  # seconds in a row the field has been within its lowering band
-STATE_SIZE = S_MAG_FLAG_T + 1
+S_LAG_XY = S_MAG_FLAG_T + 1  # low-pass of psi x the vertical turn rate (the magnetometer's lag, _lag)
+S_LAG_XX = S_LAG_XY + 1  # and of the rate squared
+STATE_SIZE = S_LAG_XX + 1
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -217,7 +236,9 @@ P_MAG_NEW_TIME, P_MAG_REJECT_TIME, P_MOTION_BIAS_TAU, P_MAG_TAU, P_K_HEADING_UNR
 P_DT, P_C_ACC, P_C_REST, P_C_BIAS, P_C_REF, P_ALPHA, P_ALPHA_MAG, P_C_SAT = 19, 20, 21, 22, 23, 24, 25, 26
 P_C_MAGLP, P_C_GNORM, P_C_MBIAS, P_ALPHA_MAG_UNRESTED = 27, 28, 29, 30
 P_K_HEADING_REST, P_ALPHA_MAG_REST = 31, 32
-PARAM_SIZE = 33
+P_K_HEADING_TURN, P_ALPHA_MAG_TURN = 33, 34
+P_MAG_LAG_TAU, P_MAG_LAG_MAX, P_C_LAG = 35, 36, 37
+PARAM_SIZE = 38
 
 _LONG_AGO = 1e9  # "seconds since" for a saturation never seen
 
@@ -243,6 +264,9 @@ def params(
     mag_tau: float,
     k_heading_unrested: float,
     k_heading_rest: float,
+    k_heading_turn: float,
+    mag_lag_tau: float,
+    mag_lag_max: float,
 ) -> list[float]:
     """The parameter vector (validated by the caller); its per-``dt`` coefficients are filled on the first
     step."""
@@ -254,7 +278,8 @@ def params(
     p[P_ACC_RANGE], p[P_GYRO_RANGE] = acc_range, gyro_range
     p[P_MAG_NEW_TIME], p[P_MAG_REJECT_TIME] = mag_new_time, mag_reject_time
     p[P_MOTION_BIAS_TAU], p[P_MAG_TAU], p[P_K_HEADING_UNRESTED] = motion_bias_tau, mag_tau, k_heading_unrested
-    p[P_K_HEADING_REST] = k_heading_rest
+    p[P_K_HEADING_REST], p[P_K_HEADING_TURN] = k_heading_rest, k_heading_turn
+    p[P_MAG_LAG_TAU], p[P_MAG_LAG_MAX] = mag_lag_tau, mag_lag_max
     p[P_DT] = -1.0
     return p
 
@@ -288,6 +313,10 @@ def _coefficients(p, dt):  # type: ignore[no-untyped-def]
     p[P_C_MAGLP] = 1.0 - math.exp(-dt / p[P_MAG_TAU]) if p[P_MAG_TAU] > 0.0 else 1.0
     p[P_C_GNORM] = 1.0 - math.exp(-dt / _GNORM_TAU)
     p[P_ALPHA_MAG_REST] = min(p[P_K_HEADING_REST] * dt, 1.0)
+    # the heading gain added per rad/s of sustained turning (none without a gyro: the gain is k's already)
+    p[P_ALPHA_MAG_TURN] = 0.0 if no_gyro else p[P_K_HEADING_TURN] * dt
+    lag = p[P_MAG_LAG_TAU] > 0.0 and p[P_MAG_LAG_MAX] > 0.0
+    p[P_C_LAG] = 1.0 - math.exp(-dt / p[P_MAG_LAG_TAU]) if lag else 0.0
     # the heading correction's rate (k_heading psi) integrated into the bias over motion_bias_tau: k_heading / tau
     p[P_C_MBIAS] = p[P_K_HEADING_UNRESTED] / p[P_MOTION_BIAS_TAU] if p[P_MOTION_BIAS_TAU] > 0.0 else 0.0
 
@@ -436,8 +465,8 @@ def _turn_average(s, cw, sx, sy, sz):  # type: ignore[no-untyped-def]
     for i in (S_E, S_CUR, S_PREV):
         s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
     for j in (S_CLIP, S_CLIP + _CLIP_SLOTS, S_CLIP + 2 * _CLIP_SLOTS):
-        if s[j + 2] > 0.0:  # (a run under way: its sum is still to be used)
-            i = j + 4
+        if s[j + _C_N] > 0.0:  # (a run under way: its sum is still to be used)
+            i = j + _C_AXIS
             s[i], s[i + 1], s[i + 2] = _rotate(cw, sx, sy, sz, s[i], s[i + 1], s[i + 2])
 
 
@@ -611,7 +640,9 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         norm, dip = math.sqrt(bh * bh + bez * bez), math.atan2(-bez, bh)
         if _magnetic_gate(s, p, norm, dip, dt, dip_gate):
             flags |= F_MAG_DISTURBED
-        k = _heading_gain(s, p, dt, flags & F_REST != 0)
+        k = _heading_gain(s, p, dt, flags & F_REST != 0, flags & F_ACC_SATURATED == 0)
+        if flags & F_GYRO_SATURATED and 0.0 < k < p[P_ALPHA_MAG_UNRESTED]:
+            k = p[P_ALPHA_MAG_UNRESTED]
         ref = s[S_MAG_NORM]
         if abs(norm - ref) > _MAG_RAW * p[P_MAG_NORM_TOL] * ref or (
             dip_gate and abs(dip - s[S_DIP]) > _MAG_RAW * p[P_MAG_DIP_TOL]
@@ -619,6 +650,8 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
             k = 0.0
         if k > 0.0 and bh > 0.0:
             psi = math.atan2(bey, bex)
+            if p[P_C_LAG] > 0.0 and g_ok and use_gyro:
+                psi = _lag(s, p, psi, w, x, y, z, gx - bx, gy - by, gz - bz)
             if (
                 p[P_C_MBIAS] > 0.0
                 and dt < k * s[S_MAG_T]
@@ -695,7 +728,7 @@ def _report_flag(s, off_n, tol_n, off_d, tol_d, dt):  # type: ignore[no-untyped-
 
 def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-untyped-def]
     r"""Follow one accelerometer axis (reading ``v``, unit vector ``u`` in the sensor frame) at the rail
-    ``r``; its slots from ``s[j]``: the two readings before the run, the run's length in samples, its
+    ``r``; its slots from ``s[j]`` (the ``_C_*`` offsets): the two readings before the run, the run's length in samples, its
     sign, :math:`A = \sum_k R_k u \, dt` (the axis in the earth frame over the run), the first reading
     after it, whether it waits for the second, and how many of the two readings before it are known
     (:func:`_declip` guesses what the rail cut off).  The chunk under way waits while a run lasts
@@ -704,37 +737,37 @@ def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-
     way or waiting) and :data:`_RUN_STROKE` (a stroke's run ended)."""
     at = v >= r or v <= -r
     out = 0
-    closed = s[j + 8] != 0.0
+    closed = s[j + _C_WAIT] != 0.0
     if closed:  # the run ended with the reading before this one: declip it now
-        s[j + 8] = 0.0
+        s[j + _C_WAIT] = 0.0
         out = _declip(s, j, r, v, not at, fix)
         if at:  # another run after one reading off the rail: before it, the last of the run and that one
-            s[j], s[j + 1] = s[j + 3] * r, s[j + 7]
+            s[j + _C_Y2], s[j + _C_Y1] = s[j + _C_SIGN] * r, s[j + _C_YA]
         else:
-            s[j], s[j + 1] = s[j + 7], v
-        s[j + 9] = 2.0
-    n = s[j + 2]
+            s[j + _C_Y2], s[j + _C_Y1] = s[j + _C_YA], v
+        s[j + _C_KNOWN] = 2.0
+    n = s[j + _C_N]
     if at:
         sg = 1.0 if v > 0.0 else -1.0
         out |= _RUN_ON
-        if n > 0.0 and (sg != s[j + 3] or n * dt >= _RUN_MAX):
+        if n > 0.0 and (sg != s[j + _C_SIGN] or n * dt >= _RUN_MAX):
             out, n = out | _RUN_STROKE, 0.0
-            s[j + 9] = 0.0  # (the readings before it are those before the stroke's run)
+            s[j + _C_KNOWN] = 0.0  # (the readings before it are those before the stroke's run)
         if n == 0.0:
-            s[j + 3] = sg
-            s[j + 4] = s[j + 5] = s[j + 6] = 0.0
+            s[j + _C_SIGN] = sg
+            s[j + _C_AXIS] = s[j + _C_AXIS + 1] = s[j + _C_AXIS + 2] = 0.0
         ex, ey, ez = _rotate(w, x, y, z, ux, uy, uz)
-        s[j + 4] += ex * dt
-        s[j + 5] += ey * dt
-        s[j + 6] += ez * dt
-        s[j + 2] = n + 1.0
+        s[j + _C_AXIS] += ex * dt
+        s[j + _C_AXIS + 1] += ey * dt
+        s[j + _C_AXIS + 2] += ez * dt
+        s[j + _C_N] = n + 1.0
         return out
     if n > 0.0:  # the run has ended: the next reading too, then the guess
-        s[j + 7], s[j + 8] = v, 1.0
+        s[j + _C_YA], s[j + _C_WAIT] = v, 1.0
         return out | _RUN_ON
     if not closed:
-        s[j], s[j + 1] = s[j + 1], v
-        s[j + 9] = min(2.0, s[j + 9] + 1.0)
+        s[j + _C_Y2], s[j + _C_Y1] = s[j + _C_Y1], v
+        s[j + _C_KNOWN] = min(2.0, s[j + _C_KNOWN] + 1.0)
     return out
 
 
@@ -751,9 +784,9 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
     samples (an impact: no shape to fit), without two readings known before it, or whose quadratic peaks
     beyond :data:`_PEAK_MAX` times the rail (too violent to guess) is a stroke's: returns
     :data:`_RUN_STROKE`, else 0."""
-    n = s[j + 2]
-    s[j + 2] = 0.0
-    if n < _RUN_SHAPE or s[j + 9] < 2.0:  # (no shape, or not two readings known before it)
+    n = s[j + _C_N]
+    s[j + _C_N] = 0.0
+    if n < _RUN_SHAPE or s[j + _C_KNOWN] < 2.0:  # (no shape, or not two readings known before it)
         return _RUN_STROKE
     wb = 1.0 if use_b else 0.0
     ta, tb = n, n + 1.0
@@ -763,7 +796,7 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
     s2 = 5.0 + ta * ta + wb * tb * tb
     s3 = -9.0 + ta * ta * ta + wb * tb * tb * tb
     s4 = 17.0 + ta * ta * ta * ta + wb * tb * tb * tb * tb
-    y2, y1, ya = s[j], s[j + 1], s[j + 7]
+    y2, y1, ya = s[j + _C_Y2], s[j + _C_Y1], s[j + _C_YA]
     q0 = y2 + y1 + ya + wb * yb
     q1 = -2.0 * y2 - y1 + ta * ya + wb * tb * yb
     q2 = 4.0 * y2 + y1 + ta * ta * ya + wb * tb * tb * yb
@@ -773,7 +806,7 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
     c0 = (q0 * (s2 * s4 - s3 * s3) - s1 * (q1 * s4 - s3 * q2) + s2 * (q1 * s3 - s2 * q2)) / det
     c1 = (s0 * (q1 * s4 - q2 * s3) - q0 * (s1 * s4 - s3 * s2) + s2 * (s1 * q2 - q1 * s2)) / det
     c2 = (s0 * (s2 * q2 - s3 * q1) - s1 * (s1 * q2 - s2 * q1) + q0 * (s1 * s3 - s2 * s2)) / det
-    sg = s[j + 3]
+    sg = s[j + _C_SIGN]
     excess = peak = 0.0
     for i in range(int(n)):
         k = float(i)
@@ -785,9 +818,9 @@ def _declip(s, j, r, yb, use_b, fix):  # type: ignore[no-untyped-def]
         return _RUN_STROKE
     if fix:
         c = sg * excess / n
-        s[S_CUR] += c * s[j + 4]
-        s[S_CUR + 1] += c * s[j + 5]
-        s[S_CUR + 2] += c * s[j + 6]
+        s[S_CUR] += c * s[j + _C_AXIS]
+        s[S_CUR + 1] += c * s[j + _C_AXIS + 1]
+        s[S_CUR + 2] += c * s[j + _C_AXIS + 2]
     return 0
 
 
@@ -827,16 +860,46 @@ def _motion_bias(s, p, w, x, y, z, psi):  # type: ignore[no-untyped-def]
     s[S_BIAS + 2] = max(-clip, min(clip, s[S_BIAS + 2] + c * uz))
 
 
+def _lag(s, p, psi, w, x, y, z, gx, gy, gz):  # type: ignore[no-untyped-def]
+    r"""The field's heading ``psi`` (radians off the estimate's) with the magnetometer's lag behind the gyro
+    taken out: a field read :math:`\tau` late, seen through the estimate of now, is turned by
+    :math:`\tau\omega_v` (:math:`\omega_v` the bias-corrected turn rate about the earth vertical), so
+    :math:`\tau` is the regression of :math:`\psi` on :math:`\omega_v` (low-passed products over
+    ``mag_lag_tau`` seconds, of the samples whose field corrects the heading) and
+    :math:`\psi - \hat\tau\omega_v` is used, :math:`\hat\tau` within 0 and
+    ``mag_lag_max`` (a sensor read late, never early).  BROAD's magnetometer trails its gyro by about 10
+    ms (``benchmarks/HEADING.md``); a fixed compensation helped its fast rotation and hurt its fast
+    combined trial: each sensor's own lag, learned as it runs."""
+    _, _, wv = _rotate(w, x, y, z, gx, gy, gz)
+    c = p[P_C_LAG]
+    s[S_LAG_XY] += c * (psi * wv - s[S_LAG_XY])
+    s[S_LAG_XX] += c * (wv * wv - s[S_LAG_XX])
+    return psi - mag_lag(s, p) * wv
+
+
+def mag_lag(s, p):  # type: ignore[no-untyped-def]
+    """The magnetometer's lag behind the gyro (s) :func:`_lag` takes out now: 0 until it has turned."""
+    if s[S_LAG_XX] <= 0.0:
+        return 0.0
+    return max(0.0, min(p[P_MAG_LAG_MAX], s[S_LAG_XY] / s[S_LAG_XX]))
+
+
 def _set_dip(s, d):  # type: ignore[no-untyped-def]
     """Robust mode's dip reference (its reference vector, ``S_NX``, ``S_NZ``, is paper mode's alone)."""
     s[S_DIP] = d
 
 
-def _heading_gain(s, p, dt, rest):  # type: ignore[no-untyped-def]
+def _heading_gain(s, p, dt, rest, calm):  # type: ignore[no-untyped-def]
     """The heading correction's fraction this sample: none while the field is disturbed, until the
     rejection time is used up (then a fraction of it); a plain mean of the accepted field at the start."""
     # the gyro's bias not yet known from rest: its own gain (the heading leans more on the field)
     k = p[P_ALPHA_MAG] if s[S_BIAS_T] >= p[P_BIAS_TAU] else p[P_ALPHA_MAG_UNRESTED]
+    # the gyro's heading drift grows with the angle it turns (its scale error), not with time alone: the
+    # gain grows with the sustained turn rate (the rest detector's 0.5 s low-pass of the gyro, in which a
+    # back-and-forth motion cancels, as its drift does)
+    if calm and p[P_ALPHA_MAG_TURN] > 0.0:
+        g2 = s[S_LPG] * s[S_LPG] + s[S_LPG + 1] * s[S_LPG + 1] + s[S_LPG + 2] * s[S_LPG + 2]
+        k = min(k + p[P_ALPHA_MAG_TURN] * math.sqrt(g2), 1.0)
     if rest and p[P_ALPHA_MAG_REST] > k:
         k = p[P_ALPHA_MAG_REST]
     if s[S_MAG_DIST] != 0.0:
