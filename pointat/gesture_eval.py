@@ -68,6 +68,22 @@ class Evaluation:
         scored = [d for d in self.decisions if d.truth != NULL]
         return sum(d.truth == d.decided for d in scored) / len(scored) if scored else float("nan")
 
+    def missed(self) -> tuple[float, float]:
+        """Where the accuracy goes: the shares of the test movements (``null`` ones left out) named as
+        another gesture, and rejected as no gesture.
+
+        >>> ev = Evaluation(("acc",), ["a", "b"], [Outcome("f", "a", "b", False, 0.0, 0.0),
+        ...     Outcome("g", "a", None, False, 0.0, 0.0), Outcome("h", "b", "b", False, 0.0, 0.0),
+        ...     Outcome("i", "null", None, False, 0.0, 0.0)])
+        >>> ev.missed(), ev.accuracy
+        ((0.3333333333333333, 0.3333333333333333), 0.3333333333333333)
+        """
+        scored = [d for d in self.decisions if d.truth != NULL]
+        if not scored:
+            return float("nan"), float("nan")
+        wrong = sum(d.decided is not None and d.decided != d.truth for d in scored)
+        return wrong / len(scored), sum(d.decided is None for d in scored) / len(scored)
+
     def recall(self) -> dict[str, float]:
         out = {}
         for label in self.labels:
