@@ -122,11 +122,11 @@ def test_gestures_between_rest_and_pointing_are_found_and_pointing_is_not(taught
 def test_without_the_null_class_pointing_fires(taught):
     """The rejection is what keeps ordinary pointing out: switched off, pointing fires gestures."""
     t, frames, truth = performed(21)
-    taught.model.reject = 0.0
+    saved, taught.model.reject = taught.model.reject, 0.0
     try:
         decisions = [d for d in _perform(taught, t, frames) if d[1] is not None]
     finally:
-        taught.model.reject = 2.0
+        taught.model.reject = saved
     assert score(decisions, truth)[3] >= 5
 
 
