@@ -399,7 +399,9 @@ class GestureNode(_Learner):
     times the examples' typical peak, and ends ``settle`` ms after it slows), or by a gate: ``gate 1``
     ... ``gate 0`` (a button or a pedal held while the gesture is made).  ``cut=spot`` finds them with
     no rest between them (repetitions one after another): every example is matched anywhere in the
-    stream, and the best of overlapping matches is told half an example after it ends.  Each is compared to every
+    stream, and the best of overlapping matches is told half an example after it ends (one that begins
+    where the last told ended is preferred: repetitions keep a rhythm); it finds a match in ordinary
+    moves far more often than a rest-to-rest cut, so keep it for phrases of repetitions.  Each is compared to every
     example by dynamic time warping (1-NN DTW; all features warped together, or each on its own when
     that names more of the examples, each left out in turn; the accelerometer as it is, so the hand's
     attitude counts), with a null class.  A movement is no gesture (``none``) when:
