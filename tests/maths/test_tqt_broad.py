@@ -58,14 +58,15 @@ def run_filter(trial, **params):
 
 
 def test_robust_mode_on_broad(trial):
-    """Measured: total 1.75°, heading 1.60°, inclination 0.72° (VQF's defaults 1.99°).  Before issue 46's
-    defaults (a 2 s acceleration average, the field learned only at rest) this trial was 1.58°, and 1.59°
-    before the heading gain that grows with turning (k_heading 0.05 then, 0.015 + 0.01 per rad/s now):
-    the defaults are chosen on BROAD and the Tyrex phones together (benchmarks/LOO.md), and this trial's
-    slow steady rotation is where the slower field gain costs (its translation twins gain 1°)."""
+    """Measured: total 1.56°, heading 1.38°, inclination 0.72° (VQF's defaults 1.99°).  Before issue 46's
+    defaults (a 2 s acceleration average, the field learned only at rest) this trial was 1.58°, 1.59°
+    before the heading gain that grows with turning (k_heading 0.05 then, 0.015 + 0.01 per rad/s now),
+    and 1.75° with it before the magnetometer's lag was learned from the rate's changes alone (a lag at
+    its cap learned from a steady turn): the defaults are chosen on BROAD and the Tyrex phones together
+    (benchmarks/LOO.md)."""
     total, heading, incl = run_filter(trial)
-    assert total < 1.8
-    assert heading < 1.65
+    assert total < 1.7
+    assert heading < 1.5
     assert incl < 0.8
 
 

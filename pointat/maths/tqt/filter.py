@@ -210,12 +210,13 @@ class TQTFilter(_TQTParams):
       translations, little turned, want the slowest gain: 0.49° and 0.80° where 0.05 gave 1.49° and
       1.82°), while the gyro drifts with the angle it turns (the rotations want more).  With one gain
       for both, 0.03 and 0.05 tied on BROAD's mean (2.00° each) and the folds flipped between them; with
-      the turn's part the grid's means by k_heading_turn are 2.12 / **1.88** / 1.98° (0 / 0.01 / 0.02),
-      the defaults 1.75° in-sample, 1.83° leave-one-trial-out (``benchmarks/LOO.md``).
+      the turn's part the grid's means by k_heading_turn are 2.05 / **1.86** / 1.98° (0 / 0.01 / 0.02),
+      the defaults 1.72° in-sample, 1.80° leave-one-trial-out (``benchmarks/LOO.md``).
       ``k_heading_unrested = 0.1`` before the bias is known (the phones, which never rest: 4.85°
       against 5.66° at 0.05, BROAD the same).
     * ``mag_lag_tau = 10`` s, ``mag_lag_max = 0.02`` s: their own 12-point leave-one-trial-out (BROAD
-      1.85° → 1.77° in-sample with the lag taken out; the phones 4.54° either way).
+      1.85° → 1.73° in-sample with the lag taken out, 1.72° leave-one-trial-out; the phones 4.54°
+      either way).
     * ``k_heading_rest = 0.2`` (a 5 s time constant at rest): what the heading left behind by fast
       turning needs (``benchmarks/LOO.md``, a grid of it and ``k_heading``): BROAD's slow rotation with
       breaks 1.58 → 1.43°, the attached magnet 1.88 → 1.44°, the others within 0.01°, the phones (which
