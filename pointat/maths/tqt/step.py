@@ -234,7 +234,8 @@ S_LAG_XY = S_MAG_FLAG_T + 1  # low-pass of psi x the vertical turn rate (the mag
 S_LAG_XX = S_LAG_XY + 1  # and of the rate squared
 S_LAG_P = S_LAG_XX + 1  # psi low-passed over _LAG_HP (what _lag regresses is psi and the rate less these)
 S_LAG_W = S_LAG_P + 1  # the vertical turn rate low-passed over _LAG_HP
-STATE_SIZE = S_LAG_W + 1
+S_LAG = S_LAG_W + 1  # the lag learned (s), within 0 and mag_lag_max, taken out from the next sample on
+STATE_SIZE = S_LAG + 1
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -883,6 +884,7 @@ def _lag(s, p, psi, w, x, y, z, gx, gy, gz, moving):  # type: ignore[no-untyped-
     (``benchmarks/HEADING.md``); a fixed compensation helped its fast rotation and hurt its fast combined
     trial: each sensor's own lag, learned as it runs."""
     _, _, wv = _rotate(w, x, y, z, gx, gy, gz)
+    out = psi - min(s[S_LAG], p[P_MAG_LAG_MAX]) * wv  # (as learned up to the sample before: no division)
     if moving:
         h = p[P_C_LAG_HP]
         s[S_LAG_P] += h * (psi - s[S_LAG_P])
@@ -890,18 +892,18 @@ def _lag(s, p, psi, w, x, y, z, gx, gy, gz, moving):  # type: ignore[no-untyped-
         dp, dw = psi - s[S_LAG_P], wv - s[S_LAG_W]
         if dw * dw > _LAG_CHANGE * _LAG_CHANGE:
             c = p[P_C_LAG]
-            s[S_LAG_XY] += c * (dp * dw - s[S_LAG_XY])
-            s[S_LAG_XX] += c * (dw * dw - s[S_LAG_XX])
-    return psi - mag_lag(s, p) * wv
+            xy = s[S_LAG_XY] + c * (dp * dw - s[S_LAG_XY])
+            xx = s[S_LAG_XX] + c * (dw * dw - s[S_LAG_XX])
+            s[S_LAG_XY], s[S_LAG_XX] = xy, xx
+            s[S_LAG] = max(0.0, min(p[P_MAG_LAG_MAX], xy / xx))
+    return out
 
 
 def mag_lag(s, p):  # type: ignore[no-untyped-def]
     """The magnetometer's lag behind the gyro (s) :func:`_lag` takes out now: 0 until the turn rate has
     changed in motion (then held through rests and steady turns), and 0 with the learning off
     (``mag_lag_tau`` or ``mag_lag_max`` 0)."""
-    if p[P_C_LAG] <= 0.0 or s[S_LAG_XX] <= 0.0:
-        return 0.0
-    return max(0.0, min(p[P_MAG_LAG_MAX], s[S_LAG_XY] / s[S_LAG_XX]))
+    return min(s[S_LAG], p[P_MAG_LAG_MAX]) if p[P_C_LAG] > 0.0 else 0.0
 
 
 def _set_dip(s, d):  # type: ignore[no-untyped-def]
