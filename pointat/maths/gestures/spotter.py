@@ -46,12 +46,12 @@ class Spotter:
     #: as a template does.  Chosen on seglearn people 1-5 (``benchmarks/GESTURES_REAL.md``).
     ENDS = 0.5
     #: Of the matches that overlap, the one told is the cheapest as a share of its class's threshold, that
-    #: share weighed by ``1 + RHYTHM * |gap| / n`` when the last match told (``n`` steps long) ended less
-    #: than ``2 n`` steps before it begins (``gap``: the steps between that end and this start): a
-    #: performer who repeats a movement with no rest keeps a rhythm, each repetition beginning where the
-    #: last one ended, and a span from the middle of one to the middle of the next breaks it.  It chooses
-    #: only: whether a match is a gesture at all stays the model's rules' alone.  Chosen on seglearn
-    #: people 1-5 (``benchmarks/GESTURES_REAL.md``); 0: off.
+    #: share weighed by ``1 + RHYTHM * min(|gap|, 2 n) / n`` against the last match told when they are
+    #: compared (``n`` its steps, ``gap`` the steps between its end and this start): a performer who
+    #: repeats a movement with no rest keeps a rhythm, each repetition beginning where the last one
+    #: ended, and a span from the middle of one to the middle of the next breaks it.  It chooses only:
+    #: whether a match is a gesture at all stays the model's rules' alone.  Chosen on seglearn people
+    #: 1-5 (``benchmarks/GESTURES_REAL.md``); 0: off.
     RHYTHM = 0.5
 
     def __init__(self, model: GestureModel, hold: float | None = None) -> None:
@@ -124,16 +124,12 @@ class Spotter:
             share = cost / self.model.threshold(label)  # (the classes compared at their own scale)
             if share > 1.0:
                 continue
-            if self.RHYTHM and self._told is not None:
-                gap, n = start - self._told[1] - 1, self._told[1] - self._told[0] + 1
-                if gap < 2 * n:
-                    share *= 1.0 + self.RHYTHM * abs(gap) / n
             for k, p in enumerate(pending):  # the best of the matches that overlap by half or more
                 if (
                     min(step, p.end) - max(start, p.start) + 1
                     > 0.5 * min(step - start, p.end - p.start) + 0.5
                 ):
-                    if share < p.share:
+                    if self._weigh(share, start) < self._weigh(p.share, p.start):
                         pending[k] = _Match(float(share), j, start, step)
                     break
             else:
@@ -152,6 +148,14 @@ class Spotter:
                 out.append(Decided(decision, self.times[p.end - first]))
                 self._told = (p.start, p.end)
         return out
+
+    def _weigh(self, share: float, start: int) -> float:
+        """A match's share as it is compared with those it overlaps: weighed by how it keeps the rhythm of
+        the last match told (:attr:`RHYTHM`), as that is now."""
+        if not self.RHYTHM or self._told is None:
+            return share
+        gap, n = start - self._told[1] - 1, self._told[1] - self._told[0] + 1
+        return share * (1.0 + self.RHYTHM * min(abs(gap), 2 * n) / n)
 
     def _decide(self, p: _Match, first: int) -> Decision | None:
         start, end = p.start, p.end
