@@ -99,9 +99,40 @@ def test_nothing_is_learned_from_a_sensor_that_never_turns():
 
 
 def test_the_lag_is_none_once_its_learning_is_turned_off():
-    """``retune(mag_lag_tau=0)`` turns the learning off, and what was learned is no longer taken out."""
+    """``retune(mag_lag_tau=0)`` turns the learning off, and what was learned is no longer taken out; any
+    other retune leaves it as it was."""
     w = 2.0 * math.pi * 0.3
     f, _ = _turning(0.01, lambda u: 1.5 * np.sin(w * u), lambda u: 1.5 * w * np.cos(w * u), 20.0)
-    assert f.magnetometer_lag > 0.005
+    learned = f.magnetometer_lag
+    assert learned > 0.005
+    f.retune(k=0.6)
+    assert f.magnetometer_lag == learned
     f.retune(mag_lag_tau=0.0)
     assert f.magnetometer_lag == 0.0
+    f.update([0.0, 0.0, 0.0], [0.0, 0.0, G], FIELD.tolist(), DT)
+    assert f.magnetometer_lag == 0.0
+
+
+@pytest.mark.parametrize("bias", [0.01, -0.01])
+def test_a_refused_field_does_not_teach_a_lag_when_it_comes_back(bias):
+    """Turning back and forth with the field on time (the half sample learned), then a magnet near the hand
+    for 20 s (the field refused) while the gyro's bias moves: when the field comes back, the heading has
+    drifted, and the lag's low-passes, stopped while it was refused, start anew rather than read the drift
+    as a step of the error (before: 2.5 -> 0.0 or 7.9 ms)."""
+    w = 2.0 * math.pi * 0.3
+    t = np.arange(1, int(round((REST + 70.0) / DT)) + 1) * DT
+    u = np.clip(t - REST, 0.0, None)
+    q = quat_from_axis_angle([0.0, 0.0, 1.0], 1.5 * np.sin(w * u))
+    gyro = np.zeros((len(t), 3))
+    gyro[:, 2] = np.where(t > REST, 1.5 * w * np.cos(w * u), 0.0) + np.where(t > REST + 30.0, bias, 0.0)
+    acc, mag = quat_inverse_rotate(q, [0.0, 0.0, G]), quat_inverse_rotate(q, FIELD)
+    mag[(t > REST + 30.0) & (t < REST + 50.0)] *= 1.6
+    f = TQTFilter()
+    lags = []
+    for g, a, m in zip(gyro.tolist(), acc.tolist(), mag.tolist(), strict=True):
+        f.update(g, a, m, DT)
+        lags.append(f.magnetometer_lag)
+    before = lags[int((REST + 30.0) / DT) - 1]
+    assert before == pytest.approx(0.5 * DT, abs=2e-4)
+    after = np.array(lags[int((REST + 50.0) / DT) :])
+    assert np.abs(after - before).max() < 3e-4

@@ -108,7 +108,8 @@ class TQTFilter(_TQTParams):
        impact, never one side of them, so the average stays unbiased; once the gyro alone has turned
        the estimate by half a turn, or the spell has lasted 8 s (a runner's every step clips: the
        motion's own), a chunk goes in all the same.  While the gyro is saturated (and a second after) the
-       heading is corrected at ``k_heading_unrested``: the turn beyond the rail is lost.
+       heading is corrected at ``k_heading_unrested`` at least, the field accepted: the turn beyond the
+       rail is lost.
 
     Nothing a hand can produce is refused: a reading counts as corrupt only beyond half again the full
     scale, or with none known beyond :data:`~pointat.maths.tqt.ACC_LIMIT` (1000) times the first
@@ -153,7 +154,7 @@ class TQTFilter(_TQTParams):
     mag_lag_tau, mag_lag_max : float, keyword-only
         Robust mode: the magnetometer's lag behind the gyro is learned as it runs (:attr:`magnetometer_lag`:
         the field's heading error regressed on the turn rate about the vertical, over ``mag_lag_tau``
-        seconds, 10; 0: not learned) and taken out of the field's heading, within 0 and ``mag_lag_max``
+        seconds, 10; 0: neither learned nor taken out) and taken out of the field's heading, within 0 and ``mag_lag_max``
         seconds (0.02; 0: not at all).  Both chosen leave-one-trial-out on BROAD and the phones (``benchmarks/README.md``).
         It is learned from the rate's changes (the error and the rate less their half-second low-passes,
         in motion), so that a gyro's scale error, whose heading error follows the rate slowly, passes

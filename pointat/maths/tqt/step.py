@@ -48,8 +48,9 @@ The algorithm is documented on :class:`~pointat.maths.tqt.TQTFilter`; the equati
   a field that varies over the room (BROAD's translations: 1.49 -> 0.49 and 1.82 -> 0.80 degrees).
 * **The magnetometer's lag behind the gyro is learned and taken out** (:func:`_lag`): the field's heading
   error regressed on the turn rate about the vertical, within 0 and ``mag_lag_max``.
-* **A saturated gyro** (``gyro_range`` told) has the heading corrected at ``k_heading_unrested`` while the
-  spell lasts: it loses the turn beyond its rail (BROAD clipped at 300 °/s: 27.62 -> 27.26 degrees, at
+* **A saturated gyro** (``gyro_range`` told) has the heading corrected at ``k_heading_unrested`` at least
+  while the spell lasts and the field is accepted (a disturbed field's late gain is left as it is): it
+  loses the turn beyond its rail (BROAD clipped at 300 °/s: 27.62 -> 27.26 degrees, at
   500 °/s 8.57 -> 8.03).  Leaning the tilt on gravity too (the average started anew, a faster
   correction) fixed the simulated rolls but made every real recording with a clipped gyro worse.
 
@@ -235,7 +236,8 @@ S_LAG_XX = S_LAG_XY + 1  # and of the rate squared
 S_LAG_P = S_LAG_XX + 1  # psi low-passed over _LAG_HP (what _lag regresses is psi and the rate less these)
 S_LAG_W = S_LAG_P + 1  # the vertical turn rate low-passed over _LAG_HP
 S_LAG = S_LAG_W + 1  # the lag learned (s), within 0 and mag_lag_max, taken out from the next sample on
-STATE_SIZE = S_LAG + 1
+S_LAG_ON = S_LAG + 1  # 1.0: _lag followed the field and the rate the sample before
+STATE_SIZE = S_LAG_ON + 1
 
 # -- the parameter vector --------------------------------------------------------------------------------
 P_K, P_K_HEADING, P_ACC_TAU, P_BIAS_TAU = 0, 1, 2, 3
@@ -647,6 +649,8 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
             )
             _turn_average(s, cw, sx, sy, 0.0)
     # (1) + (4) magnetometer: gated heading-only correction
+    lag_on = s[S_LAG_ON]  # (a sample without the lag's low-passes breaks their run: _lag starts them anew)
+    s[S_LAG_ON] = 0.0
     if m_use:
         bex, bey, bez = _rotate(w, x, y, z, mx, my, mz)
         bh = math.sqrt(bex * bex + bey * bey)
@@ -662,7 +666,7 @@ def robust_step(s, p, gx, gy, gz, ax, ay, az, mx, my, mz, dt):  # type: ignore[n
         if k > 0.0 and bh > 0.0:
             psi = math.atan2(bey, bex)
             if p[P_C_LAG] > 0.0 and g_ok and use_gyro:
-                psi = _lag(s, p, psi, w, x, y, z, gx - bx, gy - by, gz - bz, flags & F_REST == 0)
+                psi = _lag(s, p, psi, w, x, y, z, gx - bx, gy - by, gz - bz, flags & F_REST == 0, lag_on)
             if (
                 p[P_C_MBIAS] > 0.0
                 and dt < k * s[S_MAG_T]
@@ -871,7 +875,7 @@ def _motion_bias(s, p, w, x, y, z, psi):  # type: ignore[no-untyped-def]
     s[S_BIAS + 2] = max(-clip, min(clip, s[S_BIAS + 2] + c * uz))
 
 
-def _lag(s, p, psi, w, x, y, z, gx, gy, gz, moving):  # type: ignore[no-untyped-def]
+def _lag(s, p, psi, w, x, y, z, gx, gy, gz, moving, on):  # type: ignore[no-untyped-def]
     r"""The field's heading ``psi`` (radians off the estimate's) with the magnetometer's lag behind the gyro
     taken out: a field read :math:`\tau` late, seen through the estimate of now, is turned by
     :math:`\tau\omega_v` (:math:`\omega_v` the bias-corrected turn rate about the earth vertical), so
@@ -879,18 +883,23 @@ def _lag(s, p, psi, w, x, y, z, gx, gy, gz, moving):  # type: ignore[no-untyped-
     is used, :math:`\hat\tau` within 0 and ``mag_lag_max`` (a sensor read late, never early).  Both are
     regressed less their :data:`_LAG_HP` low-passes (products low-passed over ``mag_lag_tau`` seconds, of
     the samples whose field corrects the heading, in motion, with the rate changing by more than
-    :data:`_LAG_CHANGE`): a gyro's scale error also makes a turn's heading error follow the rate, but
-    slowly, over the heading correction's time, and a lag follows its changes at once.  BROAD's magnetometer trails its gyro by about 10 ms
-    (``benchmarks/HEADING.md``); a fixed compensation helped its fast rotation and hurt its fast combined
-    trial: each sensor's own lag, learned as it runs."""
+    :data:`_LAG_CHANGE`; the low-passes run at rest too, and start anew after a sample without them,
+    ``on`` false, as after a refused field, whose drift would read as a step of the error): a gyro's
+    scale error also makes a turn's heading error follow the rate, but slowly, over the heading
+    correction's time, and a lag follows its changes at once.  BROAD's magnetometer trails its gyro by about 10 ms
+    (``benchmarks/HEADING.md``); a fixed compensation helped its fast rotation and hurt its fast
+    combined trial: each sensor's own lag, learned as it runs."""
     _, _, wv = _rotate(w, x, y, z, gx, gy, gz)
     out = psi - min(s[S_LAG], p[P_MAG_LAG_MAX]) * wv  # (as learned up to the sample before: no division)
-    if moving:
+    s[S_LAG_ON] = 1.0
+    if on == 0.0:
+        s[S_LAG_P], s[S_LAG_W] = psi, wv
+    else:
         h = p[P_C_LAG_HP]
         s[S_LAG_P] += h * (psi - s[S_LAG_P])
         s[S_LAG_W] += h * (wv - s[S_LAG_W])
         dp, dw = psi - s[S_LAG_P], wv - s[S_LAG_W]
-        if dw * dw > _LAG_CHANGE * _LAG_CHANGE:
+        if moving and dw * dw > _LAG_CHANGE * _LAG_CHANGE:
             c = p[P_C_LAG]
             xy = s[S_LAG_XY] + c * (dp * dw - s[S_LAG_XY])
             xx = s[S_LAG_XX] + c * (dw * dw - s[S_LAG_XX])
@@ -903,7 +912,7 @@ def mag_lag(s, p):  # type: ignore[no-untyped-def]
     """The magnetometer's lag behind the gyro (s) :func:`_lag` takes out now: 0 until the turn rate has
     changed in motion (then held through rests and steady turns), and 0 with the learning off
     (``mag_lag_tau`` or ``mag_lag_max`` 0)."""
-    return min(s[S_LAG], p[P_MAG_LAG_MAX]) if p[P_C_LAG] > 0.0 else 0.0
+    return min(s[S_LAG], p[P_MAG_LAG_MAX]) if p[P_MAG_LAG_TAU] > 0.0 else 0.0
 
 
 def _set_dip(s, d):  # type: ignore[no-untyped-def]
