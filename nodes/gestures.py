@@ -401,7 +401,9 @@ class GestureNode(_Learner):
     no rest between them (repetitions one after another): every example is matched anywhere in the
     stream, and the best of overlapping matches is told half an example after it ends (one that begins
     where the last told ended is preferred: repetitions keep a rhythm); it finds a match in ordinary
-    moves far more often than a rest-to-rest cut, so keep it for phrases of repetitions.  Each is compared to every
+    moves far more often than a rest-to-rest cut, so keep it for phrases of repetitions, and it tells
+    gestures only (no early decision, ``refractory``, ``adapt``, ``none`` or ``motion``).  Each is
+    compared to every
     example by dynamic time warping (1-NN DTW; all features warped together, or each on its own when
     that names more of the examples, each left out in turn; the accelerometer as it is, so the hand's
     attitude counts), with a null class.  A movement is no gesture (``none``) when:
@@ -523,6 +525,16 @@ which.0 -> cue
         self.model = GestureModel(self.channels, **model_options(self.p))
         self.rec = Recognizer(self.model, **recognizer_options(self.p))
         self._moving = False
+        self._spot_adapt()
+
+    def _spot_adapt(self) -> None:
+        """Say so when ``adapt`` is asked of a spotter, which does not adapt."""
+        if self.p.cut == "spot" and self.p.adapt:
+            log.warning(
+                "%s '%s': adapt does nothing with cut=spot (a spotter tells gestures only); cut=rest adapts",
+                self.type_name,
+                self.name,
+            )
 
     @property
     def trained(self) -> bool:
@@ -540,6 +552,8 @@ which.0 -> cue
         rec.adapt, rec.keep = self.p.adapt, self.p.keep
         if name in ("start", "settle"):
             rec.retune()
+        elif name == "adapt":
+            self._spot_adapt()
 
     def start_recording(self) -> None:
         self.rec.record = self.recording

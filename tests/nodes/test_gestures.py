@@ -109,6 +109,25 @@ def test_adapt_takes_clear_performances_as_examples_and_save_keeps_them(tmp_path
     assert all(saved.count(label) <= 4 for label in set(saved)) and len(saved) > 9
 
 
+def test_adapt_asked_of_a_spotter_is_said_to_do_nothing(caplog):
+    """cut=spot tells gestures only: adapt set at load or live is said to do nothing there, with the node's
+    name, and a rest-to-rest cut says nothing of it."""
+    with caplog.at_level(logging.WARNING):
+        rt = patch(
+            "node g gesture channels=[gyr acc] cut=spot adapt=1\nnode h gesture channels=[gyr acc] adapt=1\n"
+        )
+    try:
+        assert "gesture 'g': adapt does nothing with cut=spot" in caplog.text and "'h'" not in caplog.text
+        caplog.clear()
+        with caplog.at_level(logging.WARNING):
+            assert control(rt, "/pointat/g/adapt", [0], 0.0) is None
+            assert "adapt does nothing" not in caplog.text
+            assert control(rt, "/pointat/g/adapt", [1], 0.0) is None
+        assert "gesture 'g': adapt does nothing with cut=spot" in caplog.text
+    finally:
+        rt.shutdown()
+
+
 def test_the_shipped_patch_recognises_the_simulated_glove(tmp_path):
     """patches/gestures.json (taught from the simulated glove's first nine gestures) on the rest of its
     performance: the patch works as it ships."""
