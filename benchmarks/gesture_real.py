@@ -204,16 +204,16 @@ def _accepted(
     d: Decision,
     k: float,
     rules: dict[str, float] | None = None,
-    spread: float = math.inf,
+    spread: tuple[float, set[str]] = (math.inf, set()),
 ) -> bool:
     """The decision ``d`` (made with rejection off) as the model decides it with ``reject=k`` (and the
-    class attributes ``rules`` set: :data:`RULES`; ``spread``: the model's examples' spread, for the
-    rule on it)."""
-    saved = model.reject, model.spread, dict(model.quiet)
+    class attributes ``rules`` set: :data:`RULES`; ``spread``: the model's examples' spread and the classes
+    it caps, :meth:`GestureModel.examples_spread`, for the rule on it)."""
+    saved = model.reject, model.spread, model.spread_classes, dict(model.quiet)
     model.reject = k
     rules = rules or {}
     if "SPREAD" in rules:
-        model.spread = rules["SPREAD"] * spread
+        model.spread, model.spread_classes = rules["SPREAD"] * spread[0], spread[1]
     if "QUIET" in rules:
         model.quiet = {}
     try:
@@ -221,7 +221,7 @@ def _accepted(
         gauge = np.array([d.distance if label == d.nearest else math.inf for label in model.labels])
         return model.decide(distances, duration=d.duration, still=d.still, gauge=gauge).label is not None
     finally:
-        model.reject, model.spread, model.quiet = saved
+        model.reject, model.spread, model.spread_classes, model.quiet = saved
 
 
 def _curve_models(data: Data, people: Sequence[int]) -> list[tuple[str, tuple[str, ...], list, list]]:
@@ -251,7 +251,7 @@ def curve_table(
         model = GestureModel(ch, reject=0.0).train([r.example(ch) for r in tr])
         decisions = [(r.label, model.classify(r.example(ch).t, r.example(ch).frames)) for r in te]
         moves = [d for t in takes for d in _ungated(model, t, BROAD_STEP, early=False)]
-        runs.append((name, model, decisions, moves, model.examples_spread()[0]))
+        runs.append((name, model, decisions, moves, model.examples_spread()))
         progress(f"gesture_real: curve, {name}")
     seglearn = [r for r in runs if r[0].startswith("seglearn")]
 
