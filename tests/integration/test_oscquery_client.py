@@ -25,6 +25,8 @@ from pathlib import Path
 
 import pytest
 
+from pointat.nodes.tqt import TQT
+
 ROOT = Path(__file__).resolve().parents[2]
 CLIENT = ROOT / "tests" / "oscquery_client"
 K_HEADING = "/pointat/tqt/fuse/k_heading"
@@ -113,7 +115,8 @@ def test_node_oscquery_finds_lists_and_sets(node, patch_running):
     assert got["methods"]["/pointat/out/aed"] == {"type": "fff", "access": "read-only"}
     before, after = got["before"], got["after"]
     assert before["type_names"] == ["FLOAT"] and before["access"] == "read-write", report
-    assert before["value"] == [pytest.approx(0.05)], report
+    default = next(p.default for p in TQT.params if p.name == "k_heading")
+    assert before["value"] == [pytest.approx(default)], report
     assert after["value"] == [pytest.approx(0.2)], report
 
     # ... and the patch itself took it, as its own server says.
