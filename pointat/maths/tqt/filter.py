@@ -154,8 +154,9 @@ class TQTFilter(_TQTParams):
     mag_lag_tau, mag_lag_max : float, keyword-only
         Robust mode: the magnetometer's lag behind the gyro is learned as it runs (:attr:`magnetometer_lag`:
         the field's heading error regressed on the turn rate about the vertical, over ``mag_lag_tau``
-        seconds, 10; 0: neither learned nor taken out) and taken out of the field's heading, within 0 and ``mag_lag_max``
-        seconds (0.02; 0: not at all).  Both chosen leave-one-trial-out on BROAD and the phones (``benchmarks/README.md``).
+        seconds, 10; 0: neither learned nor taken out) and taken out of the field's heading, within 0
+        and ``mag_lag_max`` seconds (0.02; 0: not at all).  Both chosen leave-one-trial-out on BROAD and
+        the phones (``benchmarks/README.md``).
         It is learned from the rate's changes (the error and the rate less their half-second low-passes,
         in motion), so that a gyro's scale error, whose heading error follows the rate slowly, passes
         for a lag of only a few milliseconds; a rest or a steady turn holds what was learned.  What is

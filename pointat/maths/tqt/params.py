@@ -233,7 +233,8 @@ class _TQTParams:
     @property
     def heading_crossover(self) -> float:
         r"""robust mode: the heading correction's crossover in Hz, :math:`k_{heading} / 2\pi` (below it the
-        heading follows the magnetometer, above it the gyro; 0.0024 Hz at the default 0.015; more while turning, ``k_heading_turn``)."""
+        heading follows the magnetometer, above it the gyro; 0.0024 Hz at the default 0.015; more while
+        turning, ``k_heading_turn``)."""
         return crossover_from_gain(self.k_heading if self.use_gyro else self.k)
 
     def reset(self, q: ArrayLike | None = None) -> None:  # pragma: no cover - overridden
@@ -241,9 +242,8 @@ class _TQTParams:
 
     _TUNABLE = (
         "k", "rho", "k_heading", "acc_tau", "mag_norm_tol", "mag_dip_tol", "mag_new_time", "mag_reject_time",
-        "motion_bias_tau", "mag_tau", "k_heading_unrested", "k_heading_rest", "k_heading_turn", "mag_lag_tau", "mag_lag_max",
-        "bias_tau",
-        "acc_range", "gyro_range",
+        "motion_bias_tau", "mag_tau", "k_heading_unrested", "k_heading_rest", "k_heading_turn", "mag_lag_tau",
+        "mag_lag_max", "bias_tau", "acc_range", "gyro_range",
     )  # fmt: skip
 
     def retune(self, **gains: float) -> None:

@@ -743,10 +743,10 @@ def _report_flag(s, off_n, tol_n, off_d, tol_d, dt):  # type: ignore[no-untyped-
 
 def _clip_axis(s, j, v, r, w, x, y, z, ux, uy, uz, dt, fix):  # type: ignore[no-untyped-def]
     r"""Follow one accelerometer axis (reading ``v``, unit vector ``u`` in the sensor frame) at the rail
-    ``r``; its slots from ``s[j]`` (the ``_C_*`` offsets): the two readings before the run, the run's length in samples, its
-    sign, :math:`A = \sum_k R_k u \, dt` (the axis in the earth frame over the run), the first reading
-    after it, whether it waits for the second, and how many of the two readings before it are known
-    (:func:`_declip` guesses what the rail cut off).  The chunk under way waits while a run lasts
+    ``r``; its slots from ``s[j]`` (the ``_C_*`` offsets): the two readings before the run, the run's
+    length in samples, its sign, :math:`A = \sum_k R_k u \, dt` (the axis in the earth frame over the
+    run), the first reading after it, whether it waits for the second, and how many of the two readings
+    before it are known (:func:`_declip` guesses what the rail cut off).  The chunk under way waits while a run lasts
     (``hold``).  A run that flips rail or lasts beyond :data:`_RUN_MAX` is a stroke's, and so is what
     follows it at the rail (no reading before it is known).  Returns bits: :data:`_RUN_ON` (a run under
     way or waiting) and :data:`_RUN_STROKE` (a stroke's run ended)."""
@@ -886,11 +886,11 @@ def _lag(s, p, psi, w, x, y, z, gx, gy, gz, moving, on):  # type: ignore[no-unty
     :data:`_LAG_CHANGE`; the low-passes run at rest too, and start anew after a sample without them,
     ``on`` false, as after a refused field, whose drift would read as a step of the error): a gyro's
     scale error also makes a turn's heading error follow the rate, but slowly, over the heading
-    correction's time, and a lag follows its changes at once.  BROAD's magnetometer trails its gyro by about 10 ms
-    (``benchmarks/HEADING.md``); a fixed compensation helped its fast rotation and hurt its fast
-    combined trial: each sensor's own lag, learned as it runs."""
+    correction's time, and a lag follows its changes at once.  BROAD's magnetometer trails its gyro by
+    about 10 ms (``benchmarks/HEADING.md``); a fixed compensation helped its fast rotation and hurt its
+    fast combined trial: each sensor's own lag, learned as it runs."""
     _, _, wv = _rotate(w, x, y, z, gx, gy, gz)
-    out = psi - min(s[S_LAG], p[P_MAG_LAG_MAX]) * wv  # (as learned up to the sample before: no division)
+    out = psi - mag_lag(s, p) * wv  # (as learned up to the sample before: no division)
     s[S_LAG_ON] = 1.0
     if on == 0.0:
         s[S_LAG_P], s[S_LAG_W] = psi, wv
@@ -934,8 +934,7 @@ def _heading_gain(s, p, dt, flags):  # type: ignore[no-untyped-def]
     # a gyro at its told rail loses the turn beyond it: an accepted field takes the heading back faster
     if flags & F_GYRO_SATURATED and s[S_MAG_DIST] == 0.0 and k < p[P_ALPHA_MAG_UNRESTED]:
         k = p[P_ALPHA_MAG_UNRESTED]
-    rest = flags & F_REST != 0
-    if rest and p[P_ALPHA_MAG_REST] > k:
+    if flags & F_REST and p[P_ALPHA_MAG_REST] > k:
         k = p[P_ALPHA_MAG_REST]
     if s[S_MAG_DIST] != 0.0:
         if s[S_MAG_REJ_T] < p[P_MAG_REJECT_TIME]:
