@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -63,10 +63,14 @@ class Evaluation:
     labels: list[str]
     decisions: list[Outcome] = field(default_factory=list)
 
+    def _share(self, which: Callable[[Outcome], bool]) -> float:
+        """The share of the test movements (``null`` ones left out) for which ``which`` holds; NaN if none."""
+        scored = [d for d in self.decisions if d.truth != NULL]
+        return sum(which(d) for d in scored) / len(scored) if scored else float("nan")
+
     @property
     def accuracy(self) -> float:
-        scored = [d for d in self.decisions if d.truth != NULL]
-        return sum(d.truth == d.decided for d in scored) / len(scored) if scored else float("nan")
+        return self._share(lambda d: d.truth == d.decided)
 
     def missed(self) -> tuple[float, float]:
         """Where the accuracy goes: the shares of the test movements (``null`` ones left out) named as
@@ -78,11 +82,10 @@ class Evaluation:
         >>> ev.missed(), ev.accuracy
         ((0.3333333333333333, 0.3333333333333333), 0.3333333333333333)
         """
-        scored = [d for d in self.decisions if d.truth != NULL]
-        if not scored:
-            return float("nan"), float("nan")
-        wrong = sum(d.decided is not None and d.decided != d.truth for d in scored)
-        return wrong / len(scored), sum(d.decided is None for d in scored) / len(scored)
+        return (
+            self._share(lambda d: d.decided is not None and d.decided != d.truth),
+            self._share(lambda d: d.decided is None),
+        )
 
     def recall(self) -> dict[str, float]:
         out = {}
