@@ -27,10 +27,10 @@ BROAD trials, real hand motion that is no gesture: gestures told per minute.  Th
 is traced with early decisions off (the model's own decision with each ``reject``, on the same
 movements; the strength rule left out, as those decisions do not keep it), and the null class's rules
 beside each other with the worst model of every set (seglearn's, PickupGestureWiimoteZ's and
-BasicMotions'); the defaults are then run as they are.  Ungated streams: seglearn's uncut recordings (repetitions with no rest between them)
-streamed whole, cut from rest to rest and spotted (``cut=spot``), taught by the person or by the others.
-Beside every row, plain 1-NN DTW (:func:`pointat.gesture_eval.baseline`) on the same split, in the same
-run.  About 13 minutes; seglearn's and aeon's wheels are fetched into ``~/.cache/pointat/gesture-sets``
+BasicMotions'); the defaults are then run as they are.  Ungated streams: seglearn's uncut recordings
+(repetitions with no rest between them) streamed whole, cut from rest to rest and spotted
+(``cut=spot``), taught by the person or by the others, a plain spotter beside them.  Beside every
+gated row, plain 1-NN DTW (:func:`pointat.gesture_eval.baseline`) on the same split, in the same run.  About 13 minutes; seglearn's and aeon's wheels are fetched into ``~/.cache/pointat/gesture-sets``
 (``POINTAT_GESTURE_SETS``) the first time.
 """
 
@@ -50,6 +50,7 @@ from benchmarks import gesture_sets as sets
 from benchmarks.performer import perform
 from pointat.gesture_eval import Evaluation, baseline, evaluate
 from pointat.maths.gestures import REJECT, Decision, GestureModel, Recognizer
+from pointat.maths.gestures.spotter import Spotter
 
 REPO = Path(__file__).resolve().parent.parent
 CHOOSE_PEOPLE, REPORT_PEOPLE = (1, 2, 3, 4, 5), (6, 7, 8, 9, 10)
@@ -290,8 +291,8 @@ def curve_table(
         f" a movement within {GestureModel.QUIET:g} times its examples' distance from keeping still) and"
         f" the examples' spread (off by default: ``reject`` times {SPREAD_FACTOR:g} of the"
         f" {GestureModel.SPREAD_QUANTILE:g}th percentile of their leave-one-out distances, pooled over the"
-        " classes taught two or more).  Found and named: seglearn's models' test repetitions, and each own split's test set;"
-        " then the worst model of each set on BROAD, false triggers a minute.",
+        " classes taught two or more).  Found and named: seglearn's models' test repetitions, and each own"
+        " split's test set; then the worst model of each set on BROAD, false triggers a minute.",
         "",
         "| rules | found and named, seglearn | "
         + " | ".join(f"{n.split(' (')[0]}: found" for n in sets_ if not n.startswith("seglearn"))
@@ -379,20 +380,42 @@ def adapt_table(data: Data, people: Sequence[int], progress: Callable[[str], Non
     return "\n".join(lines) + "\n"
 
 
+class _Unbounded(GestureModel):
+    """Every class's threshold one large distance: a spotter compares its matches by their raw costs, and
+    nothing is rejected (``reject=0``)."""
+
+    def threshold(self, label: str) -> float:
+        return 1e12
+
+
+class _PlainSpotter(Spotter):
+    """Plain subsequence DTW: no cost for how a match begins and ends, no rhythm."""
+
+    ENDS = 0.0
+    RHYTHM = 0.0
+
+
+def _spotted(spotter: Spotter, take: sets.Take) -> list[Decision]:
+    """Every decision of ``spotter`` over a whole recording."""
+    x = np.column_stack([take.groups[c] for c in spotter.model.channels])
+    return [e.decision for k in range(len(take.t)) for e in spotter.push(float(take.t[k]), x[k])]
+
+
 def ungated_table(
     data: Data, people: Sequence[int], progress: Callable[[str], None]
 ) -> tuple[str, dict[tuple[str, str], float]]:
     """seglearn's uncut recordings (repetitions with no rest between them), each streamed whole through
     the recognizer: cut from rest to rest (the default) and spotted (``cut=spot``), taught with the
     first three repetitions of each of the person's own recordings (the stream holds them too) or by
-    the other people."""
+    the other people; beside them the plain spotter (:class:`_PlainSpotter` of an :class:`_Unbounded`
+    model: the channels in SI units warped together, no rejection, no cost for the ends, no rhythm)."""
     ch = ("acc", "gyr")
     lines = [
         "| cut | taught by | repetitions found and named | named wrong or extra, a minute |",
         "|---|---|---|---|",
     ]
     share: dict[tuple[str, str], float] = {}
-    for cut in ("rest", "spot"):
+    for cut in ("rest", "spot", "plain spot"):
         for protocol in ("three", "new"):
             found = wrong = total = 0
             minutes = 0.0
@@ -403,8 +426,16 @@ def ungated_table(
                 key = (take.person, take.arm)
                 if key not in models:
                     train, _ = data.three(*key) if protocol == "three" else data.new_person(*key)
-                    models[key] = GestureModel(ch).train([r.example(ch) for r in train])
-                decisions = [d for d in _ungated(models[key], take, 1, cut=cut) if d.label is not None]
+                    examples = [r.example(ch) for r in train]
+                    plain = cut == "plain spot"
+                    models[key] = (
+                        _Unbounded(ch, scale="si", warp="together", reject=0.0) if plain else GestureModel(ch)
+                    ).train(examples)
+                if cut == "plain spot":
+                    decisions = _spotted(_PlainSpotter(models[key]), take)
+                else:
+                    decisions = _ungated(models[key], take, 1, cut=cut)
+                decisions = [d for d in decisions if d.label is not None]
                 n = len(data.reps[(take.person, take.arm, take.label)])
                 right = sum(d.label == take.label for d in decisions)
                 found += min(right, n)
