@@ -153,62 +153,57 @@ class _Through:
     def ports(self, spec: PatchSpec) -> tuple[list[PortDecl], list[PortDecl]]:
         """This patch's own inlets and outlets: those that lead into an abstraction it holds, through to its
         nodes."""
-        instances, failed, problems = self.instances, self.failed, self.problems
-        inlet_map, outlet_map = self.inlet_map, self.outlet_map
         inlets, outlets = [], []
         for port in spec.inlets:
-            if port.node not in instances:
+            if port.node not in self.instances:
                 inlets.append(port)
-            elif port.node not in failed:
-                inner = inlet_map.get((port.node, port.port))
-                if inner is None:
-                    problems.append(
-                        Problem(port.where, f"abstraction instance '{port.node}' has no inlet {port.port!r}")
-                    )
-                    continue
-                inlets += [PortDecl(port.name, n, i, port.where) for n, i in inner]
+            elif port.node not in self.failed:
+                inner = self._into(port.node, port.port, port.where)
+                inlets += [PortDecl(port.name, n, i, port.where) for n, i in inner or ()]
         for port in spec.outlets:
-            if port.node not in instances:
+            if port.node not in self.instances:
                 outlets.append(port)
-            elif port.node not in failed:
-                if (port.node, port.port) not in outlet_map:
-                    problems.append(
-                        Problem(port.where, f"abstraction instance '{port.node}' has no outlet {port.port!r}")
-                    )
-                    continue
-                n, o = outlet_map[(port.node, port.port)]
-                outlets.append(PortDecl(port.name, n, o, port.where))
+            elif port.node not in self.failed:
+                source = self._out_of(port.node, port.port, port.where)
+                if source is not None:
+                    outlets.append(PortDecl(port.name, *source, port.where))
         return inlets, outlets
 
     def wires(self, spec: PatchSpec) -> list[Wire]:
         """This patch's wires, those to or from an abstraction it holds led to and from its nodes (none of
         an instance that failed: its problem is said once)."""
-        instances, failed, problems = self.instances, self.failed, self.problems
-        inlet_map, outlet_map = self.inlet_map, self.outlet_map
         wires = []
         for w in spec.wires:
-            if w.src in failed or w.dst in failed:
+            if w.src in self.failed or w.dst in self.failed:
                 continue
-            srcs = [(w.src, w.outlet)]
-            dsts = [(w.dst, w.inlet)]
-            if w.src in instances:
-                if (w.src, w.outlet) not in outlet_map:
-                    problems.append(
-                        Problem(w.where, f"abstraction instance '{w.src}' has no outlet {w.outlet!r}")
-                    )
+            srcs: list[tuple[str, str | int]] = [(w.src, w.outlet)]
+            dsts: list[tuple[str, str | int]] | None = [(w.dst, w.inlet)]
+            if w.src in self.instances:
+                source = self._out_of(w.src, w.outlet, w.where)
+                if source is None:
                     continue
-                srcs = [outlet_map[(w.src, w.outlet)]]
-            if w.dst in instances:
-                if (w.dst, w.inlet) not in inlet_map:
-                    problems.append(
-                        Problem(w.where, f"abstraction instance '{w.dst}' has no inlet {w.inlet!r}")
-                    )
+                srcs = [source]
+            if w.dst in self.instances:
+                dsts = self._into(w.dst, w.inlet, w.where)
+                if dsts is None:
                     continue
-                dsts = inlet_map[(w.dst, w.inlet)]
-            for s, o in srcs:
-                for d, i in dsts:
-                    wires.append(Wire(s, o, d, i, w.where))
+            wires += [Wire(s, o, d, i, w.where) for s, o in srcs for d, i in dsts]
         return wires
+
+    def _into(self, node: str, port: str | int, where: Where | None) -> list[tuple[str, str | int]] | None:
+        """Where instance ``node``'s inlet ``port`` leads; ``None``, the problem said, when it has none."""
+        inner = self.inlet_map.get((node, port))
+        if inner is None:
+            self.problems.append(Problem(where, f"abstraction instance '{node}' has no inlet {port!r}"))
+        return inner
+
+    def _out_of(self, node: str, port: str | int, where: Where | None) -> tuple[str, str | int] | None:
+        """What instance ``node``'s outlet ``port`` comes from; ``None``, the problem said, when it has
+        none."""
+        source = self.outlet_map.get((node, port))
+        if source is None:
+            self.problems.append(Problem(where, f"abstraction instance '{node}' has no outlet {port!r}"))
+        return source
 
 
 def _abstraction_path(parent: PatchSpec, decl: NodeDecl) -> Path:
