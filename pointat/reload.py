@@ -234,10 +234,12 @@ class Reloader:
             asked = self._wanted.wait(self.POLL if self.watch else None)
             if self._stop.is_set():
                 return
+            # (after a reload the files are compared with how they looked before it, not after: a save
+            # that lands while it reads and swaps is a change still to see)
             if asked:
                 self._wanted.clear()
-                self._guarded(force=True)
                 seen, settling = self._stat(), False
+                self._guarded(force=True)
                 continue
             now = self._stat()
             if now is None or now != seen:  # changing, or half-saved: look again next time
@@ -247,7 +249,6 @@ class Reloader:
                 settling = False
                 if self._fingerprint() != self._loaded:
                     self._guarded(force=False)
-                    seen = self._stat()
 
     def _guarded(self, force: bool) -> None:
         try:

@@ -289,6 +289,40 @@ def test_watch_reloads_a_file_saved_by_rename_on_a_running_patch(tmp_path, recei
     assert indices == list(range(1, len(indices) + 1))
 
 
+def test_a_save_that_lands_during_a_reload_is_reloaded_too(tmp_path):
+    """An editor saving twice in quick succession: the second save lands while the first is read and
+    swapped in.  The watcher compares the files with how they looked before the reload, so the second
+    save is a change still to see and is reloaded too (it compared them with how they looked after, took
+    the second save for the one loaded, and the patch ran the first until the next save)."""
+    path = tmp_path / "p.pat"
+    text = "node lb loadbang\nnode m metro 50\nnode c collect\nlb -> m\nm -> c\n"
+    path.write_text(text)
+    reg = registry()
+    checked, rt = ready(read_spec(path), reg)
+    reads: list[int] = []
+
+    def read():
+        got = check(read_spec(path), reg, read_files=True)
+        reads.append(1)
+        if len(reads) == 1:  # (the second save, while the first is being reloaded)
+            path.write_text(text + "node second collect\nm -> second\n")
+        return got
+
+    reloader = Reloader(rt, checked, read, watch=True)
+    rt.reloader = reloader
+    rt.console = lambda line: None
+    scheduler = rt.run_in_thread()
+    reloader.start()
+    try:
+        path.write_text(text + "node first collect\nm -> first\n")
+        assert wait_until(lambda: reloader.reloads == 2, timeout=20), (reloader.reloads, reloader.problems)
+        assert "second" in rt.nodes and "first" not in rt.nodes
+    finally:
+        reloader.stop()
+        rt.stop()
+        scheduler.join(10)
+
+
 COMPILED = """\
 node base   mote ids=[1] rate=100
 node nulls  offset samples=50
