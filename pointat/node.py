@@ -651,29 +651,36 @@ class Node:
             ins, outs = cls.layout({p.name: p.default for p in cls.params})
         except Exception:
             ins, outs = cls.inlets, cls.outlets
+        # (each column as wide as its longest entry, so that the descriptions line up)
+        port = max([10, *(len(x.name) for x in (*ins, *outs))])
         lines.append("inlets:")
         for i, inlet in enumerate(ins):
             hot = inlet.is_hot(i)
             lines.append(
-                f"  {i} {inlet.name:<10} {'hot ' if hot else 'cold'} {'|'.join(inlet.accepts):<14} {inlet.doc}"
+                f"  {i} {inlet.name:<{port}} {'hot ' if hot else 'cold'} {'|'.join(inlet.accepts):<14} {inlet.doc}"
             )
         if not ins:
             lines.append("  (none)")
         lines.append("outlets:")
         for i, outlet in enumerate(outs):
-            lines.append(f"  {i} {outlet.name:<10} {outlet.kind:<19} {outlet.doc}")
+            lines.append(f"  {i} {outlet.name:<{port}} {outlet.kind:<19} {outlet.doc}")
         if not outs:
             lines.append("  (none)")
         if cls.readings:
             lines.append("readings (what the monitor and OSCQuery show of it while it runs):")
+            reading = max(12, *(len(r.name) for r in cls.readings))
             for r in cls.readings:
-                lines.append(f"  {r.name:<12} [{', '.join(u or '-' for u in r.units)}] {r.doc}")
+                lines.append(f"  {r.name:<{reading}} [{', '.join(u or '-' for u in r.units)}] {r.doc}")
         lines.append("parameters (by name, or by position in this order):")
+        name = max([12, *(len(p.name) for p in cls.params)])
+        kind = max(
+            [10, *(len(t) for p in cls.params if len(t := p.describe_type()) <= 22)]
+        )  # (a long one overflows)
         for p in cls.params:
             default = "required" if p.default is REQUIRED else f"default {p.default!r}"
             flags = ", live" if p.live else ""
             unit = f" [{p.unit}]" if p.unit else ""
-            lines.append(f"  {p.name:<12} {p.describe_type():<10} {default}{unit}{flags}")
+            lines.append(f"  {p.name:<{name}} {p.describe_type():<{kind}} {default}{unit}{flags}")
             if p.doc:
                 lines.append(f"      {p.doc}")
         if not cls.params:
