@@ -81,7 +81,7 @@ class GestureModel:
 
     #: A movement is no performance of a class when it is this many times faster than its fastest
     #: example or slower than its slowest.  Not tighter: 1.5 cut the false triggers on BROAD (seglearn
-    #: people 1-5's worst model 0.79 -> 0.43 a minute, as found and named) and widening it by the
+    #: people 1-5's worst model 0.79 -> 0.43 a minute, as many found and named) and widening it by the
     #: examples' pooled spread of tempo kept that, but real people's tempi differ more than a few
     #: examples show: in the tests' sample of seglearn, the two who teach take 2.2 s where the new person
     #: takes 1.1 s, and 47 % of her gestures were refused (``benchmarks/GESTURES_REAL.md``, the rules).
