@@ -170,12 +170,11 @@ def _whole_takes(ev: Evaluation) -> float:
     """The share of the test movements named as another gesture in takes (seglearn's recordings: the
     repetitions cut from one) named one other way (:data:`WHOLE`): not a stray miss, but how this person
     performs the gesture, or wears the sensor, looking like another gesture as the others perform it."""
-    takes: dict[str, list[str | None]] = {}
+    takes: dict[tuple[str, str], list[str | None]] = {}
     for d in ev.decisions:
-        takes.setdefault(d.file.rsplit("/", 1)[0] + "/" + d.truth, []).append(d.decided)
+        takes.setdefault((d.file.rsplit("/", 1)[0], d.truth), []).append(d.decided)
     whole = 0
-    for key, got in takes.items():
-        truth = key.rsplit("/", 1)[1]
+    for (_, truth), got in takes.items():
         wrong = [g for g in got if g is not None and g != truth]
         if wrong and max(wrong.count(g) for g in set(wrong)) >= WHOLE * len(got):
             whole += len(wrong)
@@ -208,10 +207,16 @@ def losses_table(missed: dict[str, list[tuple[float, float, float]]]) -> str:
     )
 
 
+def _streamed(machine: Recognizer | Spotter, take: sets.Take, step: int = 1) -> list[Decision]:
+    """Every decision of ``machine`` (a recognizer or a spotter) over a whole recording (every ``step``-th
+    sample)."""
+    x = np.column_stack([take.groups[c] for c in machine.model.channels])
+    return [d for _, d in perform(machine, take.t[::step], x[::step])]
+
+
 def _ungated(model: GestureModel, take: sets.Take, step: int, **rec: Any) -> list[Decision]:
     """Every decision of a recognizer of ``model`` over a whole recording (every ``step``-th sample)."""
-    x = np.column_stack([take.groups[c] for c in model.channels])
-    return [d for _, d in perform(Recognizer(model, **rec), take.t[::step], x[::step])]
+    return _streamed(Recognizer(model, **rec), take, step)
 
 
 #: The examples' spread rule's factor (:attr:`GestureModel.SPREAD`, off by default), as chosen on seglearn
@@ -430,12 +435,6 @@ class _PlainSpotter(Spotter):
     RHYTHM = 0.0
 
 
-def _spotted(spotter: Spotter, take: sets.Take) -> list[Decision]:
-    """Every decision of ``spotter`` over a whole recording."""
-    x = np.column_stack([take.groups[c] for c in spotter.model.channels])
-    return [e.decision for k in range(len(take.t)) for e in spotter.push(float(take.t[k]), x[k])]
-
-
 def ungated_table(
     data: Data, people: Sequence[int], progress: Callable[[str], None]
 ) -> tuple[str, dict[tuple[str, str], float]]:
@@ -451,6 +450,7 @@ def ungated_table(
     ]
     share: dict[tuple[str, str], float] = {}
     for cut in ("rest", "spot", "plain spot"):
+        plain = cut == "plain spot"
         for protocol in ("three", "new"):
             found = wrong = total = 0
             minutes = 0.0
@@ -462,12 +462,11 @@ def ungated_table(
                 if key not in models:
                     train, _ = data.three(*key) if protocol == "three" else data.new_person(*key)
                     examples = [r.example(ch) for r in train]
-                    plain = cut == "plain spot"
                     models[key] = (
                         _Unbounded(ch, scale="si", warp="together", reject=0.0) if plain else GestureModel(ch)
                     ).train(examples)
-                if cut == "plain spot":
-                    decisions = _spotted(_PlainSpotter(models[key]), take)
+                if plain:
+                    decisions = _streamed(_PlainSpotter(models[key]), take)
                 else:
                     decisions = _ungated(models[key], take, 1, cut=cut)
                 decisions = [d for d in decisions if d.label is not None]

@@ -668,14 +668,13 @@ class Node:
             lines.append("  (none)")
         if cls.readings:
             lines.append("readings (what the monitor and OSCQuery show of it while it runs):")
-            reading = max(12, *(len(r.name) for r in cls.readings))
+            reading = max([12, *(len(r.name) for r in cls.readings)])
             for r in cls.readings:
                 lines.append(f"  {r.name:<{reading}} [{', '.join(u or '-' for u in r.units)}] {r.doc}")
         lines.append("parameters (by name, or by position in this order):")
         name = max([12, *(len(p.name) for p in cls.params)])
-        kind = max(
-            [10, *(len(t) for p in cls.params if len(t := p.describe_type()) <= 22)]
-        )  # (a long one overflows)
+        # (a type longer than 22 characters, a long list of choices, overflows its column)
+        kind = max([10, *(len(t) for p in cls.params if len(t := p.describe_type()) <= 22)])
         for p in cls.params:
             default = "required" if p.default is REQUIRED else f"default {p.default!r}"
             flags = ", live" if p.live else ""
