@@ -453,7 +453,8 @@ def false_triggers_table(
     minutes = sum(t.minutes for t in takes)
     source = None if NULL_FROM in trials else next(iter(data.trials([NULL_FROM])), None)
     lines = [
-        "| taught on | models | false triggers / min (median, worst) | with ten null examples"
+        "| taught on | models | false triggers / min (median, worst) | with"
+        f" {NULL_COUNT} null examples"
         " | found and named, without -> with (deciding at the end) |",
         "|---|---|---|---|---|",
     ]
@@ -495,7 +496,7 @@ def false_triggers_table(
     )
     if source is not None:
         text += (
-            f"  With ten null examples: each model taught also the first {NULL_COUNT} movements of"
+            f"  With {NULL_COUNT} null examples: each model taught also the first {NULL_COUNT} movements of"
             f" {source.label} (a trial of the chosen set), cut from rest to rest and kept as no gesture, as"
             f" ``record null {NULL_COUNT}`` keeps a performer's ordinary motion in rehearsal; the worst model"
             f" {max(worst_null.values()):.2f} a minute."
@@ -626,7 +627,7 @@ def goals_text(
     if worst_null:
         name = max(worst_null, key=worst_null.__getitem__)
         lines.append(
-            f"* the same with ten null examples of ordinary motion from another trial (``record null"
+            f"* the same with {NULL_COUNT} null examples of ordinary motion from another trial (``record null"
             f" {NULL_COUNT}``, not the defaults alone): the worst {worst_null[name]:.2f} ({name})"
         )
     if ungated:

@@ -5,7 +5,8 @@ OSC (``osc_in``'s live control, ``/pointat/NODE/...``):
 
 * ``record LABEL`` -- the next movement (``gesture``, ``follow``) or the next ``samples`` frames held
   (``posture``) become an example of LABEL; ``record LABEL N``: the next N.  ``record null``: movements
-  that are *no* gesture (ordinary pointing), so that they are rejected.  Recognition pauses meanwhile.
+  that are *no* gesture (ordinary pointing), so that they are rejected: ``record null 10`` while moving as
+  between gestures, if the node fires on ordinary moves.  Recognition pauses meanwhile.
 * ``train`` -- learn from every example, and run.  ``run`` -- recognise again (after ``record``),
   ``stop`` -- stop recording or recognising.
 * ``clear`` -- forget every example (``clear LABEL``: that label's).

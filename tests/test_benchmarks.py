@@ -659,3 +659,12 @@ def test_the_gap_to_plain_dtw_is_told_with_its_paired_interval():
     accuracy = {DEFAULTS: {"a new person, acc": 0.765}, BASELINE: {"a new person, acc": 0.775}}
     text = goals_text(accuracy, {}, {}, {"a new person, acc": ([0.7, 0.8, 0.8], [0.72, 0.8, 0.81])})
     assert "**missed**" in text and "-1.0 points; paired, 95 % interval" in text
+    # the false triggers' goal is judged on the defaults; a null class taught is told beside it, not for it
+    text = goals_text(
+        accuracy, {"seglearn, 3 examples, acc": 1.28}, {}, None, {"seglearn, 3 examples, acc": 0.06}
+    )
+    assert (
+        "**missed**: at most 0.5 false triggers" in text
+        and "null examples" in text
+        and "the worst 0.06" in text
+    )
