@@ -403,11 +403,10 @@ class GestureNode(_Learner):
     stream, and the best of overlapping matches is told half an example after it ends (one that begins
     where the last told ended is preferred: repetitions keep a rhythm); it finds a match in ordinary
     moves far more often than a rest-to-rest cut, so keep it for phrases of repetitions, and it tells
-    gestures only (no early decision, ``refractory``, ``adapt``, ``none`` or ``motion``).  Each is
-    compared to every
-    example by dynamic time warping (1-NN DTW; all features warped together, or each on its own when
-    that names more of the examples, each left out in turn; the accelerometer as it is, so the hand's
-    attitude counts), with a null class.  A movement is no gesture (``none``) when:
+    gestures only (no early decision, ``refractory``, ``adapt``, ``none`` or ``motion``).
+    Each is compared to every example by dynamic time warping (1-NN DTW; all features warped together,
+    or each on its own when that names more of the examples, each left out in turn; the accelerometer
+    as it is, so the hand's attitude counts), with a null class.  A movement is no gesture (``none``) when:
 
     * it is farther from its nearest class than ``reject`` times the class's reach (how far its
       examples are from keeping still);
@@ -416,7 +415,8 @@ class GestureNode(_Learner):
       tremble, a small turn of the wrist);
     * or it is three times faster or slower, stronger or weaker than the class's examples (a tap, a
       jolt);
-    * or its nearest example was recorded as ``null``.
+    * or its nearest example was recorded as ``null`` (``record null 10`` while moving as between
+      gestures, if the node fires on ordinary moves).
 
     The defaults were chosen on real recordings and tested on others (``benchmarks/GESTURES_REAL.md``).
     A gesture is told as soon as the evidence allows (``early``: most of an example matched, every
