@@ -30,7 +30,7 @@ beside each other with the worst model of every set (seglearn's, PickupGestureWi
 BasicMotions'); the defaults are then run as they are.  Ungated streams: seglearn's uncut recordings
 (repetitions with no rest between them) streamed whole, cut from rest to rest and spotted
 (``cut=spot``), taught by the person or by the others, a plain spotter beside them.  Beside every
-gated row, plain 1-NN DTW (:func:`pointat.gesture_eval.baseline`) on the same split, in the same run.  About 13 minutes; seglearn's and aeon's wheels are fetched into ``~/.cache/pointat/gesture-sets``
+gated row, plain 1-NN DTW (:func:`pointat.gesture_eval.baseline`) on the same split, in the same run.  About 20 minutes; seglearn's and aeon's wheels are fetched into ``~/.cache/pointat/gesture-sets``
 (``POINTAT_GESTURE_SETS``) the first time.
 """
 
