@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from benchmarks.gesture_real import BASELINE, DEFAULTS, goals_text, paired_interval
 from benchmarks.latency import LatencyResult, pool
 from benchmarks.report import _by_round
 from pointat.message import make
@@ -642,8 +643,6 @@ def test_the_mapper_soak_finds_a_loss_at_the_socket_that_had_it():
 
 
 def test_the_gap_to_plain_dtw_is_told_with_its_paired_interval():
-    from benchmarks.gesture_real import goals_text, paired_interval
-
     same = paired_interval([0.9, 0.8, 1.0, 0.7], [0.9, 0.8, 1.0, 0.7])
     assert same == (0.0, 0.0, 0.0)
     # one person far better, the others a little worse: the mean is positive, but the interval spans 0
@@ -653,8 +652,6 @@ def test_the_gap_to_plain_dtw_is_told_with_its_paired_interval():
     mean, lo, hi = paired_interval([0.80, 0.81, 0.79, 0.80, 0.80], [0.85, 0.85, 0.84, 0.86, 0.85])
     assert hi < 0.0 and lo <= mean <= hi
     assert paired_interval([1, 0, 1], [0, 1, 1]) == paired_interval([1, 0, 1], [0, 1, 1])  # seeded
-
-    from benchmarks.gesture_real import BASELINE, DEFAULTS
 
     accuracy = {DEFAULTS: {"a new person, acc": 0.765}, BASELINE: {"a new person, acc": 0.775}}
     text = goals_text(accuracy, {}, {}, {"a new person, acc": ([0.7, 0.8, 0.8], [0.72, 0.8, 0.81])})
