@@ -289,6 +289,9 @@ RULES: tuple[tuple[str, dict[str, float]], ...] = (
     # (not the default: on these sets a pace of 1.5 cut the false triggers, but in the tests' sample of
     # seglearn a new person twice as fast as the two who taught was refused: GestureModel.PACE's note)
     ("the reach and quiet classes, a pace of 1.5", {"PACE": 1.5}),
+    # (the quiet classes' factor, GestureModel.QUIET, at half and twice the default's)
+    ("the reach and quiet classes within 3 times", {"QUIET": 3.0}),
+    ("the reach and quiet classes within 12 times", {"QUIET": 12.0}),
 )
 
 
@@ -307,8 +310,11 @@ def _accepted(
     rules = rules or {}
     if "SPREAD" in rules:
         model.spread, model.spread_classes = rules["SPREAD"] * spread[0], spread[1]
-    if "QUIET" in rules:
-        model.quiet = {}
+    if "QUIET" in rules:  # (off, or the quiet classes' bound at another factor)
+        factor = rules["QUIET"]
+        model.quiet = (
+            {c: q / model.QUIET * factor for c, q in model.quiet.items()} if math.isfinite(factor) else {}
+        )
     if "PACE" in rules:
         model.PACE = rules["PACE"]  # (the instance's, over the class's: taken away below)
     try:
@@ -387,7 +393,9 @@ def curve_table(
         f" the examples' spread (off by default: ``reject`` times {SPREAD_FACTOR:g} of the"
         f" {GestureModel.SPREAD_QUANTILE:g}th percentile of their leave-one-out distances, pooled over the"
         " classes taught two or more); last, the default rules with a movement refused beyond 1.5 times its"
-        f" class's examples' shortest and longest duration (not {GestureModel.PACE:g}).  Found and named:"
+        f" class's examples' shortest and longest duration (not {GestureModel.PACE:g}), and the quiet classes"
+        f" told within 3 or 12 times their examples' distance from keeping still (not {GestureModel.QUIET:g})."
+        "  Found and named:"
         " seglearn's models' test repetitions, and each own split's test set; then the worst model of each"
         " set on BROAD, false triggers a minute.",
         "",

@@ -94,7 +94,10 @@ class GestureModel:
     FLOOR = 0.25
     #: ... but such a class (its own reach under the floor) is told only for a movement nearly as still
     #: as its examples: within this many times their own distance from keeping still (a performer
-    #: expects "standing" of standing, not of any motion slow enough to be near it).
+    #: expects "standing" of standing, not of any motion slow enough to be near it).  On BROAD 01-15
+    #: BasicMotions' model told 0.18, 0.24 and 0.79 false triggers a minute at 3, 6 and 12, and 3 cost
+    #: seglearn people 1-5 1.1 points; on the reported trials 12 would find BasicMotions' one standing
+    #: recording that 6 refuses (``benchmarks/GESTURES_REAL.md``, the rules).
     QUIET = 6.0
     #: A movement is no gesture when it is not nearer to its class than this many times its own distance
     #: from keeping still (a tremble, a small turn of the wrist: near keeping still, so near every
