@@ -14,6 +14,10 @@ Reported: accuracy (a test movement rejected as no gesture counts as wrong), rec
 confusion matrix (rows: the truth; columns: the decision, ``none`` for a rejection), and two latencies:
 *when* (the decision's time minus the movement's last sample, ms: negative for an early decision) and
 *compute* (the wall time the recognizer took on the frame that decided, ms).
+
+``--stream`` (:func:`stream`) feeds each test recording whole, with no gate, as the node runs live (cut
+from rest to rest, or ``--set cut=spot``): for a take of ordinary motion (in ``null/``), the gestures it
+would tell a minute (false triggers); for a take of a gesture's repetitions, what it told them.
 """
 
 from __future__ import annotations
@@ -32,11 +36,14 @@ from pointat.maths.gestures import NULL, Decided, GestureModel, Recognizer
 
 __all__ = [
     "Evaluation",
+    "Streamed",
     "baseline",
     "evaluate",
     "format_report",
+    "format_stream",
     "options",
     "shared_channels",
+    "stream",
 ]
 
 #: The channel groups taken when a folder has several, in this order.
@@ -179,6 +186,101 @@ def evaluate(
         when = (found_at - float(example.t[-1])) * 1000.0 if found is not None else float("nan")
         out.decisions.append(Outcome(r.path, r.label, label, early, when, compute * 1000.0))
     return out
+
+
+class Take(NamedTuple):
+    """One test recording streamed whole (:func:`stream`): its file, its true label, its length (min) and
+    the gestures told in it, in order."""
+
+    file: str
+    truth: str
+    minutes: float
+    told: list[str]
+
+
+@dataclass
+class Streamed:
+    """The outcome of :func:`stream`: a :class:`Take` per test recording."""
+
+    channels: tuple[str, ...]
+    cut: str
+    takes: list[Take] = field(default_factory=list)
+
+    def by_label(self) -> dict[str, tuple[float, dict[str, int]]]:
+        """Per true label (``null``: ordinary motion): the minutes streamed and how often each gesture
+        was told."""
+        out: dict[str, tuple[float, dict[str, int]]] = {}
+        for take in self.takes:
+            minutes, told = out.get(take.truth, (0.0, {}))
+            for label in take.told:
+                told[label] = told.get(label, 0) + 1
+            out[take.truth] = (minutes + take.minutes, told)
+        return out
+
+    def false_per_minute(self) -> float:
+        """Gestures told a minute in the ``null`` recordings (NaN without any)."""
+        minutes, told = self.by_label().get(NULL, (0.0, {}))
+        return sum(told.values()) / minutes if minutes > 0 else float("nan")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "channels": list(self.channels),
+            "cut": self.cut,
+            "false_triggers_per_minute": self.false_per_minute(),
+            "takes": [t._asdict() for t in self.takes],
+        }
+
+
+def stream(
+    train: Sequence[Recording],
+    test: Sequence[Recording],
+    channels: Sequence[str] | None = None,
+    model_options: dict[str, Any] | None = None,
+    recognizer_options: dict[str, Any] | None = None,
+) -> Streamed:
+    """Train on ``train``, then feed each of ``test`` whole through a recognizer of its own, with no gate,
+    as the node runs live: every gesture it tells."""
+    channels = tuple(channels) if channels else shared_channels([*train, *test])
+    model = GestureModel(channels, **(model_options or {}))
+    model.train([r.example(channels) for r in train])
+    out = Streamed(channels, (recognizer_options or {}).get("cut", "rest"))
+    for r in test:
+        example = r.example(channels)
+        rec = Recognizer(model, **(recognizer_options or {}))
+        told = [
+            str(e.decision.label)
+            for t, frame in zip(example.t, example.frames, strict=True)
+            for e in rec.push(float(t), frame)
+            if isinstance(e, Decided) and e.decision.label is not None
+        ]
+        minutes = float(example.t[-1] - example.t[0]) / 60.0
+        out.takes.append(Take(r.path, r.label, minutes, told))
+    return out
+
+
+def format_stream(st: Streamed) -> str:
+    """What :func:`stream` found, as a person reads it."""
+    minutes = sum(t.minutes for t in st.takes)
+    how = "cut from rest to rest" if st.cut == "rest" else "spotted (cut=spot)"
+    lines = [
+        f"channels: {' '.join(st.channels)}; {len(st.takes)} test recordings streamed whole, {how},"
+        f" {minutes:.1f} min"
+    ]
+    for label, (mins, told) in sorted(st.by_label().items()):
+        said = (
+            ", ".join(f"{n} {name}" for name, n in sorted(told.items(), key=lambda kv: -kv[1])) or "nothing"
+        )
+        if label == NULL:
+            lines.append(
+                f"  null ({mins:.1f} min of ordinary motion): told {said}: {st.false_per_minute():.2f}"
+                " false triggers a minute"
+            )
+        else:
+            right = told.get(label, 0)
+            lines.append(
+                f"  {label} ({mins:.1f} min): told {said} ({right} as {label}, {sum(told.values()) - right} other)"
+            )
+    return "\n".join(lines)
 
 
 def options(items: Sequence[str]) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -309,3 +309,80 @@ def test_a_saved_model_exports_as_recordings_that_evaluate_reads(tmp_path, capsy
     assert main(args) == 0 and json.loads(capsys.readouterr().out)["accuracy"] == 1.0
     assert main(["gestures", "export", str(tmp_path / "m.json"), str(tmp_path / "takes")]) == 2
     assert "already there (6 files): nothing written" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------ streamed whole
+def _write(path: Path, t: np.ndarray, groups: dict[str, np.ndarray]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_recording(path, t, groups)
+
+
+def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_away(tmp_path, capsys):
+    """``--stream`` as a performer checks what the README tells them: a minute of real ordinary motion
+    (BROAD's fast translation, in ``null/``) streamed whole through a model of three people's shoulder
+    exercises (seglearn's watch data; both vendored in tests/data/gestures), then again with the
+    movements of the minute before it taught as null, cut from rest to rest as ``record null`` cuts them."""
+    from benchmarks.gesture_sets import G, Take, cut_repetitions
+    from pointat.maths.gestures import NULL, GestureModel, Recognizer, Recorded
+
+    data = Path(__file__).resolve().parent / "data" / "gestures"
+    z = np.load(data / "watch_sample.npz")
+    ends = np.cumsum(z["lengths"])
+    examples = []
+    for k, (a, b) in enumerate(zip(np.r_[0, ends[:-1]], ends, strict=True)):
+        groups = {"acc": z["acc"][a:b] / 4000.0 * G, "gyr": z["gyr"][a:b] / 1000.0}
+        take = Take(str(z["label"][k]), int(z["person"][k]), 1, np.arange(b - a) / 50.0, groups)
+        for i, rep in enumerate(cut_repetitions(take)[:3]):
+            _write(tmp_path / "train" / rep.label / f"{k}-{i}.csv", rep.t, rep.groups)
+            examples.append(rep.example(("gyr", "acc")))
+    b = np.load(data / "broad_sample.npz")
+    t = b["15_t"].astype(float)
+    groups = {"acc": b["15_acc"] / 200.0, "gyr": b["15_gyr"] / 1000.0}
+    second = t >= 60.0
+    _write(tmp_path / "test" / NULL / "minute.csv", t[second], {g: v[second] for g, v in groups.items()})
+
+    def false_triggers() -> float:
+        args = ["gestures", "evaluate", "--train", str(tmp_path / "train"), "--test", str(tmp_path / "test")]
+        assert main([*args, "--stream", "--json"]) == 0
+        report = json.loads(capsys.readouterr().out)
+        assert report["cut"] == "rest" and report["channels"] == ["gyr", "acc"]
+        return report["false_triggers_per_minute"]
+
+    before = false_triggers()
+    assert before >= 1.5, before  # (two in this minute)
+    # what `record null` keeps of the minute before: its movements, cut from rest to rest
+    rec = Recognizer(GestureModel(("gyr", "acc")).train(examples))
+    rec.record = NULL
+    rec.retune()
+    x = np.column_stack([groups["gyr"], groups["acc"]])
+    kept = [
+        e.example
+        for ti, xi in zip(t[~second], x[~second], strict=True)
+        for e in rec.push(float(ti), xi)
+        if isinstance(e, Recorded)
+    ]
+    assert kept
+    for i, e in enumerate(kept):
+        _write(tmp_path / "train" / NULL / f"{i}.csv", e.t, {"gyr": e.frames[:, :3], "acc": e.frames[:, 3:]})
+    assert false_triggers() == 0.0
+
+    assert (
+        main(
+            [
+                "gestures",
+                "evaluate",
+                "--train",
+                str(tmp_path / "train"),
+                "--test",
+                str(tmp_path / "test"),
+                "--stream",
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert (
+        "streamed whole, cut from rest to rest" in out and "told nothing: 0.00 false triggers a minute" in out
+    )
+    assert main(["gestures", "evaluate", "--train", "x", "--test", "y", "--stream", "--baseline"]) == 2
+    assert "not with --stream" in capsys.readouterr().err

@@ -134,7 +134,8 @@ def test_every_command_the_readme_shows_is_one_pointat_has():
         if deeper:  # pointat gestures evaluate ...
             assert words[2] in deeper[0].choices, words
             command = deeper[0].choices[words[2]]
-        options = [w.split("=")[0] for w in words[2:] if w.startswith("--")]
+        bare = [w.strip("[]") for w in words[2:]]  # (an optional one shown in brackets is checked too)
+        options = [w.split("=")[0] for w in bare if w.startswith("--")]
         known = {o for a in command._actions for o in a.option_strings}
         assert set(options) <= known, (words, set(options) - known)
 

@@ -4,6 +4,7 @@ on another) and ``export`` (a model file's examples as such a folder)."""
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from typing import Any
 
@@ -29,7 +30,8 @@ def _add_gestures_evaluate(gsub: Any) -> None:
         help="train on one folder, test on another: accuracy, recall, confusion, decision latency",
         description="Train the gesture node's recognizer on --train and test it on --test, each laid out as "
         "DIR/<label>/<example>.csv (columns t and any of acc_x..z, gyr_x..z, mag_x..z, qw..qz). Each test "
-        "recording is fed frame by frame, bracketed as one movement, as the gesture node runs it.",
+        "recording is fed frame by frame, bracketed as one movement, as the gesture node runs it (with --stream:"
+        " whole, cut as the node cuts it live).",
     )
     g.add_argument("--train", required=True, metavar="DIR", help="labelled recordings to learn from")
     g.add_argument("--test", required=True, metavar="DIR", help="labelled recordings to test on")
@@ -53,6 +55,12 @@ def _add_gestures_evaluate(gsub: Any) -> None:
         "--baseline",
         action="store_true",
         help="score plain 1-NN DTW on the same split beside it (raw channels warped together, no rejection)",
+    )
+    g.add_argument(
+        "--stream",
+        action="store_true",
+        help="feed each test recording whole, as the node runs live (cut from rest to rest, or cut=spot): the"
+        " gestures told in each, and false triggers a minute in null/ (recordings of ordinary motion)",
     )
 
 
@@ -82,9 +90,15 @@ def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
         return 0
     if args.gestures_command != "evaluate":
         print(
-            "usage: pointat gestures evaluate --train DIR --test DIR [--baseline] [--set NAME=VALUE] [--json]"
+            "usage: pointat gestures evaluate --train DIR --test DIR [--baseline | --stream] [--set NAME=VALUE]"
+            " [--json]"
             "  |  pointat gestures export MODEL DIR",
             file=sys.stderr,
+        )
+        return 2
+    if args.stream and args.baseline:
+        print(
+            "error: --baseline scores each test recording as one movement; not with --stream", file=sys.stderr
         )
         return 2
     try:
@@ -92,6 +106,14 @@ def cmd_gestures(args: argparse.Namespace, registry: Registry) -> int:
             [*args.sets, *(["early=false"] if args.no_early else [])]
         )
         train, test = read_folder(args.train), read_folder(args.test)
+        if args.stream:
+            st = gesture_eval.stream(train, test, args.channels, model_options, recognizer_options)
+            print(
+                json.dumps(st.as_dict(), indent=2, allow_nan=True)
+                if args.json
+                else gesture_eval.format_stream(st)
+            )
+            return 0
         ev = gesture_eval.evaluate(train, test, args.channels, model_options, recognizer_options)
         plain = gesture_eval.baseline(train, test, ev.channels) if args.baseline else None
     except ValueError as exc:
