@@ -149,6 +149,17 @@ def shared_channels(recordings: Sequence[Recording]) -> tuple[str, ...]:
     return tuple(c for c in ORDER if c in common)
 
 
+def _trained(
+    train: Sequence[Recording],
+    test: Sequence[Recording],
+    channels: Sequence[str] | None,
+    model_options: dict[str, Any] | None,
+) -> GestureModel:
+    """The node's model of ``channels`` (every group all the recordings have, when none) taught ``train``."""
+    channels = tuple(channels) if channels else shared_channels([*train, *test])
+    return GestureModel(channels, **(model_options or {})).train([r.example(channels) for r in train])
+
+
 def evaluate(
     train: Sequence[Recording],
     test: Sequence[Recording],
@@ -157,13 +168,11 @@ def evaluate(
     recognizer_options: dict[str, Any] | None = None,
 ) -> Evaluation:
     """Train on ``train``, feed each of ``test`` through the recognizer between a gate's open and close."""
-    channels = tuple(channels) if channels else shared_channels([*train, *test])
-    model = GestureModel(channels, **(model_options or {}))
-    model.train([r.example(channels) for r in train])
+    model = _trained(train, test, channels, model_options)
     rec = Recognizer(model, **(recognizer_options or {}))
-    out = Evaluation(channels, model.classes)
+    out = Evaluation(model.channels, model.classes)
     for r in test:
-        example = r.example(channels)
+        example = r.example(model.channels)
         found: Decided | None = None
         found_at, compute = 0.0, 0.0
         rec.reset()  # a recording is a take of its own: its clock may start again at 0
@@ -240,12 +249,10 @@ def stream(
 ) -> Streamed:
     """Train on ``train``, then feed each of ``test`` whole through a recognizer of its own, with no gate,
     as the node runs live: every gesture it tells."""
-    channels = tuple(channels) if channels else shared_channels([*train, *test])
-    model = GestureModel(channels, **(model_options or {}))
-    model.train([r.example(channels) for r in train])
-    out = Streamed(channels, (recognizer_options or {}).get("cut", "rest"))
+    model = _trained(train, test, channels, model_options)
+    out = Streamed(model.channels, (recognizer_options or {}).get("cut", "rest"))
     for r in test:
-        example = r.example(channels)
+        example = r.example(model.channels)
         rec = Recognizer(model, **(recognizer_options or {}))
         told = [
             str(e.decision.label)
