@@ -47,10 +47,9 @@ from typing import Any
 import numpy as np
 
 from benchmarks import gesture_sets as sets
-from benchmarks.performer import perform
+from benchmarks.performer import perform, record
 from pointat.gesture_eval import Evaluation, baseline, evaluate
 from pointat.maths.gestures import NULL, REJECT, Decision, Example, GestureModel, Recognizer
-from pointat.maths.gestures.events import Recorded
 from pointat.maths.gestures.spotter import Spotter
 
 REPO = Path(__file__).resolve().parent.parent
@@ -147,15 +146,17 @@ def _right(ev: Evaluation) -> list[float]:
     return [float(d.truth == d.decided) for d in ev.decisions if d.truth != NULL]
 
 
-Pairs = dict[str, tuple[list[float], list[float]]]
+#: Per column: the mean paired difference of the defaults less plain DTW and its interval
+#: (:func:`paired_interval`).
+Gaps = dict[str, tuple[float, float, float]]
 
 
 def accuracy_table(
     data: Data, people: Sequence[int], progress: Callable[[str], None], own: bool
-) -> tuple[str, dict[str, dict[str, float]], Pairs]:
+) -> tuple[str, dict[str, dict[str, float]], Gaps]:
     """The variants' accuracy table, each row's mean accuracy per column (for the goals), and per column
-    the defaults' and plain DTW's paired results (:func:`paired_interval`: per person and arm, or per
-    test recording of an own split), their difference the table's last row; then where the defaults'
+    the gap of the defaults to plain DTW with its interval (:func:`paired_interval`: paired per person
+    and arm, or per test recording of an own split), the table's last row; then where the defaults'
     misses go (:func:`losses_table`) beside plain DTW's."""
     head = "| variant | a new person, acc gyr | 3 examples, acc gyr | a new person, acc | 3 examples, acc |"
     cols = [("new", ("acc", "gyr")), ("three", ("acc", "gyr")), ("new", ("acc",)), ("three", ("acc",))]
@@ -198,10 +199,10 @@ def accuracy_table(
         values[name] = dict(zip(names, means, strict=True))
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
         progress(f"gesture_real: {name}")
-    paired = {c: (p[0], p[1]) for c, p in pairs.items() if len(p) == 2}
+    gaps = {c: paired_interval(*p) for c, p in pairs.items() if len(p) == 2}
     lines.append(
         "| the defaults less plain DTW, points (95 % interval) | "
-        + " | ".join(_points(paired_interval(*paired[c])) if c in paired else "–" for c in names)
+        + " | ".join(_points(gaps[c]) if c in gaps else "–" for c in names)
         + " |"
     )
     return (
@@ -215,7 +216,7 @@ def accuracy_table(
             " have reversed.\n\n" + losses_table(missed)
         ),
         values,
-        paired,
+        gaps,
     )
 
 
@@ -431,23 +432,14 @@ NULL_FROM, NULL_COUNT = "01", 10
 def null_examples(model: GestureModel, take: sets.Take, count: int, step: int = BROAD_STEP) -> list[Example]:
     """What ``record null COUNT`` keeps of ``take``: its first ``count`` movements, cut from rest to rest
     by a recognizer of ``model`` (as the node cuts them while it records), as examples of no gesture."""
-    rec = Recognizer(model)
-    rec.record = NULL
-    rec.retune()
     x = np.column_stack([take.groups[c] for c in model.channels])
-    out: list[Example] = []
-    for ti, xi in zip(take.t[::step], x[::step], strict=True):
-        out += [e.example for e in rec.push(float(ti), xi) if isinstance(e, Recorded)]
-        if len(out) >= count:
-            break
-    return out[:count]
+    return record(Recognizer(model), take.t[::step], x[::step], NULL, count)
 
 
 def _found(model: GestureModel, test: list, ch: tuple[str, ...]) -> float:
     """The share of ``test`` named right, each decided at its end."""
-    return float(
-        np.mean([model.classify(r.example(ch).t, r.example(ch).frames).label == r.label for r in test])
-    )
+    examples = [r.example(ch) for r in test]
+    return float(np.mean([model.classify(e.t, e.frames).label == e.label for e in examples]))
 
 
 def false_triggers_table(
@@ -602,19 +594,19 @@ def goals_text(
     accuracy: dict[str, dict[str, float]],
     worst: dict[str, float],
     ungated: dict[tuple[str, str], float],
-    paired: Pairs | None = None,
+    gaps: Gaps | None = None,
     worst_null: dict[str, float] | None = None,
 ) -> str:
     """Issue 43's goals on the data we have, met or missed and by how much, from the reported tables (a
-    gap to plain DTW with its paired interval, :func:`paired_interval`, when ``paired`` has it)."""
+    gap to plain DTW with its paired interval when ``gaps``, from :func:`accuracy_table`, has it)."""
     ours, plain = accuracy[DEFAULTS], accuracy[BASELINE]
     lines = []
     for column, value in ours.items():
         gap = 100 * (value - plain[column])
         if math.isfinite(gap):
             told = f"{gap:+.1f} points"
-            if paired and column in paired:
-                _, lo, hi = paired_interval(*paired[column])
+            if gaps and column in gaps:
+                _, lo, hi = gaps[column]
                 told += f"; paired, 95 % interval {100 * lo:+.1f} to {100 * hi:+.1f}"
             lines.append(
                 _goal(
@@ -671,7 +663,7 @@ def report(broad_dir: Path | None, progress: Callable[[str], None]) -> str:
             "",
             text,
         ]
-    text, accuracy, paired = accuracy_table(data, REPORT_PEOPLE, progress, own=True)
+    text, accuracy, gaps = accuracy_table(data, REPORT_PEOPLE, progress, own=True)
     parts += ["### Reported on: seglearn people 6-10, PickupGestureWiimoteZ, BasicMotions", "", text]
     worst: dict[str, float] = {}
     worst_null: dict[str, float] = {}
@@ -697,7 +689,7 @@ def report(broad_dir: Path | None, progress: Callable[[str], None]) -> str:
     parts += [
         "### Issue 43's goals on the reported sets",
         "",
-        goals_text(accuracy, worst, ungated, paired, worst_null),
+        goals_text(accuracy, worst, ungated, gaps, worst_null),
     ]
     parts.append(f"Measured in {time.monotonic() - t0:.0f} s.\n")
     return "\n".join(parts)

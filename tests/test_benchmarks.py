@@ -654,7 +654,8 @@ def test_the_gap_to_plain_dtw_is_told_with_its_paired_interval():
     assert paired_interval([1, 0, 1], [0, 1, 1]) == paired_interval([1, 0, 1], [0, 1, 1])  # seeded
 
     accuracy = {DEFAULTS: {"a new person, acc": 0.765}, BASELINE: {"a new person, acc": 0.775}}
-    text = goals_text(accuracy, {}, {}, {"a new person, acc": ([0.7, 0.8, 0.8], [0.72, 0.8, 0.81])})
+    gaps = {"a new person, acc": paired_interval([0.7, 0.8, 0.8], [0.72, 0.8, 0.81])}
+    text = goals_text(accuracy, {}, {}, gaps)
     assert "**missed**" in text and "-1.0 points; paired, 95 % interval" in text
     # the false triggers' goal is judged on the defaults; a null class taught is told beside it, not for it
     text = goals_text(

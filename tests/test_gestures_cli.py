@@ -323,7 +323,8 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
     exercises (seglearn's watch data; both vendored in tests/data/gestures), then again with the
     movements of the minute before it taught as null, cut from rest to rest as ``record null`` cuts them."""
     from benchmarks.gesture_sets import G, Take, cut_repetitions
-    from pointat.maths.gestures import NULL, GestureModel, Recognizer, Recorded
+    from benchmarks.performer import record
+    from pointat.maths.gestures import NULL, GestureModel, Recognizer
 
     data = Path(__file__).resolve().parent / "data" / "gestures"
     z = np.load(data / "watch_sample.npz")
@@ -351,16 +352,8 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
     before = false_triggers()
     assert before >= 1.5, before  # (two in this minute)
     # what `record null` keeps of the minute before: its movements, cut from rest to rest
-    rec = Recognizer(GestureModel(("gyr", "acc")).train(examples))
-    rec.record = NULL
-    rec.retune()
     x = np.column_stack([groups["gyr"], groups["acc"]])
-    kept = [
-        e.example
-        for ti, xi in zip(t[~second], x[~second], strict=True)
-        for e in rec.push(float(ti), xi)
-        if isinstance(e, Recorded)
-    ]
+    kept = record(Recognizer(GestureModel(("gyr", "acc")).train(examples)), t[~second], x[~second], NULL)
     assert kept
     for i, e in enumerate(kept):
         _write(tmp_path / "train" / NULL / f"{i}.csv", e.t, {"gyr": e.frames[:, :3], "acc": e.frames[:, 3:]})

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from benchmarks.gesture_sets import G, Take, cut_repetitions
-from benchmarks.performer import perform
+from benchmarks.performer import perform, record
 from pointat.gesture_eval import baseline, evaluate
-from pointat.maths.gestures import NULL, Adapted, GestureModel, Recognizer, Recorded
+from pointat.maths.gestures import NULL, Adapted, GestureModel, Recognizer
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "gestures"
 CH = ("acc", "gyr")
@@ -113,12 +113,7 @@ def test_ordinary_motion_taught_as_null_is_no_longer_taken_for_a_gesture(reps, n
     examples = [r.example(CH) for r in train]
     model = GestureModel(CH).train(examples)
     t, frames = no_gesture[1]
-    rec = Recognizer(model)
-    rec.record = NULL
-    rec.retune()
-    nulls = []
-    for ti, x in zip(t[t < 60.0], frames[t < 60.0], strict=True):
-        nulls += [e.example for e in rec.push(float(ti), x) if isinstance(e, Recorded)]
+    nulls = record(Recognizer(model), t[t < 60.0], frames[t < 60.0], NULL)
     assert nulls and all(e.label == NULL and e.t[-1] < 60.0 for e in nulls)
     taught = GestureModel(CH).train(examples + nulls)
 
@@ -126,7 +121,7 @@ def test_ordinary_motion_taught_as_null_is_no_longer_taken_for_a_gesture(reps, n
         return [d.label for ti, d in perform(Recognizer(m), t, frames) if ti > 60.0 and d.label is not None]
 
     def named(m):
-        return np.mean([m.classify(r.example(CH).t, r.example(CH).frames).label == r.label for r in test])
+        return np.mean([m.classify(e.t, e.frames).label == e.label for e in (r.example(CH) for r in test)])
 
     assert len(told(model)) >= 2, "the second minute has false triggers to take away"
     assert told(taught) == [], told(taught)
