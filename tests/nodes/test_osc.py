@@ -533,10 +533,7 @@ def test_the_log_says_when_a_receiver_is_back_and_of_each_outage(started, receiv
     from pointat.osc_bridge.sender import Destination
 
     monkeypatch.setattr(Destination, "BACK_QUIET", 0.0)  # loopback refuses at once: no need to wait
-    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    probe.bind(("127.0.0.1", 0))
-    port = probe.getsockname()[1]
-    probe.close()
+    port = _free_port()
     rt, out = out_node(started, port)
     lines = lambda: [r.getMessage() for r in caplog.records if r.name == "pointat.osc"]  # noqa: E731
     for _ in range(50):
