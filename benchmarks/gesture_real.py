@@ -1,12 +1,13 @@
 """The gesture node's defaults chosen on some real recordings and reported on others.
 
-``python -m benchmarks.gesture_real [--broad DIR] [--out benchmarks/GESTURES_REAL.md]``
+``python -m benchmarks.gesture_real [--broad DIR] [--tyrex DIR] [--out benchmarks/GESTURES_REAL.md]``
 
 The sets (:mod:`benchmarks.gesture_sets`) were split once, before the defaults were chosen:
 
 * **chosen on**: seglearn's watch data, people 1-5 (both arms); BROAD trials 01, 04, 06, 10, 15;
 * **reported on**: seglearn's people 6-10; PickupGestureWiimoteZ and BasicMotions (their own splits,
-  never used for choosing); BROAD trials 21, 24, 26, 28, 32.
+  never used for choosing); BROAD trials 21, 24, 26, 28, 32; Tyrex's hand motions (another person,
+  three phones: never used for choosing, nor looked at before this report).
 
 One leak, said plainly: the tests' sample of BROAD (``tests/data/gestures``) was once the first two
 minutes of trials 21 and 24 (it is cut from trials 06 and 15 now), and the false triggers a model of the
@@ -23,7 +24,9 @@ Protocols that mirror a performer (each gated: a recording or a cut repetition i
 * *own split*: PickupGestureWiimoteZ (acc only) and BasicMotions (acc and gyro) as published.
 
 False triggers: each model of the seglearn protocols, run ungated (cut from rest to rest) over the
-BROAD trials, real hand motion that is no gesture: gestures told per minute.  The curve of ``reject``
+BROAD trials, real hand motion that is no gesture: gestures told per minute; and over Tyrex's session
+without the magnetic disturbance (phones held in the hand), its other session the rehearsal in which a
+performer records ``null`` examples.  The curve of ``reject``
 is traced with early decisions off (the model's own decision with each ``reject``, on the same
 movements; the strength rule left out, as those decisions do not keep it), and the null class's rules
 beside each other with the worst model of every set (seglearn's, PickupGestureWiimoteZ's and
@@ -80,12 +83,13 @@ def _pct(x: float) -> str:
 
 
 class Data:
-    def __init__(self, broad_dir: Path | None):
+    def __init__(self, broad_dir: Path | None, tyrex_dir: Path | None = None):
         self.watch = sets.watch() or []
         self.reps = {(t.person, t.arm, t.label): sets.cut_repetitions(t) for t in self.watch}
         self.pickup = sets.pickup()
         self.basic = sets.basic_motions()
         self.broad = sets.broad(broad_dir) if broad_dir and broad_dir.is_dir() else []
+        self.rehearsal, self.show = sets.phones(tyrex_dir) if tyrex_dir and tyrex_dir.is_dir() else ([], [])
 
     def new_person(self, p: int, arm: int) -> tuple[list, list]:
         train = [r[1] for (q, a, _), r in self.reps.items() if q != p and a == arm and len(r) > 2]
@@ -419,9 +423,16 @@ def curve_table(
     return "\n".join(lines) + "\n", out
 
 
-def _told(model: GestureModel, take: sets.Take) -> int:
-    """The gestures a model tells in a recording, run as the node runs it."""
-    return sum(d.label is not None for d in _ungated(model, take, BROAD_STEP))
+def _told(model: GestureModel, take: sets.Take, step: int = BROAD_STEP) -> int:
+    """The gestures a model tells in a recording (every ``step``-th sample), run as the node runs it."""
+    return sum(d.label is not None for d in _ungated(model, take, step))
+
+
+def _step(take: sets.Take) -> int:
+    """Every how many samples a recording of ordinary motion is streamed, for a glove's rate, as BROAD's
+    286 Hz is taken every :data:`BROAD_STEP`-th (57 Hz): 3 for Tyrex's Nexus 5, 2 for its iPhones."""
+    rate = 1.0 / float(np.median(np.diff(take.t)))
+    return max(1, round(rate / 57.0))
 
 
 #: The ordinary motion a performer records as no gesture (``record null 10``) in the false triggers' second
@@ -442,6 +453,23 @@ def _found(model: GestureModel, test: list, ch: tuple[str, ...]) -> float:
     return float(np.mean([model.classify(e.t, e.frames).label == e.label for e in examples]))
 
 
+def _trigger_groups(data: Data) -> list[tuple[str, tuple[str, ...], list[tuple[list, list]]]]:
+    """The models run over ordinary motion: every split of the reported seglearn protocols, and the
+    own splits' (set, channels, [(train, test)])."""
+    groups = []
+    for protocol in ("new", "three"):
+        for ch in (("acc", "gyr"), ("acc",)):
+            who = "a new person" if protocol == "new" else "3 examples"
+            groups.append(
+                (f"seglearn people 6-10, {who}, {' '.join(ch)}", ch, data.splits(REPORT_PEOPLE, protocol))
+            )
+    if data.pickup:
+        groups.append(("PickupGestureWiimoteZ (acc)", ("acc",), [data.pickup]))
+    if data.basic:
+        groups.append(("BasicMotions (acc gyr)", ("acc", "gyr"), [data.basic]))
+    return groups
+
+
 def false_triggers_table(
     data: Data, trials: Sequence[str], progress: Callable[[str], None]
 ) -> tuple[str, dict[str, float], dict[str, float]]:
@@ -458,20 +486,9 @@ def false_triggers_table(
         " | found and named, without -> with (deciding at the end) |",
         "|---|---|---|---|---|",
     ]
-    groups: list[tuple[str, tuple[str, ...], list[tuple[list, list]]]] = []
-    for protocol in ("new", "three"):
-        for ch in (("acc", "gyr"), ("acc",)):
-            who = "a new person" if protocol == "new" else "3 examples"
-            groups.append(
-                (f"seglearn people 6-10, {who}, {' '.join(ch)}", ch, data.splits(REPORT_PEOPLE, protocol))
-            )
-    if data.pickup:
-        groups.append(("PickupGestureWiimoteZ (acc)", ("acc",), [data.pickup]))
-    if data.basic:
-        groups.append(("BasicMotions (acc gyr)", ("acc", "gyr"), [data.basic]))
     worst_of: dict[str, float] = {}
     worst_null: dict[str, float] = {}
-    for name, ch, splits in groups:
+    for name, ch, splits in _trigger_groups(data):
         rates, nulled, found = [], [], []
         for train, test in splits:
             examples = [r.example(ch) for r in train]
@@ -502,6 +519,89 @@ def false_triggers_table(
             f" {max(worst_null.values()):.2f} a minute."
         )
     return text + "\n", worst_of, worst_null
+
+
+#: The null examples a performer records in each recording of the rehearsal in the Tyrex table
+#: (``record null 3`` in each of four motions: up to 12, as ``record null 10`` in the BROAD table).
+NULL_EACH = 3
+
+
+def _phone(take: sets.Take) -> str:
+    return take.label.split("_")[1]
+
+
+def ordinary_table(
+    data: Data, progress: Callable[[str], None]
+) -> tuple[str, dict[str, float], dict[str, float]]:
+    """The defaults as they run (models taught on every set, as in :func:`false_triggers_table`) over
+    Tyrex's show session: ordinary motion of a person, a hand and three devices that no default was
+    chosen on.  Beside them, each model taught also :data:`NULL_EACH` null examples from each of the
+    rehearsal session's recordings with the same phone (as a performer records them in rehearsal), and
+    what that costs the test movements; then where the false triggers come from, motion by motion.
+    Returns the table and the worst model of each set, without and with them."""
+    show, minutes = data.show, sum(t.minutes for t in data.show)
+    motions = sorted({t.label.rsplit("_", 1)[-1] for t in show})
+    lines = [
+        "| taught on | models | false triggers / min (median, worst) | with the rehearsal's null examples"
+        " | found and named, without -> with (deciding at the end) |",
+        "|---|---|---|---|---|",
+    ]
+    worst_of: dict[str, float] = {}
+    worst_null: dict[str, float] = {}
+    by_motion: dict[str, list[tuple[float, float]]] = {m: [] for m in motions}
+    for name, ch, splits in _trigger_groups(data):
+        rates, nulled, found = [], [], []
+        for train, test in splits:
+            examples = [r.example(ch) for r in train]
+            model = GestureModel(ch).train(examples)
+            taught = {
+                phone: GestureModel(ch).train(
+                    examples
+                    + [
+                        e
+                        for take in data.rehearsal
+                        if _phone(take) == phone
+                        for e in null_examples(model, take, NULL_EACH, _step(take))
+                    ]
+                )
+                for phone in sorted({_phone(t) for t in show})
+            }
+            told = [(_told(model, t, _step(t)), _told(taught[_phone(t)], t, _step(t))) for t in show]
+            rates.append(sum(a for a, _ in told) / minutes)
+            nulled.append(sum(b for _, b in told) / minutes)
+            found.append((_found(model, test, ch), np.mean([_found(m, test, ch) for m in taught.values()])))
+            for m in motions:
+                here = [(a, b) for (a, b), t in zip(told, show, strict=True) if t.label.endswith("_" + m)]
+                length = sum(t.minutes for t in show if t.label.endswith("_" + m))
+                by_motion[m].append((sum(a for a, _ in here) / length, sum(b for _, b in here) / length))
+        worst_of[name], worst_null[name] = max(rates), max(nulled)
+        without, with_ = np.mean(found, axis=0)
+        lines.append(
+            f"| {name} | {len(splits)} | {np.median(rates):.2f}, {max(rates):.2f} |"
+            f" {np.median(nulled):.2f}, {max(nulled):.2f} | {_pct(without)} -> {_pct(with_)} |"
+        )
+        progress(f"gesture_real: ordinary motion, {name}")
+    lines += [
+        "",
+        "| motion | minutes | false triggers / min over all models (median, worst) | with the rehearsal's"
+        " null examples |",
+        "|---|---|---|---|",
+    ]
+    for m in motions:
+        a, b = np.array([x for x, _ in by_motion[m]]), np.array([y for _, y in by_motion[m]])
+        length = sum(t.minutes for t in show if t.label.endswith("_" + m))
+        lines.append(
+            f"| {m} | {length:.1f} | {np.median(a):.2f}, {a.max():.2f} | {np.median(b):.2f}, {b.max():.2f} |"
+        )
+    phones = ", ".join(sorted({_phone(t) for t in show}))
+    text = (
+        "\n".join(lines)
+        + f"\n\n{len(show)} recordings of the show session ({phones}), {minutes:.1f} min; the worst model:"
+        f" {max(worst_of.values()):.2f} a minute.  With the rehearsal's null examples (``record null"
+        f" {NULL_EACH}`` in each of the other session's {len(data.rehearsal)} recordings, the same phone's):"
+        f" the worst {max(worst_null.values()):.2f}.\n"
+    )
+    return text, worst_of, worst_null
 
 
 def adapt_table(data: Data, people: Sequence[int], progress: Callable[[str], None]) -> str:
@@ -596,6 +696,7 @@ def goals_text(
     ungated: dict[tuple[str, str], float],
     gaps: Gaps | None = None,
     worst_null: dict[str, float] | None = None,
+    ordinary: tuple[dict[str, float], dict[str, float]] | None = None,
 ) -> str:
     """Issue 43's goals on the data we have, met or missed and by how much, from the reported tables (a
     gap to plain DTW with its paired interval when ``gaps``, from :func:`accuracy_table`, has it)."""
@@ -630,6 +731,14 @@ def goals_text(
             f"* the same with {NULL_COUNT} null examples of ordinary motion from another trial (``record null"
             f" {NULL_COUNT}``, not the defaults alone): the worst {worst_null[name]:.2f} ({name})"
         )
+    if ordinary:
+        bare, nulled = ordinary
+        name, with_name = max(bare, key=bare.__getitem__), max(nulled, key=nulled.__getitem__)
+        lines.append(
+            "* on ordinary motion no default was chosen on (Tyrex: another person, three phones; the goal"
+            f" names BROAD): the worst {bare[name]:.2f} ({name}); with the rehearsal's null examples"
+            f" {nulled[with_name]:.2f} ({with_name})"
+        )
     if ungated:
         found = ungated[("spot", "new")]
         lines.append(
@@ -646,9 +755,9 @@ def goals_text(
     return "\n".join(lines) + "\n"
 
 
-def report(broad_dir: Path | None, progress: Callable[[str], None]) -> str:
+def report(broad_dir: Path | None, progress: Callable[[str], None], tyrex_dir: Path | None = None) -> str:
     t0 = time.monotonic()
-    data = Data(broad_dir)
+    data = Data(broad_dir, tyrex_dir)
     if not data.watch:
         return "Not measured: seglearn's wheel could not be had.\n"
     parts = [
@@ -679,6 +788,15 @@ def report(broad_dir: Path | None, progress: Callable[[str], None]) -> str:
             "",
             curve_table(data, REPORT_PEOPLE, REPORT_BROAD, progress)[0],
         ]
+    ordinary = None
+    if data.show:
+        text, *worsts = ordinary_table(data, progress)
+        ordinary = (worsts[0], worsts[1])
+        parts += [
+            "### Reported on: false triggers on ordinary motion of another person and device (Tyrex)",
+            "",
+            text,
+        ]
     parts += [
         "### Learning as it goes (adapt), reported on seglearn people 6-10",
         "",
@@ -689,22 +807,23 @@ def report(broad_dir: Path | None, progress: Callable[[str], None]) -> str:
     parts += [
         "### Issue 43's goals on the reported sets",
         "",
-        goals_text(accuracy, worst, ungated, gaps, worst_null),
+        goals_text(accuracy, worst, ungated, gaps, worst_null, ordinary),
     ]
     parts.append(f"Measured in {time.monotonic() - t0:.0f} s.\n")
     return "\n".join(parts)
 
 
-def _broad_folder() -> Path:
-    """``shared/data/broad`` beside the checkout, or beside the checkout's folder (a git worktree kept
+def _data_folder(name: str) -> Path:
+    """``shared/data/NAME`` beside the checkout, or beside the checkout's folder (a git worktree kept
     in a folder of worktrees)."""
-    near = [REPO.parent / "shared" / "data" / "broad", REPO.parent.parent / "shared" / "data" / "broad"]
+    near = [REPO.parent / "shared" / "data" / name, REPO.parent.parent / "shared" / "data" / name]
     return next((p for p in near if p.is_dir()), near[0])
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.gesture_real", description=__doc__.split("\n")[0])
-    ap.add_argument("--broad", type=Path, default=_broad_folder(), help="BROAD's CSV trials")
+    ap.add_argument("--broad", type=Path, default=_data_folder("broad"), help="BROAD's CSV trials")
+    ap.add_argument("--tyrex", type=Path, default=_data_folder("tyrex"), help="Tyrex's CSV trials")
     ap.add_argument("--out", type=Path, default=REPO / "benchmarks" / "GESTURES_REAL.md")
     args = ap.parse_args(argv)
     t0 = time.monotonic()
@@ -716,7 +835,9 @@ def main(argv: list[str] | None = None) -> int:
         progress(
             f"no BROAD trials in {args.broad}: the false triggers and the curves are left out (--broad DIR)"
         )
-    body = report(args.broad, progress)
+    if not args.tyrex.is_dir():
+        progress(f"no Tyrex trials in {args.tyrex}: the false triggers on them are left out (--tyrex DIR)")
+    body = report(args.broad, progress, args.tyrex)
     args.out.write_text(
         "# Gesture recognition on real recordings\n\n"
         f"Generated by `python -m benchmarks.gesture_real`.\n\n{__doc__.split(chr(10), 2)[2]}\n{body}",

@@ -16,6 +16,10 @@ Every set is read from where it is published, never committed here:
 * **BROAD** (Laidig et al. 2021, CC BY 4.0): real hand motion that is no gesture (rotations,
   translations, tapping, vibration), ten trials of about 200 s at 286 Hz, from a folder (the project's
   ``shared/data/broad``).
+* **Tyrex** (Michel et al. 2017, CeCILL 2.1): another person's ordinary motion with three phones
+  (Nexus 5, iPhone 4S, iPhone 5; about 200 and 100 Hz) held in the hand: augmented reality, phoning,
+  swinging, texting, running; each twice, in two sessions (with and without a magnetic disturbance,
+  which the accelerometer and gyro do not feel), from a folder (the project's ``shared/data/tyrex``).
 """
 
 from __future__ import annotations
@@ -222,3 +226,16 @@ def broad(folder: str | os.PathLike[str]) -> list[Take]:
         ok = np.all(np.isfinite(acc), axis=1) & np.all(np.isfinite(gyr), axis=1)
         out.append(Take(path.name.split(".")[0], 0, 0, t[ok], {"acc": acc[ok], "gyr": gyr[ok]}))
     return out
+
+
+# ------------------------------------------------------------------------------------------ Tyrex
+#: Tyrex's motions with the phone in the hand (the pockets' are left out: a glove is never in one).
+HAND = ("AR", "Phoning", "Swinging", "Texting", "RunningHand")
+
+
+def phones(folder: str | os.PathLike[str]) -> tuple[list[Take], list[Take]]:
+    """Tyrex's trials in ``folder`` with the phone in the hand (:data:`HAND`), as uncut recordings
+    labelled with the trial's name (person_phone_session_motion): the session with a magnetic
+    disturbance (``Dist``, a rehearsal) and the one without (``NoDist``, the show)."""
+    takes = [t for t in broad(folder) if t.label.rsplit("_", 1)[-1] in HAND]
+    return [t for t in takes if "_Dist_" in t.label], [t for t in takes if "_NoDist_" in t.label]

@@ -666,3 +666,8 @@ def test_the_gap_to_plain_dtw_is_told_with_its_paired_interval():
         and "null examples" in text
         and "the worst 0.06" in text
     )
+    # ordinary motion of another person and device is told beside the goal (which names BROAD), not judged
+    text = goals_text(accuracy, {}, {}, None, None, ({"a": 1.09, "b": 0.2}, {"a": 0.4, "b": 0.53}))
+    [line] = [x for x in text.splitlines() if "Tyrex" in x]
+    assert "the worst 1.09 (a)" in line and "null examples 0.53 (b)" in line
+    assert "met" not in line and "missed" not in line
