@@ -790,8 +790,8 @@ def report(broad_dir: Path | None, progress: Callable[[str], None], tyrex_dir: P
         ]
     ordinary = None
     if data.show:
-        text, *worsts = ordinary_table(data, progress)
-        ordinary = (worsts[0], worsts[1])
+        text, bare, nulled = ordinary_table(data, progress)
+        ordinary = (bare, nulled)
         parts += [
             "### Reported on: false triggers on ordinary motion of another person and device (Tyrex)",
             "",
