@@ -18,6 +18,10 @@ confusion matrix (rows: the truth; columns: the decision, ``none`` for a rejecti
 ``--stream`` (:func:`stream`) feeds each test recording whole, with no gate, as the node runs live (cut
 from rest to rest, or ``--set cut=spot``): for a take of ordinary motion (in ``null/``), the gestures it
 would tell a minute (false triggers); for a take of a gesture's repetitions, what it told them.
+
+A training recording in ``null/`` longer than one movement can be (a take of ordinary motion, not a
+movement the node recorded) is cut from rest to rest as ``record null`` cuts it live, each movement an
+example of no gesture (:func:`null_movements`), and the report says how many.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ import numpy as np
 
 from pointat.gesture_files import COLUMNS, Recording
 from pointat.maths.dtw import dtw_many
-from pointat.maths.gestures import NULL, Decided, GestureModel, Recognizer
+from pointat.maths.gestures import NULL, Decided, Example, GestureModel, Recognizer, Recorded
 
 __all__ = [
     "Evaluation",
@@ -62,6 +66,23 @@ class Outcome(NamedTuple):
     compute_ms: float
 
 
+class NullCut(NamedTuple):
+    """The training takes of ordinary motion cut into examples of no gesture (:func:`null_movements`)."""
+
+    takes: int = 0
+    movements: int = 0
+
+    def said(self) -> str:
+        """A line for the report ('' when no take was cut)."""
+        if not self.takes:
+            return ""
+        takes = f"{self.takes} take{'s' if self.takes != 1 else ''}"
+        return (
+            f"null: {self.movements} movement{'s' if self.movements != 1 else ''} cut from rest to rest in"
+            f" {takes} of ordinary motion (--train), taught as no gesture, as record null keeps them"
+        )
+
+
 @dataclass
 class Evaluation:
     """The outcome of an evaluation (see the module's docstring): an :class:`Outcome` per test recording."""
@@ -69,6 +90,7 @@ class Evaluation:
     channels: tuple[str, ...]
     labels: list[str]
     decisions: list[Outcome] = field(default_factory=list)
+    null_cut: NullCut = NullCut()
 
     def _share(self, which: Callable[[Outcome], bool]) -> float:
         """The share of the test movements (``null`` ones left out) for which ``which`` holds; NaN if none."""
@@ -135,6 +157,7 @@ class Evaluation:
             "recall": self.recall(),
             "confusion": {"rows": rows, "columns": cols, "counts": counts},
             "latency": self.latency(),
+            "null_cut": self.null_cut._asdict(),
             "decisions": [d._asdict() for d in self.decisions],
         }
 
@@ -149,15 +172,52 @@ def shared_channels(recordings: Sequence[Recording]) -> tuple[str, ...]:
     return tuple(c for c in ORDER if c in common)
 
 
+def null_movements(recognizer: Recognizer, example: Example) -> list[Example]:
+    """What ``record null`` keeps of a take of ordinary motion: its movements, cut from rest to rest by
+    ``recognizer`` (of the model taught the gestures, with the node's settings) as the node cuts them
+    while it records, each an example of no gesture."""
+    recognizer.reset()
+    recognizer.record = NULL
+    recognizer.retune()
+    out = [
+        e.example
+        for t, frame in zip(example.t, example.frames, strict=True)
+        for e in recognizer.push(float(t), frame)
+        if isinstance(e, Recorded)
+    ]
+    recognizer.record = None
+    recognizer.retune()
+    return out
+
+
 def _trained(
     train: Sequence[Recording],
     test: Sequence[Recording],
     channels: Sequence[str] | None,
     model_options: dict[str, Any] | None,
-) -> GestureModel:
-    """The node's model of ``channels`` (every group all the recordings have, when none) taught ``train``."""
+    recognizer_options: dict[str, Any] | None = None,
+) -> tuple[GestureModel, NullCut]:
+    """The node's model of ``channels`` (every group all the recordings have, when none) taught ``train``;
+    a ``null`` recording longer than the longest movement the node records is a take of ordinary motion,
+    taught as the movements :func:`null_movements` cuts from it (whole, if it has none)."""
     channels = tuple(channels) if channels else shared_channels([*train, *test])
-    return GestureModel(channels, **(model_options or {})).train([r.example(channels) for r in train])
+    examples = [r.example(channels) for r in train]
+    model = GestureModel(channels, **(model_options or {})).train([e for e in examples if e.label != NULL])
+    if len(model.examples) == len(examples):
+        return model, NullCut()
+    cutter = Recognizer(model, **(recognizer_options or {}))
+    cutter.record = NULL
+    cutter.retune()
+    longest = cutter.segmenter.longest  # (the longest movement the node keeps while it records)
+    taught, takes = [], 0
+    for e in examples:
+        cut = null_movements(cutter, e) if e.label == NULL and float(e.t[-1] - e.t[0]) > longest else []
+        taught += cut or [e]
+        takes += bool(cut)
+    return (
+        GestureModel(channels, **(model_options or {})).train(taught),
+        NullCut(takes, len(taught) - len(examples) + takes),
+    )
 
 
 def evaluate(
@@ -168,9 +228,9 @@ def evaluate(
     recognizer_options: dict[str, Any] | None = None,
 ) -> Evaluation:
     """Train on ``train``, feed each of ``test`` through the recognizer between a gate's open and close."""
-    model = _trained(train, test, channels, model_options)
+    model, cut = _trained(train, test, channels, model_options, recognizer_options)
     rec = Recognizer(model, **(recognizer_options or {}))
-    out = Evaluation(model.channels, model.classes)
+    out = Evaluation(model.channels, model.classes, null_cut=cut)
     for r in test:
         example = r.example(model.channels)
         found: Decided | None = None
@@ -214,6 +274,7 @@ class Streamed:
     channels: tuple[str, ...]
     cut: str
     takes: list[Take] = field(default_factory=list)
+    null_cut: NullCut = NullCut()
 
     def by_label(self) -> dict[str, tuple[float, dict[str, int]]]:
         """Per true label (``null``: ordinary motion): the minutes streamed and how often each gesture
@@ -236,6 +297,7 @@ class Streamed:
             "channels": list(self.channels),
             "cut": self.cut,
             "false_triggers_per_minute": self.false_per_minute(),
+            "null_cut": self.null_cut._asdict(),
             "takes": [t._asdict() for t in self.takes],
         }
 
@@ -249,8 +311,8 @@ def stream(
 ) -> Streamed:
     """Train on ``train``, then feed each of ``test`` whole through a recognizer of its own, with no gate,
     as the node runs live: every gesture it tells."""
-    model = _trained(train, test, channels, model_options)
-    out = Streamed(model.channels, (recognizer_options or {}).get("cut", "rest"))
+    model, cut = _trained(train, test, channels, model_options, recognizer_options)
+    out = Streamed(model.channels, (recognizer_options or {}).get("cut", "rest"), null_cut=cut)
     for r in test:
         example = r.example(model.channels)
         rec = Recognizer(model, **(recognizer_options or {}))
@@ -273,6 +335,8 @@ def format_stream(st: Streamed) -> str:
         f"channels: {' '.join(st.channels)}; {len(st.takes)} test recordings streamed whole, {how},"
         f" {minutes:.1f} min"
     ]
+    if st.null_cut.takes:
+        lines.append(st.null_cut.said())
     for label, (mins, told) in sorted(st.by_label().items()):
         said = (
             ", ".join(f"{n} {name}" for name, n in sorted(told.items(), key=lambda kv: -kv[1])) or "nothing"
@@ -341,6 +405,7 @@ def format_report(ev: Evaluation) -> str:
     lat = ev.latency()
     lines = [
         f"channels: {' '.join(ev.channels)}; {len(ev.decisions)} test recordings",
+        *([ev.null_cut.said()] if ev.null_cut.takes else []),
         f"accuracy: {100 * ev.accuracy:.1f} %",
         "recall:",
     ]

@@ -347,9 +347,9 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
         assert main([*args, "--stream", "--json"]) == 0
         report = json.loads(capsys.readouterr().out)
         assert report["cut"] == "rest" and report["channels"] == ["gyr", "acc"]
-        return report["false_triggers_per_minute"]
+        return report["false_triggers_per_minute"], report["null_cut"]
 
-    before = false_triggers()
+    before, _ = false_triggers()
     assert before >= 1.5, before  # (two in this minute)
     # what `record null` keeps of the minute before: its movements, cut from rest to rest
     x = np.column_stack([groups["gyr"], groups["acc"]])
@@ -357,7 +357,12 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
     assert kept
     for i, e in enumerate(kept):
         _write(tmp_path / "train" / NULL / f"{i}.csv", e.t, {"gyr": e.frames[:, :3], "acc": e.frames[:, 3:]})
-    assert false_triggers() == 0.0
+    assert false_triggers() == (0.0, {"takes": 0, "movements": 0})  # (movements, as the node keeps them)
+    # the minute itself, whole, in null/: cut as record null cuts it, to the same movements
+    for f in (tmp_path / "train" / NULL).iterdir():
+        f.unlink()
+    _write(tmp_path / "train" / NULL / "minute.csv", t[~second], {g: v[~second] for g, v in groups.items()})
+    assert false_triggers() == (0.0, {"takes": 1, "movements": len(kept)})
 
     assert (
         main(
@@ -377,5 +382,15 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
     assert (
         "streamed whole, cut from rest to rest" in out and "told nothing: 0.00 false triggers a minute" in out
     )
+    assert f"null: {len(kept)} movements cut from rest to rest in 1 take of ordinary motion (--train)" in out
+    for f in sorted((tmp_path / "train").glob("[!n]*/0-*.csv")):  # (a repetition of each, null left out)
+        (tmp_path / "few" / f.parent.name).mkdir(parents=True, exist_ok=True)
+        (tmp_path / "few" / f.parent.name / f.name).write_bytes(f.read_bytes())
+    assert (
+        main(["gestures", "evaluate", "--train", str(tmp_path / "train"), "--test", str(tmp_path / "few")])
+        == 0
+    )
+    out = capsys.readouterr().out  # gated too: the take taught as its movements, not as one example
+    assert f"null: {len(kept)} movements cut" in out and "accuracy: 100.0 %" in out
     assert main(["gestures", "evaluate", "--train", "x", "--test", "y", "--stream", "--baseline"]) == 2
     assert "not with --stream" in capsys.readouterr().err

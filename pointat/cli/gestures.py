@@ -31,7 +31,8 @@ def _add_gestures_evaluate(gsub: Any) -> None:
         description="Train the gesture node's recognizer on --train and test it on --test, each laid out as "
         "DIR/<label>/<example>.csv (columns t and any of acc_x..z, gyr_x..z, mag_x..z, qw..qz). Each test "
         "recording is fed frame by frame, bracketed as one movement, as the gesture node runs it (with --stream:"
-        " whole, cut as the node cuts it live).",
+        " whole, cut as the node cuts it live). A take of ordinary motion in the training null/ folder, longer"
+        " than a movement, is taught as the movements 'record null' would keep of it.",
     )
     g.add_argument("--train", required=True, metavar="DIR", help="labelled recordings to learn from")
     g.add_argument("--test", required=True, metavar="DIR", help="labelled recordings to test on")
