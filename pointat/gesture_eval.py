@@ -209,15 +209,13 @@ def _trained(
     cutter.record = NULL
     cutter.retune()
     longest = cutter.segmenter.longest  # (the longest movement the node keeps while it records)
-    taught, takes = [], 0
+    taught, took = [], NullCut()
     for e in examples:
         cut = null_movements(cutter, e) if e.label == NULL and float(e.t[-1] - e.t[0]) > longest else []
         taught += cut or [e]
-        takes += bool(cut)
-    return (
-        GestureModel(channels, **(model_options or {})).train(taught),
-        NullCut(takes, len(taught) - len(examples) + takes),
-    )
+        if cut:
+            took = NullCut(took.takes + 1, took.movements + len(cut))
+    return GestureModel(channels, **(model_options or {})).train(taught), took
 
 
 def evaluate(
