@@ -67,20 +67,30 @@ class Outcome(NamedTuple):
 
 
 class NullCut(NamedTuple):
-    """The training takes of ordinary motion cut into examples of no gesture (:func:`null_movements`)."""
+    """The training takes of ordinary motion cut into examples of no gesture (:func:`null_movements`),
+    and those in which no movement was found (taught whole); ``longest``: the longest movement kept (s)."""
 
     takes: int = 0
     movements: int = 0
+    whole: int = 0
+    longest: float = 0.0
 
-    def said(self) -> str:
-        """A line for the report ('' when no take was cut)."""
-        if not self.takes:
-            return ""
-        takes = f"{self.takes} take{'s' if self.takes != 1 else ''}"
-        return (
-            f"null: {self.movements} movement{'s' if self.movements != 1 else ''} cut from rest to rest in"
-            f" {takes} of ordinary motion (--train), taught as no gesture, as record null keeps them"
-        )
+    def said(self) -> list[str]:
+        """The report's lines (none when no take was long)."""
+        out = []
+        if self.takes:
+            takes = f"{self.takes} take{'s' if self.takes != 1 else ''}"
+            out.append(
+                f"null: {self.movements} movement{'s' if self.movements != 1 else ''} cut from rest to rest"
+                f" in {takes} of ordinary motion (--train), taught as no gesture, as record null keeps them"
+            )
+        if self.whole:
+            out.append(
+                f"null: {self.whole} take{'s' if self.whole != 1 else ''} of ordinary motion (--train) with no"
+                f" movement cut from rest to rest (no rest in it, or every move longer than"
+                f" {self.longest:.1f} s): taught whole"
+            )
+        return out
 
 
 @dataclass
@@ -209,12 +219,15 @@ def _trained(
     cutter.record = NULL
     cutter.retune()
     longest = cutter.segmenter.longest  # (the longest movement the node keeps while it records)
-    taught, took = [], NullCut()
+    taught, took = [], NullCut(longest=longest)
     for e in examples:
-        cut = null_movements(cutter, e) if e.label == NULL and float(e.t[-1] - e.t[0]) > longest else []
+        long = e.label == NULL and float(e.t[-1] - e.t[0]) > longest
+        cut = null_movements(cutter, e) if long else []
         taught += cut or [e]
         if cut:
-            took = NullCut(took.takes + 1, took.movements + len(cut))
+            took = took._replace(takes=took.takes + 1, movements=took.movements + len(cut))
+        elif long:
+            took = took._replace(whole=took.whole + 1)
     return GestureModel(channels, **(model_options or {})).train(taught), took
 
 
@@ -333,8 +346,7 @@ def format_stream(st: Streamed) -> str:
         f"channels: {' '.join(st.channels)}; {len(st.takes)} test recordings streamed whole, {how},"
         f" {minutes:.1f} min"
     ]
-    if st.null_cut.takes:
-        lines.append(st.null_cut.said())
+    lines += st.null_cut.said()
     for label, (mins, told) in sorted(st.by_label().items()):
         said = (
             ", ".join(f"{n} {name}" for name, n in sorted(told.items(), key=lambda kv: -kv[1])) or "nothing"
@@ -403,7 +415,7 @@ def format_report(ev: Evaluation) -> str:
     lat = ev.latency()
     lines = [
         f"channels: {' '.join(ev.channels)}; {len(ev.decisions)} test recordings",
-        *([ev.null_cut.said()] if ev.null_cut.takes else []),
+        *ev.null_cut.said(),
         f"accuracy: {100 * ev.accuracy:.1f} %",
         "recall:",
     ]

@@ -347,7 +347,8 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
         assert main([*args, "--stream", "--json"]) == 0
         report = json.loads(capsys.readouterr().out)
         assert report["cut"] == "rest" and report["channels"] == ["gyr", "acc"]
-        return report["false_triggers_per_minute"], report["null_cut"]
+        cut = report["null_cut"]
+        return report["false_triggers_per_minute"], {k: cut[k] for k in ("takes", "movements", "whole")}
 
     before, _ = false_triggers()
     assert before >= 1.5, before  # (two in this minute)
@@ -357,12 +358,12 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
     assert kept
     for i, e in enumerate(kept):
         _write(tmp_path / "train" / NULL / f"{i}.csv", e.t, {"gyr": e.frames[:, :3], "acc": e.frames[:, 3:]})
-    assert false_triggers() == (0.0, {"takes": 0, "movements": 0})  # (movements, as the node keeps them)
+    assert false_triggers() == (0.0, {"takes": 0, "movements": 0, "whole": 0})  # (movements, as kept live)
     # the minute itself, whole, in null/: cut as record null cuts it, to the same movements
     for f in (tmp_path / "train" / NULL).iterdir():
         f.unlink()
     _write(tmp_path / "train" / NULL / "minute.csv", t[~second], {g: v[~second] for g, v in groups.items()})
-    assert false_triggers() == (0.0, {"takes": 1, "movements": len(kept)})
+    assert false_triggers() == (0.0, {"takes": 1, "movements": len(kept), "whole": 0})
 
     assert (
         main(
@@ -383,6 +384,12 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
         "streamed whole, cut from rest to rest" in out and "told nothing: 0.00 false triggers a minute" in out
     )
     assert f"null: {len(kept)} movements cut from rest to rest in 1 take of ordinary motion (--train)" in out
+    # the accelerometer alone finds no rest in that minute: the take is taught whole, and the report says so
+    split = ["--train", str(tmp_path / "train"), "--test", str(tmp_path / "test")]
+    assert main(["gestures", "evaluate", *split, "--stream", "--channels", "acc"]) == 0
+    out = capsys.readouterr().out
+    assert "null: 1 take of ordinary motion (--train) with no movement cut from rest to rest" in out
+    assert "taught whole" in out and "movements cut" not in out
     for f in sorted((tmp_path / "train").glob("[!n]*/*-0.csv")):  # (a repetition of each take, not null's)
         (tmp_path / "few" / f.parent.name).mkdir(parents=True, exist_ok=True)
         (tmp_path / "few" / f.parent.name / f.name).write_bytes(f.read_bytes())
