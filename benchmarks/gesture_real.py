@@ -50,7 +50,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks import gesture_sets as sets
-from benchmarks.performer import perform, record
+from benchmarks.performer import perform
 from pointat.gesture_eval import Evaluation, baseline, evaluate
 from pointat.maths.gestures import NULL, REJECT, Decision, Example, GestureModel, Recognizer
 from pointat.maths.gestures.spotter import Spotter
@@ -444,7 +444,7 @@ def null_examples(model: GestureModel, take: sets.Take, count: int, step: int = 
     """What ``record null COUNT`` keeps of ``take``: its first ``count`` movements, cut from rest to rest
     by a recognizer of ``model`` (as the node cuts them while it records), as examples of no gesture."""
     x = np.column_stack([take.groups[c] for c in model.channels])
-    return record(Recognizer(model), take.t[::step], x[::step], NULL, count)
+    return Recognizer(model).recorded(take.t[::step], x[::step], NULL, count)
 
 
 def _found(model: GestureModel, test: list, ch: tuple[str, ...]) -> float:

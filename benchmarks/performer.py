@@ -56,21 +56,6 @@ def perform(recognizer, t: np.ndarray, frames: np.ndarray) -> list:
     return out
 
 
-def record(recognizer, t: np.ndarray, frames: np.ndarray, label: str, count: int | None = None) -> list:
-    """What ``record LABEL COUNT`` keeps of a stream: its movements (at most ``count``), cut from rest to
-    rest by ``recognizer`` (a :class:`~pointat.maths.gestures.Recognizer`) as the node cuts them while it
-    records, as examples of ``label``."""
-    recognizer.reset()
-    recognizer.record = label
-    recognizer.retune()
-    out = []
-    for k in range(len(t)):
-        out += [e.example for e in recognizer.push(float(t[k]), frames[k]) if isinstance(e, Recorded)]
-        if count is not None and len(out) >= count:
-            break
-    return out[:count]
-
-
 def rehearse(recognizer, seed: int = 1, per_gesture: int = 3, rate: float = 100.0) -> list:
     """Teach ``recognizer`` (a :class:`~pointat.maths.gestures.Recognizer`) the gestures as a performer
     would in rehearsal: ``record LABEL`` before each gesture of a performance, the movement cut from rest

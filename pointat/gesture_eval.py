@@ -21,7 +21,7 @@ would tell a minute (false triggers); for a take of a gesture's repetitions, wha
 
 A training recording in ``null/`` longer than one movement can be (a take of ordinary motion, not a
 movement the node recorded) is cut from rest to rest as ``record null`` cuts it live, each movement an
-example of no gesture (:func:`null_movements`), and the report says how many.
+example of no gesture, and the report says how many.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ import numpy as np
 
 from pointat.gesture_files import COLUMNS, Recording
 from pointat.maths.dtw import dtw_many
-from pointat.maths.gestures import NULL, Decided, Example, GestureModel, Recognizer, Recorded
+from pointat.maths.gestures import NULL, Decided, GestureModel, Recognizer
 
 __all__ = [
     "Evaluation",
@@ -67,7 +67,7 @@ class Outcome(NamedTuple):
 
 
 class NullCut(NamedTuple):
-    """The training takes of ordinary motion cut into examples of no gesture (:func:`null_movements`),
+    """The training takes of ordinary motion cut into examples of no gesture (:func:`_trained`),
     and those in which no movement was found (taught whole); ``longest``: the longest movement kept (s)."""
 
     takes: int = 0
@@ -182,24 +182,6 @@ def shared_channels(recordings: Sequence[Recording]) -> tuple[str, ...]:
     return tuple(c for c in ORDER if c in common)
 
 
-def null_movements(recognizer: Recognizer, example: Example) -> list[Example]:
-    """What ``record null`` keeps of a take of ordinary motion: its movements, cut from rest to rest by
-    ``recognizer`` (of the model taught the gestures, with the node's settings) as the node cuts them
-    while it records, each an example of no gesture."""
-    recognizer.reset()
-    recognizer.record = NULL
-    recognizer.retune()
-    out = [
-        e.example
-        for t, frame in zip(example.t, example.frames, strict=True)
-        for e in recognizer.push(float(t), frame)
-        if isinstance(e, Recorded)
-    ]
-    recognizer.record = None
-    recognizer.retune()
-    return out
-
-
 def _trained(
     train: Sequence[Recording],
     test: Sequence[Recording],
@@ -209,7 +191,8 @@ def _trained(
 ) -> tuple[GestureModel, NullCut]:
     """The node's model of ``channels`` (every group all the recordings have, when none) taught ``train``;
     a ``null`` recording longer than the longest movement the node records is a take of ordinary motion,
-    taught as the movements :func:`null_movements` cuts from it (whole, if it has none)."""
+    taught as the movements ``record null`` keeps of it (:meth:`Recognizer.recorded`, by a recognizer of the
+    model taught the gestures, with the node's settings), or whole if it has none."""
     channels = tuple(channels) if channels else shared_channels([*train, *test])
     examples = [r.example(channels) for r in train]
     model = GestureModel(channels, **(model_options or {})).train([e for e in examples if e.label != NULL])
@@ -222,7 +205,7 @@ def _trained(
     taught, took = [], NullCut(longest=longest)
     for e in examples:
         long = e.label == NULL and float(e.t[-1] - e.t[0]) > longest
-        cut = null_movements(cutter, e) if long else []
+        cut = cutter.recorded(e.t, e.frames, NULL) if long else []
         taught += cut or [e]
         if cut:
             took = took._replace(takes=took.takes + 1, movements=took.movements + len(cut))

@@ -323,7 +323,6 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
     exercises (seglearn's watch data; both vendored in tests/data/gestures), then again with the
     movements of the minute before it taught as null, cut from rest to rest as ``record null`` cuts them."""
     from benchmarks.gesture_sets import G, Take, cut_repetitions
-    from benchmarks.performer import record
     from pointat.maths.gestures import NULL, GestureModel, Recognizer
 
     data = Path(__file__).resolve().parent / "data" / "gestures"
@@ -354,7 +353,7 @@ def test_streaming_tells_false_triggers_a_minute_and_null_examples_take_them_awa
     assert before >= 1.5, before  # (two in this minute)
     # what `record null` keeps of the minute before: its movements, cut from rest to rest
     x = np.column_stack([groups["gyr"], groups["acc"]])
-    kept = record(Recognizer(GestureModel(("gyr", "acc")).train(examples)), t[~second], x[~second], NULL)
+    kept = Recognizer(GestureModel(("gyr", "acc")).train(examples)).recorded(t[~second], x[~second], NULL)
     assert kept
     for i, e in enumerate(kept):
         _write(tmp_path / "train" / NULL / f"{i}.csv", e.t, {"gyr": e.frames[:, :3], "acc": e.frames[:, 3:]})

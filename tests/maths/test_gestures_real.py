@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from benchmarks.gesture_sets import G, Take, cut_repetitions
-from benchmarks.performer import perform, record
+from benchmarks.performer import perform
 from pointat.gesture_eval import baseline, evaluate
 from pointat.maths.gestures import NULL, Adapted, GestureModel, Recognizer
 
@@ -113,7 +113,7 @@ def test_ordinary_motion_taught_as_null_is_no_longer_taken_for_a_gesture(reps, n
     examples = [r.example(CH) for r in train]
     model = GestureModel(CH).train(examples)
     t, frames = no_gesture[1]
-    nulls = record(Recognizer(model), t[t < 60.0], frames[t < 60.0], NULL)
+    nulls = Recognizer(model).recorded(t[t < 60.0], frames[t < 60.0], NULL)
     assert nulls and all(e.label == NULL and e.t[-1] < 60.0 for e in nulls)
     taught = GestureModel(CH).train(examples + nulls)
 

@@ -75,6 +75,23 @@ class Recognizer:
         self.segmenter = Segmenter(on, 0.5 * on, self.settle, longest=longest)
         self.reset()
 
+    def recorded(
+        self, t: np.ndarray, frames: np.ndarray, label: str, count: int | None = None
+    ) -> list[Example]:
+        """What ``record LABEL COUNT`` keeps of a whole stream (times ``t``, ``frames``): its movements (at
+        most ``count``), cut from rest to rest as while recording, each an example of ``label``.  The
+        recognizer starts afresh and is left recording what it recorded before."""
+        before, self.record = self.record, label
+        self.retune()
+        out: list[Example] = []
+        for ti, xi in zip(t, frames, strict=True):
+            out += [e.example for e in self.push(float(ti), xi) if isinstance(e, Recorded)]
+            if count is not None and len(out) >= count:
+                break
+        self.record = before
+        self.retune()
+        return out[:count]
+
     def reset(self) -> None:
         self.spotter = None
         self.frames.clear()
