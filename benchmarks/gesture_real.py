@@ -530,6 +530,21 @@ def _phone(take: sets.Take) -> str:
     return take.label.split("_")[1]
 
 
+def _motion(take: sets.Take) -> str:
+    return take.label.rsplit("_", 1)[-1]
+
+
+def _rehearsed(data: Data, model: GestureModel, examples: list[Example], phone: str) -> GestureModel:
+    """``model``'s examples and :data:`NULL_EACH` null examples from each rehearsal recording of ``phone``."""
+    nulls = [
+        e
+        for take in data.rehearsal
+        if _phone(take) == phone
+        for e in null_examples(model, take, NULL_EACH, _step(take))
+    ]
+    return GestureModel(model.channels).train(examples + nulls)
+
+
 def ordinary_table(
     data: Data, progress: Callable[[str], None]
 ) -> tuple[str, dict[str, float], dict[str, float]]:
@@ -540,7 +555,8 @@ def ordinary_table(
     what that costs the test movements; then where the false triggers come from, motion by motion.
     Returns the table and the worst model of each set, without and with them."""
     show, minutes = data.show, sum(t.minutes for t in data.show)
-    motions = sorted({t.label.rsplit("_", 1)[-1] for t in show})
+    phones = sorted({_phone(t) for t in show})
+    lengths = {m: sum(t.minutes for t in show if _motion(t) == m) for m in sorted({_motion(t) for t in show})}
     lines = [
         "| taught on | models | false triggers / min (median, worst) | with the rehearsal's null examples"
         " | found and named, without -> with (deciding at the end) |",
@@ -548,31 +564,19 @@ def ordinary_table(
     ]
     worst_of: dict[str, float] = {}
     worst_null: dict[str, float] = {}
-    by_motion: dict[str, list[tuple[float, float]]] = {m: [] for m in motions}
+    by_motion: dict[str, list[tuple[float, float]]] = {m: [] for m in lengths}
     for name, ch, splits in _trigger_groups(data):
         rates, nulled, found = [], [], []
         for train, test in splits:
             examples = [r.example(ch) for r in train]
             model = GestureModel(ch).train(examples)
-            taught = {
-                phone: GestureModel(ch).train(
-                    examples
-                    + [
-                        e
-                        for take in data.rehearsal
-                        if _phone(take) == phone
-                        for e in null_examples(model, take, NULL_EACH, _step(take))
-                    ]
-                )
-                for phone in sorted({_phone(t) for t in show})
-            }
+            taught = {phone: _rehearsed(data, model, examples, phone) for phone in phones}
             told = [(_told(model, t, _step(t)), _told(taught[_phone(t)], t, _step(t))) for t in show]
             rates.append(sum(a for a, _ in told) / minutes)
             nulled.append(sum(b for _, b in told) / minutes)
             found.append((_found(model, test, ch), np.mean([_found(m, test, ch) for m in taught.values()])))
-            for m in motions:
-                here = [(a, b) for (a, b), t in zip(told, show, strict=True) if t.label.endswith("_" + m)]
-                length = sum(t.minutes for t in show if t.label.endswith("_" + m))
+            for m, length in lengths.items():
+                here = [(a, b) for (a, b), t in zip(told, show, strict=True) if _motion(t) == m]
                 by_motion[m].append((sum(a for a, _ in here) / length, sum(b for _, b in here) / length))
         worst_of[name], worst_null[name] = max(rates), max(nulled)
         without, with_ = np.mean(found, axis=0)
@@ -587,16 +591,14 @@ def ordinary_table(
         " null examples |",
         "|---|---|---|---|",
     ]
-    for m in motions:
+    for m, length in lengths.items():
         a, b = np.array([x for x, _ in by_motion[m]]), np.array([y for _, y in by_motion[m]])
-        length = sum(t.minutes for t in show if t.label.endswith("_" + m))
         lines.append(
             f"| {m} | {length:.1f} | {np.median(a):.2f}, {a.max():.2f} | {np.median(b):.2f}, {b.max():.2f} |"
         )
-    phones = ", ".join(sorted({_phone(t) for t in show}))
     text = (
         "\n".join(lines)
-        + f"\n\n{len(show)} recordings of the show session ({phones}), {minutes:.1f} min; the worst model:"
+        + f"\n\n{len(show)} recordings of the show session ({', '.join(phones)}), {minutes:.1f} min; the worst model:"
         f" {max(worst_of.values()):.2f} a minute.  With the rehearsal's null examples (``record null"
         f" {NULL_EACH}`` in each of the other session's {len(data.rehearsal)} recordings, the same phone's):"
         f" the worst {max(worst_null.values()):.2f}.\n"
