@@ -30,6 +30,7 @@ from .runtime import Runtime
 __all__ = [
     "Collect",
     "beside",
+    "free_udp_port",
     "make",
     "patch",
     "sink_port",
@@ -109,6 +110,14 @@ def beside(patch: str | os.PathLike[str]) -> list[str]:
 
 
 _sink: socket.socket | None = None
+
+
+def free_udp_port() -> int:
+    """A UDP port on 127.0.0.1 that nothing held when asked (closed again at once: until something binds
+    it, loopback refuses what is sent there; anything on the machine may take it meanwhile)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 def sink_port() -> int:

@@ -4,7 +4,6 @@
 import json
 import os
 import queue
-import socket
 import subprocess
 import sys
 import threading
@@ -14,15 +13,10 @@ from pathlib import Path
 import pytest
 
 from pointat.devices.glove_sim import GloveSimulator
+from pointat.testing import free_udp_port
 
 ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-
-
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _send(port: int, address: str, *values: str) -> None:
@@ -33,7 +27,7 @@ def _send(port: int, address: str, *values: str) -> None:
 @pytest.fixture
 def calibrating(tmp_path):
     """The calibration patch running on the simulated glove; its printed lines arrive on a queue."""
-    port, target = _free_udp_port(), tmp_path / "glove.json"
+    port, target = free_udp_port(), tmp_path / "glove.json"
     args = ["--set", f"ctl.port={port}", "--set", f"cal.file={target}", "--set", "cal.samples=30"]
     proc = subprocess.Popen(
         [sys.executable, "-m", "pointat.cli", "run", "patches/calibrate_glove.pat", "--for", "30", *args],

@@ -29,18 +29,12 @@ import pytest
 
 from pointat.message import make
 from pointat.osc_bridge.profiles import PROFILES
-from pointat.testing import beside, patch
+from pointat.testing import beside, free_udp_port, patch
 
 ROOT = Path(__file__).resolve().parents[2]
 NTP_UNIX = 2208988800
 OSCDUMP_MISSING = "oscdump not found (Debian/Ubuntu: apt-get install liblo-tools)"
 ADM_OSC_MISSING = "the adm-osc package is not installed (pip install adm-osc)"
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class OscDump:

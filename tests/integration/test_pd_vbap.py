@@ -29,7 +29,7 @@ from pythonosc.osc_message_builder import OscMessageBuilder
 import pointat.nodes.spatial  # noqa: F401  (registers the vbap node)
 from pointat.maths.vbap import make_layout, pd_messages, vbap_gains
 from pointat.message import make
-from pointat.testing import patch
+from pointat.testing import free_udp_port, patch
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples" / "pd"
@@ -55,12 +55,6 @@ def _pd_and_vbap(require_tool):
     require_tool(VBAP is not None, "the pd-vbap external is not installed (Debian: pd-vbap)")
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _osc(address: str, args) -> bytes:
     b = OscMessageBuilder(address)
     for a in args:
@@ -80,7 +74,7 @@ class PdReceiver:
         self.rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.rx.bind(("127.0.0.1", 0))
         self.reply_port = self.rx.getsockname()[1]
-        self.port = _free_udp_port()
+        self.port = free_udp_port()
         text = (EXAMPLES / receiver).read_text()
         assert "vbap_osc 9000 1 0" in text, f"{receiver} no longer holds [vbap_osc 9000 1 0]"
         self.patch = tmp / receiver

@@ -20,6 +20,7 @@ from pointat.expansion import read_spec
 from pointat.loader import build, parse_overrides
 from pointat.presets import Presets, presets_path
 from pointat.registry import Registry
+from pointat.testing import free_udp_port
 
 
 def _udp() -> socket.socket:
@@ -27,11 +28,6 @@ def _udp() -> socket.socket:
     s.bind(("127.0.0.1", 0))
     s.settimeout(0.1)
     return s
-
-
-def _free_port() -> int:
-    with _udp() as s:
-        return s.getsockname()[1]
 
 
 def _run(patch: str, *args: str, cwd=None) -> subprocess.Popen:
@@ -42,7 +38,7 @@ def _run(patch: str, *args: str, cwd=None) -> subprocess.Popen:
 @pytest.mark.slow
 def test_the_receiver_is_told_when_the_glove_drops_out_and_comes_back(tmp_path):
     rx = _udp()
-    ctl = _free_port()
+    ctl = free_udp_port()
     proc = _run(
         "glove_tqt",
         "--for",
@@ -100,7 +96,7 @@ def test_the_receiver_is_told_when_the_glove_drops_out_and_comes_back(tmp_path):
 
 
 def test_the_console_opens_with_a_banner_and_ends_with_a_summary(tmp_path):
-    port = _free_port()
+    port = free_udp_port()
     proc = _run(
         "glove_tqt",
         "--for",

@@ -21,7 +21,7 @@ from pointat.errors import PatchError
 from pointat.loader import load
 from pointat.message import make, method
 from pointat.osc_bridge.profiles import PROFILES
-from pointat.testing import patch
+from pointat.testing import free_udp_port, patch
 
 IMMEDIATELY = b"\x00" * 7 + b"\x01"
 NTP_UNIX = 2208988800
@@ -445,14 +445,6 @@ def test_one_bad_control_message_spoils_none_of_the_updates_after_it(started, re
 
 
 # --------------------------------------------------------------------------- osc_out: absent receiver
-def _free_port() -> int:
-    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    probe.bind(("127.0.0.1", 0))
-    port = probe.getsockname()[1]
-    probe.close()  # nobody listens there now: loopback answers ECONNREFUSED
-    return port
-
-
 def _taken(port: int) -> bool:
     s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
@@ -468,7 +460,7 @@ def test_absent_receiver_is_counted_and_the_patch_keeps_going(started, receivers
     for _ in range(3):
         # a free port is free only when asked: if anything on the machine (the sender's own socket
         # included) takes it meanwhile, nobody refuses, and the case is tried again on another
-        port = _free_port()
+        port = free_udp_port()
         rt = started(
             patch(
                 f"""
@@ -533,7 +525,7 @@ def test_the_log_says_when_a_receiver_is_back_and_of_each_outage(started, receiv
     from pointat.osc_bridge.sender import Destination
 
     monkeypatch.setattr(Destination, "BACK_QUIET", 0.0)  # loopback refuses at once: no need to wait
-    port = _free_port()
+    port = free_udp_port()
     rt, out = out_node(started, port)
     lines = lambda: [r.getMessage() for r in caplog.records if r.name == "pointat.osc"]  # noqa: E731
     for _ in range(50):
