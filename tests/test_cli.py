@@ -20,7 +20,7 @@ from pointat.loader import parse_overrides
 from pointat.maths.calibration import Calibration
 from pointat.node import ParamError
 from pointat.registry import default_registry
-from pointat.testing import beside, sink_port, wait_until
+from pointat.testing import beside, free_udp_port, sink_port, wait_until
 
 ROOT = Path(__file__).resolve().parent.parent
 PATCHES = sorted((ROOT / "patches").glob("*.pat")) + sorted((ROOT / "examples").glob("**/*.pat"))
@@ -498,11 +498,7 @@ def test_send_delivers_one_osc_message_with_typed_arguments():
 
 
 def test_send_to_a_port_nobody_listens_on_says_so_and_fails():
-    import socket
-
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]  # free now: nothing listens once it is closed
+    port = free_udp_port()  # nothing listens there once it is closed
     out = pointat("send", str(port), "/pointat/press/bang")
     assert out.returncode == 1
     assert (
