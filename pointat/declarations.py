@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from .patchfile import parse_value
+
 __all__ = [
     "PARAM_TYPES",
     "REQUIRED",
@@ -159,10 +161,10 @@ class Param:
                     )
                 return s
             if t == "list":
-                items = value if isinstance(value, (list, tuple)) else [value]
+                items = value if isinstance(value, (list, tuple)) else _atoms(value)
                 return tuple(items)
             if t == "vector":
-                items = value if isinstance(value, (list, tuple, np.ndarray)) else [value]
+                items = value if isinstance(value, (list, tuple, np.ndarray)) else _atoms(value)
                 arr = np.array([float(x) for x in items], dtype=float)
                 if self.size is not None and arr.size != self.size:
                     raise ParamError(
@@ -188,6 +190,19 @@ class Param:
         if self._range():
             return f"{self.type} {self._range()}"
         return self.type + ("..." if self.variadic else "")
+
+
+def _atoms(value: Any) -> list[Any]:
+    """A single value given where a list is expected: its atoms, as Pd reads a message (``--set
+    moves.relative="acc q"`` is two, like ``[acc q]``; a word with a space in it is kept whole inside
+    brackets, ``["two words"]``).
+
+    >>> _atoms("acc q"), _atoms("1 2.5"), _atoms(3), _atoms("one")
+    (['acc', 'q'], [1, 2.5], [3], ['one'])
+    """
+    if isinstance(value, str) and len(value.split()) > 1:
+        return [parse_value(token) for token in value.split()]
+    return [value]
 
 
 @dataclass(frozen=True)

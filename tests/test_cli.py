@@ -18,7 +18,7 @@ from pointat.cli import main
 from pointat.expansion import read_spec
 from pointat.loader import parse_overrides
 from pointat.maths.calibration import Calibration
-from pointat.node import ParamError
+from pointat.node import Param, ParamError
 from pointat.registry import default_registry
 from pointat.testing import beside, free_udp_port, sink_port, wait_until
 
@@ -597,6 +597,17 @@ def test_a_value_given_on_the_command_line_is_blamed_with_the_line_it_lands_on(t
     assert main(["check", "patches/glove_tqt.pat", "--set", "out.port=70000"]) == 2
     err = capsys.readouterr().err
     assert "(osc_out): " in err and "(given on the command line: --set out.port=70000)" in err
+
+
+
+def test_a_list_given_on_the_command_line_is_read_as_pd_reads_a_message(capsys):
+    # --set moves.relative="acc q": two atoms, as [acc q] in a patch (it was one word, "acc q", refused)
+    assert main(["check", "patches/gestures.pat", "--set", "moves.relative=acc q"]) == 0
+    assert main(["check", "patches/gestures.pat", "--set", "moves.relative=acc x"]) == 2
+    assert "relative takes acc and q; got acc x" in capsys.readouterr().err
+    assert Param("at", "vector", (0.0, 0.0, 0.0), size=3).coerce("1 2 3.5") == (1.0, 2.0, 3.5)
+    assert Param("ids", "list", (1,)).coerce("2") == ("2",)  # one word stays one
+    assert Param("ids", "list", (1,)).coerce("1 2") == (1, 2)
 
 
 def test_send_takes_an_ipv6_address_in_brackets():
