@@ -599,7 +599,6 @@ def test_a_value_given_on_the_command_line_is_blamed_with_the_line_it_lands_on(t
     assert "(osc_out): " in err and "(given on the command line: --set out.port=70000)" in err
 
 
-
 def test_a_list_given_on_the_command_line_is_read_as_pd_reads_a_message(capsys):
     # --set moves.relative="acc q": two atoms, as [acc q] in a patch (it was one word, "acc q", refused)
     assert main(["check", "patches/gestures.pat", "--set", "moves.relative=acc q"]) == 0
