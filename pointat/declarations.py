@@ -197,11 +197,11 @@ def _atoms(value: Any) -> list[Any]:
     moves.relative="acc q"`` is two, like ``[acc q]``; a word with a space in it is kept whole inside
     brackets, ``["two words"]``).
 
-    >>> _atoms("acc q"), _atoms("1 2.5"), _atoms(3), _atoms("one")
-    (['acc', 'q'], [1, 2.5], [3], ['one'])
+    >>> _atoms("acc q"), _atoms("1 2.5"), _atoms(3), _atoms("one"), _atoms('"two words" x')
+    (['acc', 'q'], [1, 2.5], [3], ['one'], ['two words', 'x'])
     """
     if isinstance(value, str) and len(value.split()) > 1:
-        return [parse_value(token) for token in value.split()]
+        return parse_value(f"[{value}]")  # (the patch's own list syntax: quotes and brackets kept whole)
     return [value]
 
 
