@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pointat.errors import PatchError
+from pointat.node import Param, ParamError
 from pointat.patchfile import parse_patch, parse_value, tokenize
 from pointat.pdfile import parse_pd
 
@@ -185,6 +186,20 @@ def test_parse_value_gives_a_value_or_refuses_with_a_value_error(text):
         except ValueError:  # a bad list, lists nested too deep, a number too large
             continue
         assert isinstance(value, (int, float, bool, str, list))
+
+
+@_SETTINGS
+@given(st.one_of(st.text(), patch_word, patch_line))
+def test_a_list_or_vector_given_as_one_text_is_its_atoms_or_refused_with_a_param_error(text):
+    # (``--set node.ids="1 2"``, an OSC string to a list parameter: read as Pd reads a message)
+    for param in (Param("ids", "list", ()), Param("at", "vector", (0.0, 0.0), size=2)):
+        try:
+            value = param.coerce(text)
+        except ParamError:
+            continue
+        assert isinstance(value, tuple) and value
+        if param.type == "list" and len(text.split()) < 2:
+            assert value == (text,)  # one word stays one
 
 
 @_SETTINGS
